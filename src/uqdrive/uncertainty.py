@@ -1,0 +1,197 @@
+"""Uncertain parameters as maps from standard germs (thesis 5.8-5.11) and the Karhunen-Loeve
+expansion of the coloured side-wind process by the Nystrom method (thesis 5.16-5.22).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = [
+    "PARAMETER_NAMES",
+    "ParameterDistribution",
+    "normal_from_germ",
+    "uniform_from_germ",
+    "squared_exponential_covariance",
+    "KarhunenLoeve",
+    "kle_nystrom",
+]
+
+#: Stationary uncertainties in germ order xi_1..xi_4 of (5.8)-(5.11).
+PARAMETER_NAMES = ("mu", "m_load", "l_f", "F_w_mean")
+
+
+def normal_from_germ(xi, mean, std):
+    """Normal parameter from a standard normal germ, mean + std * xi, thesis (5.8)-(5.10)."""
+    return mean + std * np.asarray(xi, dtype=float)
+
+
+def uniform_from_germ(xi, low, high):
+    """Uniform parameter from a germ xi ~ U(-1, 1), thesis (5.11): (high + low + xi (high - low)) / 2."""
+    return 0.5 * (high + low + np.asarray(xi, dtype=float) * (high - low))
+
+
+@dataclass(frozen=True)
+class ParameterDistribution:
+    """Distributions of mu, m_load, l_f (normal: mean, std) and the mean wind (uniform: low, high).
+
+    ``germs`` arrays have shape (n, 4): columns are standard normal for mu, m_load, l_f and
+    U(-1, 1) for the mean wind, in the order of :data:`PARAMETER_NAMES`.
+    """
+
+    mu: tuple[float, float] = (1.0, 0.2)
+    m_load: tuple[float, float] = (100.0, 30.0)
+    l_f: tuple[float, float] = (1.55, 0.2)
+    F_w_mean: tuple[float, float] = (-400.0, 400.0)
+
+    @classmethod
+    def from_config(cls, config: Mapping[str, Any]) -> "ParameterDistribution":
+        u = config["uncertainty"]
+        return cls(
+            mu=(u["mu"]["mean"], u["mu"]["std"]),
+            m_load=(u["m_load"]["mean"], u["m_load"]["std"]),
+            l_f=(u["l_f"]["mean"], u["l_f"]["std"]),
+            F_w_mean=(u["F_w_mean"]["low"], u["F_w_mean"]["high"]),
+        )
+
+    @staticmethod
+    def sample_germs(rng: np.random.Generator, n: int) -> np.ndarray:
+        """Draw n germ vectors, shape (n, 4): three N(0, 1) columns, then one U(-1, 1)."""
+        normal = rng.standard_normal((n, 3))
+        uniform = rng.uniform(-1.0, 1.0, size=(n, 1))
+        return np.hstack([normal, uniform])
+
+    def from_germs(self, germs) -> dict[str, np.ndarray]:
+        """Map germs of shape (..., 4) to parameter values, (5.8)-(5.11)."""
+        germs = np.asarray(germs, dtype=float)
+        return {
+            "mu": normal_from_germ(germs[..., 0], *self.mu),
+            "m_load": normal_from_germ(germs[..., 1], *self.m_load),
+            "l_f": normal_from_germ(germs[..., 2], *self.l_f),
+            "F_w_mean": uniform_from_germ(germs[..., 3], *self.F_w_mean),
+        }
+
+
+def squared_exponential_covariance(t1, t2, Tc: float):
+    """Covariance of the unit wind process, thesis (5.2): exp(-(t1 - t2)^2 / Tc^2).
+
+    Parameters
+    ----------
+    t1 : ndarray, shape (n1,)
+    t2 : ndarray, shape (n2,)
+        Times (s).
+    Tc : float
+        Correlation time constant (s).
+
+    Returns
+    -------
+    ndarray, shape (n1, n2)
+    """
+    d = np.subtract.outer(np.asarray(t1, float), np.asarray(t2, float))
+    return np.exp(-(d**2) / Tc**2)
+
+
+@dataclass(frozen=True)
+class KarhunenLoeve:
+    """Truncated KLE of a zero-mean unit-variance process, thesis (4.58) and (5.20)-(5.21).
+
+    Attributes
+    ----------
+    nodes, weights : ndarray, shape (n_q,)
+        Gauss-Legendre points (s) and weights (s) on the interval.
+    eigenvalues : ndarray, shape (n_c,)
+        Retained eigenvalues lambda_n (s), descending.
+    nodal_functions : ndarray, shape (n_c, n_q)
+        Eigenfunctions at the nodes, normalised so that sum_k w_k f_n(t_k)^2 = 1 (4.60).
+    all_eigenvalues : ndarray, shape (n_q,)
+        Every Nystrom eigenvalue, for the truncation report (5.22).
+    Tc : float
+        Covariance time constant (s).
+    """
+
+    nodes: np.ndarray
+    weights: np.ndarray
+    eigenvalues: np.ndarray
+    nodal_functions: np.ndarray
+    all_eigenvalues: np.ndarray
+    Tc: float
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.eigenvalues.size)
+
+    @property
+    def captured_variance(self) -> float:
+        """Retained share of the total eigenvalue sum, the left side of (5.22) over the right."""
+        return float(self.eigenvalues.sum() / self.all_eigenvalues.sum())
+
+    def eigenfunctions(self, t) -> np.ndarray:
+        """Nystrom interpolation of the eigenfunctions, thesis (5.20).
+
+        Parameters
+        ----------
+        t : array_like, shape (m,)
+            Times (s) inside the expansion interval.
+
+        Returns
+        -------
+        ndarray, shape (n_c, m)
+        """
+        C = squared_exponential_covariance(self.nodes, t, self.Tc)
+        return (self.nodal_functions * self.weights) @ C / self.eigenvalues[:, None]
+
+    def realise(self, xi, t) -> np.ndarray:
+        """Realisations sum_n sqrt(lambda_n) xi_n f_n(t), thesis (5.21).
+
+        Parameters
+        ----------
+        xi : ndarray, shape (n, n_c)
+            Standard normal germs.
+        t : array_like, shape (m,)
+
+        Returns
+        -------
+        ndarray, shape (n, m)
+        """
+        return (np.asarray(xi) * np.sqrt(self.eigenvalues)) @ self.eigenfunctions(t)
+
+
+def kle_nystrom(t_start: float, t_end: float, Tc: float, n_quadrature: int, truncation: float) -> KarhunenLoeve:
+    """KLE of the squared-exponential process by Nystrom's method, thesis (5.16)-(5.22).
+
+    The generalised eigenproblem C W f = lambda f (5.18) is solved in its symmetric form
+    (W^1/2 C W^1/2) v = lambda v with f = W^-1/2 v, which is exact algebra and keeps the
+    eigenvectors orthonormal under the quadrature inner product.
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        Expansion interval (s).
+    Tc : float
+        Covariance time constant (s).
+    n_quadrature : int
+        Number of Gauss-Legendre points N_GLQ,KLE.
+    truncation : float
+        p_c in (0, 1]: keep the fewest eigenpairs whose eigenvalue sum reaches p_c of the total.
+
+    Returns
+    -------
+    KarhunenLoeve
+    """
+    x, w = np.polynomial.legendre.leggauss(n_quadrature)
+    half = 0.5 * (t_end - t_start)
+    nodes = t_start + half * (x + 1.0)  # (5.15)
+    weights = half * w
+    sqrt_w = np.sqrt(weights)
+    C = squared_exponential_covariance(nodes, nodes, Tc)
+    lam, V = np.linalg.eigh(sqrt_w[:, None] * C * sqrt_w[None, :])
+    lam, V = lam[::-1], V[:, ::-1]
+    lam = np.clip(lam, 0.0, None)  # round-off makes the tail slightly negative
+    cumulative = np.cumsum(lam)
+    n_keep = int(np.searchsorted(cumulative, truncation * cumulative[-1] * (1 - 1e-12)) + 1)
+    functions = (V[:, :n_keep] / sqrt_w[:, None]).T
+    # Fix the sign so results do not depend on the LAPACK build: f_n(t_start-side node) >= 0.
+    functions *= np.where(functions[:, :1] < 0, -1.0, 1.0)
+    return KarhunenLoeve(nodes, weights, lam[:n_keep].copy(), functions, lam, float(Tc))
