@@ -1,0 +1,73 @@
+# Synthetic measured data (thesis sec. 5.1): KLE of the wind, Monte Carlo ensembles, statistics.
+
+
+rule kle:
+    input:
+        src("uncertainty", "wind", "montecarlo"),
+    output:
+        f"{OUT}/data/kle.nc",
+    params:
+        config=cfg("seed", "wind", "time", "figures"),
+    log:
+        f"{OUT}/logs/kle.log",
+    script:
+        "../scripts/kle.py"
+
+
+rule ensemble:
+    input:
+        src("vehicle", "uncertainty", "integrate", "montecarlo", "io"),
+    output:
+        f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
+    params:
+        config=cfg(*SIM_KEYS),
+    wildcard_constraints:
+        model="lst|nlst",
+        steer="normal|inverted",
+    log:
+        f"{OUT}/logs/ensemble_{{model}}_{{steer}}.log",
+    script:
+        "../scripts/ensemble.py"
+
+
+rule statistics:
+    input:
+        src("statistics", "io"),
+        ensemble=f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
+    output:
+        f"{OUT}/data/stats_{{model}}_{{steer}}.nc",
+    params:
+        spin_policy=config["montecarlo"]["spin_policy"],
+    log:
+        f"{OUT}/logs/stats_{{model}}_{{steer}}.log",
+    script:
+        "../scripts/statistics.py"
+
+
+rule noise_statistics:
+    input:
+        src("statistics", "noise", "io"),
+        ensemble=f"{OUT}/data/ensemble_{{model}}_normal.nc",
+    output:
+        f"{OUT}/data/noise_stats_{{model}}.nc",
+    params:
+        levels=NOISE_LEVELS,
+        seed=config["seed"],
+        spin_policy=config["montecarlo"]["spin_policy"],
+    log:
+        f"{OUT}/logs/noise_stats_{{model}}.log",
+    script:
+        "../scripts/noise_statistics.py"
+
+
+rule kl_divergence:
+    input:
+        src("statistics", "metrics"),
+        lst=f"{OUT}/data/stats_lst_normal.nc",
+        nlst=f"{OUT}/data/stats_nlst_normal.nc",
+    output:
+        f"{OUT}/data/kl_nlst_lst.nc",
+    log:
+        f"{OUT}/logs/kl_nlst_lst.log",
+    script:
+        "../scripts/kl_divergence.py"

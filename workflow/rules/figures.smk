@@ -1,0 +1,105 @@
+# Figures of the thesis' chapters 2, 5, 6, 7 and appendix A, each registered in the report.
+
+FIG = f"{OUT}/figures"
+N_LEVELS = len(NOISE_LEVELS)
+APPENDIX_A = list(range(1, 2 * N_LEVELS + 1)) if {"lst", "nlst"} <= set(MODELS) else []
+FIGURES = [f"{FIG}/fig_2_3.png", f"{FIG}/fig_5_2.png", f"{FIG}/fig_7_1.png"]
+if "normal" in STEERS:
+    FIGURES += [f"{FIG}/fig_6_{i}.png" for i in (1, 2, 3, 4, 5, 6)] if APPENDIX_A else []
+    FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]
+
+
+def appendix_a_model(n):
+    """Thesis numbering: A.1-A.L are the LST data sets, A.L+1-A.2L the NLST ones."""
+    return "lst" if int(n) <= N_LEVELS else "nlst"
+
+
+rule fig_tyre_curves:
+    input:
+        src("vehicle", "plots"),
+    output:
+        report(f"{FIG}/fig_2_3.png", caption="../report/fig_2_3.rst", category="Vehicle model"),
+    params:
+        surfaces=config["figures"]["tyre_surfaces"],
+    log:
+        f"{OUT}/logs/fig_2_3.log",
+    script:
+        "../scripts/fig_tyre_curves.py"
+
+
+rule fig_kle:
+    input:
+        src("plots"),
+        kle=f"{OUT}/data/kle.nc",
+    output:
+        realisations=report(f"{FIG}/fig_5_2.png", caption="../report/fig_5_2.rst", category="Wind KLE"),
+        eigenfunctions=report(f"{FIG}/fig_7_1.png", caption="../report/fig_7_1.rst", category="Wind KLE"),
+    log:
+        f"{OUT}/logs/fig_kle.log",
+    script:
+        "../scripts/fig_kle.py"
+
+
+rule fig_data_band:
+    input:
+        src("plots"),
+        stats=lambda w: f"{OUT}/data/stats_{'lst' if w.number == '1' else 'nlst'}_normal.nc",
+    output:
+        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_1_2.rst", category="Measured data"),
+    wildcard_constraints:
+        number="1|2",
+    params:
+        band_sigmas=config["figures"]["band_sigmas"],
+    log:
+        f"{OUT}/logs/fig_6_{{number}}.log",
+    script:
+        "../scripts/fig_data_band.py"
+
+
+rule fig_noise_levels:
+    input:
+        src("plots"),
+        stats=lambda w: f"{OUT}/data/noise_stats_{'lst' if w.number == '3' else 'nlst'}.nc",
+    output:
+        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_3_4.rst", category="Measured data"),
+    wildcard_constraints:
+        number="3|4",
+    log:
+        f"{OUT}/logs/fig_6_{{number}}.log",
+    script:
+        "../scripts/fig_noise_levels.py"
+
+
+rule fig_lst_vs_nlst:
+    input:
+        src("plots"),
+        lst=f"{OUT}/data/stats_lst_normal.nc",
+        nlst=f"{OUT}/data/stats_nlst_normal.nc",
+        kl=f"{OUT}/data/kl_nlst_lst.nc",
+    output:
+        comparison=report(f"{FIG}/fig_6_5.png", caption="../report/fig_6_5.rst", category="Measured data"),
+        kl=report(f"{FIG}/fig_6_6.png", caption="../report/fig_6_6.rst", category="Measured data"),
+    params:
+        band_sigmas=config["figures"]["band_sigmas"],
+    log:
+        f"{OUT}/logs/fig_6_5_6.log",
+    script:
+        "../scripts/fig_lst_vs_nlst.py"
+
+
+rule fig_appendix_a:
+    input:
+        src("plots"),
+        stats=lambda w: f"{OUT}/data/noise_stats_{appendix_a_model(w.n)}.nc",
+    output:
+        report(f"{FIG}/fig_A{{n}}.png", caption="../report/fig_A.rst", category="Appendix A: measured data"),
+    wildcard_constraints:
+        n=r"\d+",
+    params:
+        index=lambda w: (int(w.n) - 1) % N_LEVELS,
+        model=lambda w: appendix_a_model(w.n),
+        band_sigmas=config["figures"]["band_sigmas"],
+    log:
+        f"{OUT}/logs/fig_A{{n}}.log",
+    script:
+        "../scripts/fig_appendix_a.py"

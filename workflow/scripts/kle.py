@@ -1,0 +1,14 @@
+"""Rule kle: the side-wind KLE, its eigenfunctions and sample paths (Figs 5.2, 7.1)."""
+import sys
+
+sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
+
+from uqdrive.io import write_dataset
+from uqdrive.montecarlo import TimeGrid, kle_from_config, rng_stream
+from uqdrive.wind import kle_dataset
+
+config = snakemake.params.config  # noqa: F821
+kle = kle_from_config(config)
+t = TimeGrid.from_config(config).output
+ds = kle_dataset(config, kle, t, config["figures"]["kle_realisations"], rng_stream(config["seed"], "kle_figure"))
+write_dataset(ds, snakemake.output[0])  # noqa: F821
