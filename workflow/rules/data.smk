@@ -10,6 +10,8 @@ rule kle:
         config=cfg("seed", "wind", "time", "figures"),
     log:
         f"{OUT}/logs/kle.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/kle.py"
 
@@ -26,6 +28,8 @@ rule ensemble:
         steer="normal|inverted",
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/ensemble.py"
 
@@ -40,6 +44,8 @@ rule statistics:
         spin_policy=config["montecarlo"]["spin_policy"],
     log:
         f"{OUT}/logs/stats_{{model}}_{{steer}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/statistics.py"
 
@@ -56,6 +62,8 @@ rule noise_statistics:
         spin_policy=config["montecarlo"]["spin_policy"],
     log:
         f"{OUT}/logs/noise_stats_{{model}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/noise_statistics.py"
 
@@ -69,5 +77,7 @@ rule kl_divergence:
         f"{OUT}/data/kl_nlst_lst.nc",
     log:
         f"{OUT}/logs/kl_nlst_lst.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/kl_divergence.py"

@@ -1,19 +1,5 @@
 # Figures of the thesis' chapters 2, 5, 6, 7 and appendix A, each registered in the report.
 
-FIG = f"{OUT}/figures"
-N_LEVELS = len(NOISE_LEVELS)
-APPENDIX_A = list(range(1, 2 * N_LEVELS + 1)) if {"lst", "nlst"} <= set(MODELS) else []
-FIGURES = [f"{FIG}/fig_2_3.png", f"{FIG}/fig_5_2.png", f"{FIG}/fig_7_1.png"]
-if "normal" in STEERS:
-    FIGURES += [f"{FIG}/fig_6_{i}.png" for i in (1, 2, 3, 4, 5, 6)] if APPENDIX_A else []
-    FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]
-
-
-def appendix_a_model(n):
-    """Thesis numbering: A.1-A.L are the LST data sets, A.L+1-A.2L the NLST ones."""
-    return "lst" if int(n) <= N_LEVELS else "nlst"
-
-
 rule fig_tyre_curves:
     input:
         src("vehicle", "plots"),
@@ -23,6 +9,8 @@ rule fig_tyre_curves:
         surfaces=config["figures"]["tyre_surfaces"],
     log:
         f"{OUT}/logs/fig_2_3.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_tyre_curves.py"
 
@@ -36,6 +24,8 @@ rule fig_kle:
         eigenfunctions=report(f"{FIG}/fig_7_1.png", caption="../report/fig_7_1.rst", category="Wind KLE"),
     log:
         f"{OUT}/logs/fig_kle.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_kle.py"
 
@@ -52,6 +42,8 @@ rule fig_data_band:
         band_sigmas=config["figures"]["band_sigmas"],
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_data_band.py"
 
@@ -66,6 +58,8 @@ rule fig_noise_levels:
         number="3|4",
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_noise_levels.py"
 
@@ -83,6 +77,8 @@ rule fig_lst_vs_nlst:
         band_sigmas=config["figures"]["band_sigmas"],
     log:
         f"{OUT}/logs/fig_6_5_6.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_lst_vs_nlst.py"
 
@@ -101,5 +97,7 @@ rule fig_appendix_a:
         band_sigmas=config["figures"]["band_sigmas"],
     log:
         f"{OUT}/logs/fig_A{{n}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_appendix_a.py"

@@ -10,6 +10,8 @@ rule scorecard_foundation:
         config=cfg("vehicle", "tyre", "uncertainty", "wind", "time", "control"),
     log:
         f"{OUT}/logs/scorecard_foundation.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/scorecard_foundation.py"
 
@@ -22,5 +24,7 @@ rule scorecard:
         report(f"{OUT}/scorecard.csv", caption="../report/scorecard.rst", category="Scorecard"),
     log:
         f"{OUT}/logs/scorecard.log",
+    conda:
+        "../envs/uqdrive.yaml"
     script:
         "../scripts/scorecard_merge.py"

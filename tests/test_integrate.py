@@ -1,0 +1,60 @@
+import numpy as np
+import pytest
+
+from uqdrive.integrate import foh_discretise, lti_foh_response, rk4_fixed_step
+
+
+def test_foh_is_exact_for_a_ramp():
+    """x' = a x + t, x(0) = 0 has x = (e^{at} - 1 - a t) / a^2; FOH is exact for linear inputs."""
+    a = np.array([-3.0, 0.5])
+    A = a[:, None, None]
+    E = np.ones((2, 1, 1))
+    h, S, K = 0.1, 4, 10
+    t_fine = np.arange(K * S + 1) * h
+    x = lti_foh_response(A, E, t_fine[:, None], h, S)
+    t = t_fine[::S]
+    exact = (np.exp(np.outer(t, a)) - 1 - np.outer(t, a)) / a**2
+    assert x[:, :, 0] == pytest.approx(exact, rel=1e-12, abs=1e-14)
+
+
+def test_foh_discretise_zero_order_parts():
+    """For a constant input the FOH maps P + Q equal the ZOH input matrix A^-1 (Phi - I) E."""
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(3, 4, 4)) - 3 * np.eye(4)
+    E = rng.normal(size=(3, 4, 2))
+    Phi, P, Q = foh_discretise(A, E, 0.05)
+    zoh = np.linalg.solve(A, (Phi - np.eye(4)) @ E)
+    assert P + Q == pytest.approx(zoh, rel=1e-10, abs=1e-12)
+
+
+def test_lti_response_matches_matrix_exponential_with_initial_state():
+    A = np.array([[[0.0, 1.0], [-4.0, -0.4]]])
+    E = np.zeros((1, 2, 1))
+    x0 = np.array([[1.0, 0.0]])
+    x = lti_foh_response(A, E, np.zeros((21, 1)), 0.05, 2, x0)
+    from scipy.linalg import expm
+
+    assert x[-1, 0] == pytest.approx(expm(A[0] * 1.0) @ x0[0], rel=1e-12)
+
+
+def test_rk4_has_fourth_order_convergence():
+    def rhs(x, j):
+        return -x
+
+    errors = []
+    for n in (10, 20, 40):
+        out = rk4_fixed_step(rhs, np.ones((1, 1)), 1.0 / n, n, n)
+        errors.append(abs(out[-1, 0, 0] - np.exp(-1.0)))
+    order = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert order == pytest.approx([4.0, 4.0], abs=0.1)
+
+
+def test_rk4_passes_half_step_indices():
+    seen = []
+
+    def rhs(x, j):
+        seen.append(j)
+        return np.zeros_like(x)
+
+    rk4_fixed_step(rhs, np.zeros((1, 1)), 0.1, 2, 1)
+    assert seen == [0, 1, 1, 2, 2, 3, 3, 4]

@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+import xarray as xr
+
+from uqdrive.io import DataError, OutputError, atomic_path, read_ensemble, validate_ensemble, write_dataset
+from uqdrive.montecarlo import simulate_ensemble
+
+
+@pytest.fixture(scope="module")
+def ensemble(config):
+    return simulate_ensemble(config, "lst", samples=4)
+
+
+def test_roundtrip_keeps_schema_and_values(ensemble, tmp_path):
+    path = tmp_path / "e.nc"
+    write_dataset(ensemble, path)
+    back = read_ensemble(path)
+    np.testing.assert_array_equal(back["y"].values, ensemble["y"].values)
+    assert back.attrs["config_hash"] == ensemble.attrs["config_hash"]
+    assert [p.name for p in tmp_path.iterdir()] == ["e.nc"]
+
+
+def test_failed_write_leaves_no_file(tmp_path):
+    path = tmp_path / "out.txt"
+    with pytest.raises(RuntimeError):
+        with atomic_path(path) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_destinations(tmp_path):
+    with pytest.raises(OutputError, match="does not exist"):
+        write_dataset(xr.Dataset(), tmp_path / "missing" / "x.nc")
+    with pytest.raises(OutputError, match="directory"):
+        write_dataset(xr.Dataset(), tmp_path)
+
+
+def _without_attr(ds, name):
+    ds = ds.copy()
+    ds.attrs = {k: v for k, v in ds.attrs.items() if k != name}
+    return ds
+
+
+@pytest.mark.parametrize(
+    "corrupt, message",
+    [
+        (lambda d: d.drop_vars("beta"), "missing variable 'beta'"),
+        (lambda d: d.rename({"sample": "run"}), "missing dimension 'sample'"),
+        (lambda d: d.assign(psi=d["psi"].assign_attrs(units="deg")), "units 'deg'; expected 'rad'"),
+        (lambda d: d.assign(y=d["y"].where(d["time"] < 5)), "NaN"),
+        (lambda d: d.assign_coords(time=d["time"].values ** 2), "uniform"),
+        (lambda d: _without_attr(d, "v_c"), "v_c"),
+    ],
+)
+def test_validation_names_the_problem(ensemble, corrupt, message):
+    bad = corrupt(ensemble.copy())
+    with pytest.raises(DataError, match=message):
+        validate_ensemble(bad)
+
+
+def test_read_missing_or_garbage(tmp_path):
+    with pytest.raises(DataError, match="does not exist"):
+        read_ensemble(tmp_path / "none.nc")
+    junk = tmp_path / "junk.nc"
+    junk.write_text("not netcdf")
+    with pytest.raises(DataError, match="not a readable netCDF"):
+        read_ensemble(junk)

@@ -1,0 +1,82 @@
+"""End-to-end: the whole Snakemake DAG on config/test.yaml, its report, lint and config errors."""
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import xarray as xr
+import yaml
+
+from conftest import REPO
+
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]
+
+
+def _run(args, cwd):
+    return subprocess.run(SNAKEMAKE + ["-s", str(REPO / "Snakefile"), "--directory", str(cwd)] + args, capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    wd = tmp_path_factory.mktemp("dag")
+    proc = _run(["--configfile", str(REPO / "config" / "test.yaml"), "--cores", "2"], wd)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return wd
+
+
+@pytest.mark.workflow
+def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
+    results = workdir / "results"
+    cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
+    n_levels = len(cfg["noise"]["levels"])
+    figures = {p.name for p in (results / "figures").iterdir()}
+    expected = {"fig_2_3.png", "fig_5_2.png", "fig_7_1.png"} | {f"fig_6_{i}.png" for i in range(1, 7)}
+    expected |= {f"fig_A{n}.png" for n in range(1, 2 * n_levels + 1)}
+    assert expected <= figures
+    for model in ("lst", "nlst"):
+        for steer in ("normal", "inverted"):
+            ds = xr.open_dataset(results / "data" / f"ensemble_{model}_{steer}.nc")
+            assert ds.sizes["sample"] == cfg["montecarlo"]["samples"]
+            assert "config_hash" in ds.attrs
+            ds.close()
+    with open(results / "scorecard.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["quantity", "source", "published", "reproduced", "tolerance", "status"]
+    assert rows and all(r["status"] == "pass" for r in rows)
+
+
+@pytest.mark.workflow
+def test_report_and_up_to_date(workdir):
+    proc = _run(["--configfile", str(REPO / "config" / "test.yaml"), "--cores", "1", "-n"], workdir)
+    assert proc.returncode == 0 and "Nothing to be done" in proc.stdout + proc.stderr
+    report = workdir / "report.html"
+    proc = _run(["--configfile", str(REPO / "config" / "test.yaml"), "--report", str(report)], workdir)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    html = report.read_text()
+    assert "Fig. 6.6" in html and "Fig. A.1" in html and "Scorecard" in html
+
+
+@pytest.mark.workflow
+def test_changing_a_config_value_reruns_its_dependants(workdir):
+    proc = _run(["--configfile", str(REPO / "config" / "test.yaml"), "--config", "seed=5", "-n", "--cores", "1"], workdir)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0
+    assert "ensemble" in out and "scorecard_foundation" not in out.split("Reasons")[0].split("Job stats")[-1]
+
+
+def test_lint_is_clean():
+    proc = subprocess.run(SNAKEMAKE + ["--lint"], capture_output=True, text=True, cwd=REPO)
+    assert "Lints for" not in proc.stdout + proc.stderr
+
+
+def test_invalid_config_stops_the_workflow_naming_the_key(tmp_path):
+    cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
+    cfg["wind"]["Tc"] = -2.0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(cfg))
+    proc = _run(["--configfile", str(bad), "-n", "--cores", "1"], tmp_path)
+    assert proc.returncode != 0
+    assert "wind.Tc" in proc.stdout + proc.stderr
+    assert not (tmp_path / "results").exists()

@@ -1,0 +1,14 @@
+# Shared names and helpers of the rules: output folders, target lists, input selectors.
+
+FIG = f"{OUT}/figures"
+N_LEVELS = len(NOISE_LEVELS)
+APPENDIX_A = list(range(1, 2 * N_LEVELS + 1)) if {"lst", "nlst"} <= set(MODELS) else []
+FIGURES = [f"{FIG}/fig_2_3.png", f"{FIG}/fig_5_2.png", f"{FIG}/fig_7_1.png"]
+if "normal" in STEERS:
+    FIGURES += [f"{FIG}/fig_6_{i}.png" for i in (1, 2, 3, 4, 5, 6)] if APPENDIX_A else []
+    FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]
+
+
+def appendix_a_model(n):
+    """Thesis numbering: A.1-A.L are the LST data sets, A.L+1-A.2L the NLST ones."""
+    return "lst" if int(n) <= N_LEVELS else "nlst"
