@@ -7,17 +7,46 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import expm
+__all__ = ["batched_expm", "foh_discretise", "lti_foh_response", "rk4_fixed_step"]
 
-__all__ = ["foh_discretise", "lti_foh_response", "rk4_fixed_step"]
+_TAYLOR_DEGREE = 12
+
+
+def batched_expm(M):
+    """Matrix exponential of a stack of small matrices, vectorised over the stack.
+
+    Scaling and squaring with a degree-12 Taylor polynomial: each matrix is scaled by 2^-s so
+    that its 1-norm is at most 1/4, where the truncation error (1/4)^13 / 13! ~ 2e-18 is below
+    double precision, then squared s times. ``scipy.linalg.expm`` gives the same result but
+    loops over the stack in Python, which costs ten times more for thousands of 12x12 blocks.
+
+    Parameters
+    ----------
+    M : ndarray, shape (..., d, d)
+
+    Returns
+    -------
+    ndarray, shape (..., d, d)
+    """
+    M = np.asarray(M, float)
+    norm = np.abs(M).sum(axis=-2).max(axis=-1).max() if M.size else 0.0
+    s = max(0, int(np.ceil(np.log2(norm / 0.25)))) if norm > 0.25 else 0
+    X = M / 2.0**s
+    eye = np.broadcast_to(np.eye(M.shape[-1]), M.shape)
+    F = eye + X / _TAYLOR_DEGREE
+    for k in range(_TAYLOR_DEGREE - 1, 0, -1):  # Horner: I + X/1 (I + X/2 (I + ...))
+        F = eye + (X @ F) / k
+    for _ in range(s):
+        F = F @ F
+    return F
 
 
 def foh_discretise(A, E, h: float):
     """Exact discretisation of x' = A x + E g(t) for g linear between samples (first-order hold).
 
-    Uses Van Loan's block exponential exp([[A, E, 0], [0, 0, I], [0, 0, 0]] h), whose top row is
-    [Phi, Gamma_0, Gamma_1] with Gamma_0 = int_0^h e^{A s} E ds and
-    Gamma_1 = int_0^h e^{A s} E (h - s) ds; then
+    Uses Van Loan's block exponential exp([[A, I, 0], [0, 0, I], [0, 0, 0]] h), whose top row is
+    [Phi, J_0, J_1] with J_0 = int_0^h e^{A s} ds and J_1 = int_0^h e^{A s} (h - s) ds; with
+    Gamma_0 = J_0 E and Gamma_1 = J_1 E,
     x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with Q = Gamma_1 / h and P = Gamma_0 - Q.
 
     Parameters
@@ -34,15 +63,17 @@ def foh_discretise(A, E, h: float):
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
-    d, r = E.shape[-2], E.shape[-1]
-    M = np.zeros(A.shape[:-2] + (d + 2 * r, d + 2 * r))
-    M[..., :d, :d] = A
-    M[..., :d, d : d + r] = E
-    M[..., d : d + r, d + r :] = np.eye(r)
-    F = expm(M * h)
+    d = A.shape[-1]
+    # Van Loan's block with the identity as input matrix (size 3d, whatever the number of
+    # inputs): its top row holds int e^{As} ds and int e^{As} (h - s) ds, applied to E after.
+    M = np.zeros(A.shape[:-2] + (3 * d, 3 * d))
+    M[..., :d, :d] = A * h
+    M[..., :d, d : 2 * d] = np.eye(d) * h
+    M[..., d : 2 * d, 2 * d :] = np.eye(d) * h
+    F = batched_expm(M)
     Phi = F[..., :d, :d]
-    Gamma0 = F[..., :d, d : d + r]
-    Q = F[..., :d, d + r :] / h
+    Gamma0 = F[..., :d, d : 2 * d] @ E
+    Q = (F[..., :d, 2 * d :] / h) @ E
     return Phi, Gamma0 - Q, Q
 
 
@@ -93,12 +124,13 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
     Phi_out = power  # Phi^S
     windows = np.lib.stride_tricks.sliding_window_view(g, (S + 1, r))[::S, 0]  # (K, S+1, r)
     drive = np.einsum("snir,ksr->kni", M, windows, optimize=True)  # (K, n, d)
-    x = np.zeros((K + 1, n, d))
+    x = np.zeros((K + 1, n, d, 1))
     if x0 is not None:
-        x[0] = x0
+        x[0, :, :, 0] = x0
+    drive = drive[..., None]
     for k in range(K):
-        x[k + 1] = np.einsum("nij,nj->ni", Phi_out, x[k]) + drive[k]
-    return x
+        np.add(np.matmul(Phi_out, x[k]), drive[k], out=x[k + 1])
+    return x[..., 0]
 
 
 def rk4_fixed_step(rhs: Callable[[np.ndarray, int], np.ndarray], x0, h: float, n_steps: int, record_every: int):
