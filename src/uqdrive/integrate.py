@@ -102,8 +102,9 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
 
     Returns
     -------
-    ndarray, shape (K + 1, n, d)
-        States on the output grid t_k = k * substeps * h.
+    ndarray, shape (d, n, K + 1)
+        States on the output grid t_k = k * substeps * h, state-major so that each state's
+        (n, K + 1) block is contiguous.
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
@@ -121,16 +122,42 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
         M[s] += power @ P
         M[s + 1] += power @ Q
         power = power @ Phi
-    Phi_out = power  # Phi^S
     windows = np.lib.stride_tricks.sliding_window_view(g, (S + 1, r))[::S, 0]  # (K, S+1, r)
-    drive = np.einsum("snir,ksr->kni", M, windows, optimize=True)  # (K, n, d)
-    x = np.zeros((K + 1, n, d, 1))
-    if x0 is not None:
-        x[0, :, :, 0] = x0
-    drive = drive[..., None]
-    for k in range(K):
-        np.add(np.matmul(Phi_out, x[k]), drive[k], out=x[k + 1])
-    return x[..., 0]
+    drive = np.einsum("snir,ksr->kin", M, windows, optimize=True)  # (K, d, n)
+    return _linear_recursion(power, drive, x0)
+
+
+def _linear_recursion(Phi, drive, x0=None):
+    """x_{k+1} = Phi x_k + drive_k for n systems at once.
+
+    One ``einsum`` over a state-major layout per step (about 7x faster than a batched
+    ``matmul`` of n 4x4 matrices, which loops over the small matrices); steps go into a small
+    time-major buffer that is copied out a block at a time, so no pass over memory is strided.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (n, d, d)
+    drive : ndarray, shape (K, d, n)
+    x0 : ndarray, shape (n, d), optional
+
+    Returns
+    -------
+    ndarray, shape (d, n, K + 1)
+    """
+    K, d, n = drive.shape
+    Phi_t = np.ascontiguousarray(np.moveaxis(Phi, 0, -1))  # (d, d, n)
+    out = np.empty((d, n, K + 1))
+    out[:, :, 0] = 0.0 if x0 is None else np.asarray(x0, float).T
+    block = 64
+    buf = np.empty((block + 1, d, n))
+    buf[0] = out[:, :, 0]
+    for k0 in range(0, K, block):
+        m = min(block, K - k0)
+        for b in range(m):
+            np.add(np.einsum("ijn,jn->in", Phi_t, buf[b]), drive[k0 + b], out=buf[b + 1])
+        out[:, :, k0 + 1 : k0 + m + 1] = buf[1 : m + 1].transpose(1, 2, 0)
+        buf[0] = buf[m]
+    return out
 
 
 def rk4_fixed_step(rhs: Callable[[np.ndarray, int], np.ndarray], x0, h: float, n_steps: int, record_every: int):

@@ -105,7 +105,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
 
     Returns
     -------
-    ndarray, shape (n_out + 1, n, 4)
+    ndarray, shape (4, n, n_out + 1)
     """
     A, B, W = lst_matrices(p)
     n = A.shape[0]
@@ -134,7 +134,7 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
 
     Returns
     -------
-    ndarray, shape (n_out + 1, n, 4)
+    ndarray, shape (4, n, n_out + 1)
     """
     wind_mean = np.asarray(wind_mean, float)
     coeffs = np.asarray(wind_coeffs, float)
@@ -147,7 +147,7 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
 
     n_steps = grid.n_out * grid.substeps
     out = rk4_fixed_step(rhs, np.zeros((4, n)), grid.step, n_steps, grid.substeps)
-    return out.transpose(0, 2, 1)
+    return np.ascontiguousarray(out.transpose(1, 2, 0))
 
 
 def spin_mask(beta, threshold: float):
@@ -219,9 +219,9 @@ def simulate_ensemble(
 
     t = grid.output
     threshold = config["montecarlo"]["spin_threshold"]
-    spun = spin_mask(x[:, :, 2].T, threshold)
+    spun = spin_mask(x[2], threshold)
     data_vars = {
-        name: (("sample", "time"), np.ascontiguousarray(x[:, :, i].T), {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
+        name: (("sample", "time"), x[i], {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
         for i, name in enumerate(STATES)
     }
     data_vars["delta"] = ("time", steering_input(t, delta_max, st["period"], STEERS[steer]), {"units": "rad", "long_name": "front steering angle"})
