@@ -1,5 +1,5 @@
-"""Time integration kernels for ensembles: exact first-order-hold discretisation of batched LTI
-systems, and a fixed-step classical Runge-Kutta scheme vectorised over realisations.
+"""Time integration kernels: exact first-order-hold discretisation of LTI systems (batched small
+ones, or one large one with exact parameter derivatives) and a vectorised fixed-step RK4.
 """
 
 from __future__ import annotations
@@ -7,7 +7,16 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-__all__ = ["batched_expm", "foh_discretise", "lti_foh_response", "rk4_fixed_step"]
+from scipy.linalg import expm, expm_frechet
+
+__all__ = [
+    "batched_expm",
+    "foh_discretise",
+    "foh_discretise_single",
+    "lti_foh_response",
+    "lti_response_single",
+    "rk4_fixed_step",
+]
 
 _TAYLOR_DEGREE = 12
 
@@ -75,6 +84,109 @@ def foh_discretise(A, E, h: float):
     Gamma0 = F[..., :d, d : 2 * d] @ E
     Q = (F[..., :d, 2 * d :] / h) @ E
     return Phi, Gamma0 - Q, Q
+
+
+def _van_loan_input_block(A, E, h):
+    """exp of [[A, E, 0], [0, 0, I], [0, 0, 0]] h for one system: size d + 2r."""
+    d, r = E.shape
+    M = np.zeros((d + 2 * r, d + 2 * r))
+    M[:d, :d] = A * h
+    M[:d, d : d + r] = E * h
+    M[d : d + r, d + r :] = np.eye(r) * h
+    return M
+
+
+def _split_van_loan(F, d, r, h):
+    Phi = F[:d, :d]
+    Q = F[:d, d + r :] / h
+    return Phi, F[:d, d : d + r] - Q, Q
+
+
+def foh_discretise_single(A, E, h: float, dA=None, dE=None):
+    """First-order-hold discretisation of one (large) system, optionally with exact derivatives.
+
+    Same maps as :func:`foh_discretise` (x_{k+1} = Phi x_k + P g_k + Q g_{k+1}), computed from
+    the input-sized Van Loan block with SciPy's Pade ``expm``; with directions ``dA``, ``dE``
+    the Frechet derivative of the block exponential (``scipy.linalg.expm_frechet``) gives the
+    exact derivatives of Phi, P and Q, i.e. of the discretised system.
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, N)
+    E : ndarray, shape (N, r)
+    h : float
+    dA : ndarray, shape (p, N, N), optional
+    dE : ndarray, shape (p, N, r), optional
+
+    Returns
+    -------
+    (Phi, P, Q), and if derivatives were asked for also (dPhi, dP, dQ) with a leading axis p.
+    """
+    A = np.asarray(A, float)
+    E = np.asarray(E, float)
+    d, r = E.shape
+    M = _van_loan_input_block(A, E, h)
+    if dA is None:
+        return _split_van_loan(expm(M), d, r, h)
+    F = None
+    dPhi, dP, dQ = [], [], []
+    for dA_p, dE_p in zip(dA, dE):
+        dM = np.zeros_like(M)
+        dM[:d, :d] = dA_p * h
+        dM[:d, d : d + r] = dE_p * h
+        F, L = expm_frechet(M, dM)
+        parts = _split_van_loan(L, d, r, h)
+        dPhi.append(parts[0]), dP.append(parts[1]), dQ.append(parts[2])
+    if F is None:
+        F = expm(M)
+    return _split_van_loan(F, d, r, h), (np.array(dPhi), np.array(dP), np.array(dQ))
+
+
+def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
+    """Response of one discretised system to sampled inputs, optionally with its sensitivities.
+
+    x_{k+1} = Phi x_k + P g_k + Q g_{k+1}; the sensitivity s_p = dx/dtheta_p obeys
+    s_{p,k+1} = Phi s_{p,k} + dPhi_p x_k + dP_p g_k + dQ_p g_{k+1}, the exact derivative of the
+    discretised recursion. All sensitivities advance together with x as columns of one matrix.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (N, N)
+    P, Q : ndarray, shape (N, r)
+    g : ndarray, shape (K + 1, r)
+        Inputs on the output grid.
+    x0 : ndarray, shape (N,)
+    derivatives : tuple (dPhi, dP, dQ) with leading axis p, optional
+    dx0 : ndarray, shape (p, N), optional
+
+    Returns
+    -------
+    x : ndarray, shape (K + 1, N)
+    s : ndarray, shape (K + 1, p, N), only with ``derivatives``
+    """
+    g = np.asarray(g, float)
+    K = g.shape[0] - 1
+    drive = g[:-1] @ P.T + g[1:] @ Q.T  # (K, N)
+    if derivatives is None:
+        x = np.empty((K + 1, Phi.shape[0]))
+        x[0] = x0
+        for k in range(K):
+            x[k + 1] = Phi @ x[k] + drive[k]
+        return x
+    dPhi, dP, dQ = derivatives
+    n_p, N = dPhi.shape[0], Phi.shape[0]
+    d_drive = np.einsum("kr,pnr->kpn", g[:-1], dP) + np.einsum("kr,pnr->kpn", g[1:], dQ)
+    dPhi_stack = dPhi.reshape(n_p * N, N)
+    Z = np.empty((K + 1, 1 + n_p, N))  # row 0: x, rows 1..p: sensitivities
+    Z[0, 0] = x0
+    Z[0, 1:] = 0.0 if dx0 is None else dx0
+    for k in range(K):
+        z = Z[k]
+        nxt = Z[k + 1]
+        np.matmul(z, Phi.T, out=nxt)
+        nxt[0] += drive[k]
+        nxt[1:] += (dPhi_stack @ z[0]).reshape(n_p, N) + d_drive[k]
+    return Z[:, 0], Z[:, 1:]
 
 
 def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):

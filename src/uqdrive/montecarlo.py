@@ -26,6 +26,8 @@ __all__ = [
     "simulate_nlst",
     "spin_mask",
     "simulate_ensemble",
+    "lst_response",
+    "monte_carlo_moments",
 ]
 
 MODELS = ("lst", "nlst")
@@ -172,6 +174,7 @@ def simulate_ensemble(
     samples: int | None = None,
     seed: int | None = None,
     kle: KarhunenLoeve | None = None,
+    chunk: int | None = None,
 ) -> xr.Dataset:
     """Simulate a Monte Carlo ensemble in the uqdrive data schema (see ``io.validate_ensemble``).
 
@@ -186,6 +189,9 @@ def simulate_ensemble(
         Override ``montecarlo.samples`` and ``seed``.
     kle : KarhunenLoeve, optional
         Precomputed KLE (else computed from the config).
+    chunk : int, optional
+        Index of an independent block of a larger ensemble: its draws come from their own
+        random streams, so blocks can be simulated one after another in bounded memory.
 
     Returns
     -------
@@ -202,8 +208,9 @@ def simulate_ensemble(
     kle = kle_from_config(config) if kle is None else kle
 
     dist = ParameterDistribution.from_config(config)
-    germs = dist.sample_germs(rng_stream(seed, "parameters"), n)
-    xi_wind = rng_stream(seed, "wind").standard_normal((n, kle.n_modes))
+    keys = () if chunk is None else (int(chunk),)
+    germs = dist.sample_germs(rng_stream(seed, "parameters", *keys), n)
+    xi_wind = rng_stream(seed, "wind", *keys).standard_normal((n, kle.n_modes))
     draws = dist.from_germs(germs)
     p = VehicleParameters.from_config(config, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
     coeffs = _wind_modes(kle, config["wind"]["sigma"], xi_wind)
@@ -247,3 +254,58 @@ def simulate_ensemble(
     }
     coords = {"sample": np.arange(n), "time": ("time", t, {"units": "s", "long_name": "time"}), "kle_mode": np.arange(kle.n_modes)}
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str = "normal") -> np.ndarray:
+    """LST responses for given parameter sets with the time-variant wind switched off.
+
+    For cross-checks of the PCE against non-intrusive methods (chaospy, SALib): any parameter
+    of ``mu``, ``m_load``, ``l_f``, ``F_w_mean`` missing from ``draws`` takes its config mean.
+
+    Parameters
+    ----------
+    draws : mapping of str to ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (4, n, n_out + 1)
+    """
+    unc = config["uncertainty"]
+    n = len(next(iter(draws.values())))
+    full = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
+            "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
+    full = {k: np.broadcast_to(np.asarray(draws.get(k, v), float), (n,)) for k, v in full.items()}
+    grid = TimeGrid.from_config(config)
+    st = config["steering"]
+    t_fine = grid.fine(1)
+    delta = steering_input(t_fine, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+    p = VehicleParameters.from_config(config, mu=full["mu"], m_load=full["m_load"], l_f=full["l_f"])
+    return simulate_lst(p, delta, full["F_w_mean"], np.zeros((n, 0)), np.zeros((0, t_fine.size)), grid)
+
+
+def monte_carlo_moments(config: Mapping[str, Any], model: str, samples: int, chunk: int, seed: int | None = None):
+    """Mean and std of every state over a large ensemble, simulated in independent chunks.
+
+    Chunk statistics are merged with Chan et al.'s pairwise update of (count, mean, M2), so a
+    10^5-run reference needs the memory of one chunk only.
+
+    Returns
+    -------
+    mean, std : ndarray, shape (4, n_time)
+    n : int
+        Realisations used (all of them: the spin policy is for the NLST data sets).
+    """
+    seed = int(config["seed"] if seed is None else seed)
+    kle = kle_from_config(config)
+    count, mean, m2 = 0, 0.0, 0.0
+    for c, start in enumerate(range(0, samples, chunk)):
+        m = min(chunk, samples - start)
+        ds = simulate_ensemble(config, model, samples=m, seed=seed, kle=kle, chunk=c)
+        x = np.stack([ds[s].values for s in STATES])  # (4, m, T)
+        mean_c, m2_c = x.mean(axis=1), ((x - x.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
+        delta = mean_c - mean
+        total = count + m
+        mean = mean + delta * m / total
+        m2 = m2 + m2_c + delta**2 * count * m / total
+        count = total
+    return mean, np.sqrt(m2 / (count - 1)), count

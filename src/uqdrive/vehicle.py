@@ -33,6 +33,11 @@ STATE_NAMES = {
 }
 
 
+def _as_array(x):
+    """Float array of ``x``, or complex if ``x`` is complex (complex-step differentiation)."""
+    return np.asarray(x) + 0.0
+
+
 @dataclass(frozen=True)
 class VehicleParameters:
     """Parameters of the single-track model, thesis Tables 5.1 and 5.2.
@@ -92,12 +97,12 @@ class VehicleParameters:
     @property
     def m(self):
         """Total mass m = m_base + m_load (kg)."""
-        return self.m_base + np.asarray(self.m_load, dtype=float)
+        return self.m_base + _as_array(self.m_load)
 
     @property
     def l_r(self):
         """Distance from the centre of gravity to the rear axle, L - l_f (m)."""
-        return self.wheelbase - np.asarray(self.l_f, dtype=float)
+        return self.wheelbase - _as_array(self.l_f)
 
     @property
     def I_z(self):
@@ -112,17 +117,17 @@ class VehicleParameters:
     @property
     def F_rz(self):
         """Static rear axle load m g l_f / L (N), (5.3d)."""
-        return self.m * self.g * np.asarray(self.l_f, dtype=float) / self.wheelbase
+        return self.m * self.g * _as_array(self.l_f) / self.wheelbase
 
     @property
     def c_f(self):
         """Front cornering stiffness F_fz B_f C mu (N/rad), the slope of (2.2) at zero slip."""
-        return self.F_fz * self.c_Sf * self.C * np.asarray(self.mu, dtype=float)
+        return self.F_fz * self.c_Sf * self.C * _as_array(self.mu)
 
     @property
     def c_r(self):
         """Rear cornering stiffness F_rz B_r C mu (N/rad)."""
-        return self.F_rz * self.c_Sr * self.C * np.asarray(self.mu, dtype=float)
+        return self.F_rz * self.c_Sr * self.C * _as_array(self.mu)
 
 
 def magic_formula(slip, F_z, B, C, D, E):
@@ -166,19 +171,20 @@ def lst_matrices(p: VehicleParameters):
         disturbance term of (5.4) is W F_w(t).
     """
     m, I_z, v = p.m, p.I_z, p.v_c
-    l_f, l_r, c_f, c_r = np.asarray(p.l_f, float), p.l_r, p.c_f, p.c_r
+    l_f, l_r, c_f, c_r = _as_array(p.l_f), p.l_r, p.c_f, p.c_r
     shape = np.broadcast_shapes(np.shape(m), np.shape(l_f), np.shape(c_f))
-    A = np.zeros(shape + (4, 4))
+    dtype = np.result_type(m, l_f, c_f, float)  # complex parameters give complex-step derivatives
+    A = np.zeros(shape + (4, 4), dtype)
     A[..., 0, 1] = 1.0
     A[..., 1, 1] = -(c_f * l_f**2 + c_r * l_r**2) / (I_z * v)
     A[..., 1, 2] = (c_r * l_r - c_f * l_f) / I_z
     A[..., 2, 1] = (c_r * l_r - c_f * l_f) / (m * v**2) - 1.0
     A[..., 2, 2] = -(c_f + c_r) / (m * v)
     A[..., 3, 0] = v
-    B = np.zeros(shape + (4,))
+    B = np.zeros(shape + (4,), dtype)
     B[..., 1] = l_f * c_f / I_z
     B[..., 2] = c_f / (m * v)
-    W = np.zeros(shape + (4,))
+    W = np.zeros(shape + (4,), dtype)
     W[..., 1] = p.M_c / I_z
     W[..., 2] = 1.0 / (m * v)
     return A, B, W

@@ -4,6 +4,7 @@ FIG = f"{OUT}/figures"
 N_LEVELS = len(NOISE_LEVELS)
 APPENDIX_A = list(range(1, 2 * N_LEVELS + 1)) if {"lst", "nlst"} <= set(MODELS) else []
 FIGURES = [f"{FIG}/fig_2_3.png", f"{FIG}/fig_5_2.png", f"{FIG}/fig_7_1.png"]
+FIGURES += [f"{FIG}/fig_5_3.png", f"{FIG}/fig_5_4.png", f"{FIG}/fig_pce_convergence.png"] if "normal" in STEERS and "lst" in MODELS else []
 if "normal" in STEERS:
     FIGURES += [f"{FIG}/fig_6_{i}.png" for i in (1, 2, 3, 4, 5, 6)] if APPENDIX_A else []
     FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]

@@ -1,0 +1,148 @@
+"""Galerkin projection of a stochastic LTI system onto a polynomial chaos (thesis 4.39-4.49):
+precomputed quadrature tensors, so re-assembly for new parameters is a few contractions.
+
+The system is x' = A(xi_p) x + E(xi_p) g(t) + sum_j F_j(xi_p) xi_j h_j(t), x(0) = x0(xi_p):
+the matrices depend on the parametric germs xi_p (integrated by tensor Gauss quadrature), and
+the linear germs xi_j (e.g. the KLE germs of the wind) enter the input linearly, so their inner
+products are exact and analytic: <phi_k xi_j> = 1 if alpha_k = e_j on the linear germs, else 0.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .pce import PolynomialChaos
+from .polynomials import family, tensor_quadrature
+
+__all__ = ["GalerkinProjector"]
+
+
+class GalerkinProjector:
+    """Galerkin tensors of a chaos over parametric germs (quadrature) and linear Gaussian germs.
+
+    Parameters
+    ----------
+    parametric : sequence of str
+        Distributions of the germs the matrices depend on ("normal", "uniform").
+    n_linear : int
+        Number of standard normal germs that enter the input linearly.
+    order : int
+        Total order N_PCE of the chaos over all germs (4.21).
+    quadrature_points : int
+        Gauss points per parametric germ (the thesis uses 4).
+
+    Attributes
+    ----------
+    chaos : PolynomialChaos
+        The basis over [parametric..., linear...] germs, for moments and Sobol indices.
+    nodes : ndarray, shape (Q, n_parametric)
+        Quadrature nodes in the parametric germs, where the caller evaluates A, E, F, x0.
+    G_par : ndarray, shape (P_par, P_par, Q)
+        w_q psi_a(xi_q) psi_b(xi_q) over the distinct parametric parts a, b of the terms; the
+        full tensor G[k, l, q] = G_par[par[k], par[l], q] [linear parts of k and l equal] is never
+        formed (for 9 germs at order 4 it would take 5 GB).
+    par : ndarray of int, shape (P,)
+        Parametric part of each term, as a row of ``G_par``.
+    same_linear : ndarray of bool, shape (P, P)
+    g0 : ndarray, shape (P, Q)
+        w_q phi_k(xi_q) for terms without linear germs (zero otherwise).
+    g_lin : ndarray, shape (n_linear, P, Q)
+        w_q phi_k(xi_q) for the terms whose linear part is xi_j alone.
+    """
+
+    def __init__(self, parametric: Sequence[str], n_linear: int, order: int, quadrature_points: int = 4):
+        if quadrature_points < 1:
+            raise ValueError(f"quadrature_points must be positive, got {quadrature_points}")
+        if n_linear < 0:
+            raise ValueError(f"n_linear must be non-negative, got {n_linear}")
+        parametric = list(parametric)
+        n_par = len(parametric)
+        self.chaos = PolynomialChaos(parametric + ["normal"] * n_linear, order, quadrature_points=1)
+        families = [family(d) for d in parametric]
+        self.nodes, self.weights = tensor_quadrature(families, quadrature_points)
+        alpha = self.chaos.indices
+        alpha_par, alpha_lin = alpha[:, :n_par], alpha[:, n_par:]
+        unique_par, self.par = np.unique(alpha_par, axis=0, return_inverse=True)
+        self.par = self.par.ravel()
+        psi_par = np.ones((self.nodes.shape[0], unique_par.shape[0]))
+        for j, fam in enumerate(families):
+            psi_par *= fam.evaluate(self.nodes[:, j], order)[:, unique_par[:, j]]
+        self.G_par = np.einsum("qa,qb->abq", self.weights[:, None] * psi_par, psi_par)
+        self.same_linear = (alpha_lin[:, None, :] == alpha_lin[None, :, :]).all(axis=-1)
+        psi = psi_par[:, self.par]  # (Q, P)
+        wpsi = self.weights[:, None] * psi
+        self.g0 = wpsi.T * (alpha_lin.sum(axis=1) == 0)[:, None]
+        unit = np.eye(n_linear, dtype=int)
+        self.g_lin = np.stack([wpsi.T * (alpha_lin == unit[j]).all(axis=1)[:, None] for j in range(n_linear)]) if n_linear else np.zeros((0,) + wpsi.T.shape)
+        self.n_parametric, self.n_linear = n_par, n_linear
+
+    @property
+    def n_terms(self) -> int:
+        return self.chaos.n_terms
+
+    # Layout: the expanded state X is the (d, P) coefficient array flattened state-major,
+    # X[i * P + k] = X_ik, as thesis (4.40).
+    def matrix(self, values) -> np.ndarray:
+        """A_PCE = <Phi A Phi^T>, thesis (4.44a) (and (4.48) for a stochastic input).
+
+        Parameters
+        ----------
+        values : ndarray, shape (..., Q, d, d)
+            A(xi_q) at the nodes; leading axes (e.g. parameter derivatives) are kept.
+
+        Returns
+        -------
+        ndarray, shape (..., d P, d P)
+        """
+        v = np.asarray(values, float)
+        d, P = v.shape[-1], self.n_terms
+        small = np.einsum("abq,...qij->...iajb", self.G_par, v, optimize=True)  # (..., d, Pp, d, Pp)
+        out = np.take(np.take(small, self.par, axis=-3), self.par, axis=-1)
+        out *= self.same_linear[:, None, :]
+        return out.reshape(v.shape[:-3] + (d * P, d * P))
+
+    def input_matrix(self, values) -> np.ndarray:
+        """E_PCE = <Phi E>, thesis (4.44b), for inputs g(t) shared by all realisations.
+
+        Parameters
+        ----------
+        values : ndarray, shape (..., Q, d, r)
+
+        Returns
+        -------
+        ndarray, shape (..., d P, r)
+        """
+        v = np.asarray(values, float)
+        d, r, P = v.shape[-2], v.shape[-1], self.n_terms
+        out = np.einsum("kq,...qir->...ikr", self.g0, v, optimize=True)
+        return out.reshape(v.shape[:-3] + (d * P, r))
+
+    def linear_input_matrix(self, values) -> np.ndarray:
+        """<Phi F_j xi_j> for the linear germs: column j multiplies the signal h_j(t).
+
+        Parameters
+        ----------
+        values : ndarray, shape (..., Q, d, n_linear)
+            F_j(xi_q) at the nodes.
+
+        Returns
+        -------
+        ndarray, shape (..., d P, n_linear)
+        """
+        v = np.asarray(values, float)
+        d, P = v.shape[-2], self.n_terms
+        out = np.einsum("jkq,...qij->...ikj", self.g_lin, v, optimize=True)
+        return out.reshape(v.shape[:-3] + (d * P, self.n_linear))
+
+    def initial_state(self, values) -> np.ndarray:
+        """X(0) = <Phi x0>, thesis (4.44c); values (..., Q, d) -> (..., d P)."""
+        v = np.asarray(values, float)
+        d, P = v.shape[-1], self.n_terms
+        return np.einsum("kq,...qi->...ik", self.g0, v, optimize=True).reshape(v.shape[:-2] + (d * P,))
+
+    def coefficients(self, X) -> np.ndarray:
+        """Reshape expanded states (..., d P) to coefficients (..., d, P)."""
+        X = np.asarray(X)
+        return X.reshape(X.shape[:-1] + (-1, self.n_terms))

@@ -1,0 +1,228 @@
+"""The stochastic linear single-track model (5.4) as a Galerkin PCE (thesis sec. 5.2): distribution
+parameters -> mean and variance trajectories of every state, with exact gradients.
+
+This is the model interface the identification uses: ``moments(theta, gradient=...)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from .galerkin import GalerkinProjector
+from .integrate import foh_discretise_single, lti_response_single
+from .montecarlo import STEERS, TimeGrid, kle_from_config
+from .vehicle import STATES, VehicleParameters, lst_matrices, steering_input
+
+__all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
+
+#: Distribution of each uncertain parameter, thesis (5.8)-(5.11).
+DISTRIBUTIONS = {"mu": "normal", "m_load": "normal", "l_f": "normal", "F_w_mean": "uniform"}
+_STEP = 1e-30  # complex step: derivatives exact to round-off
+
+
+@dataclass(frozen=True)
+class ChaosMoments:
+    """Moments of the expanded LST on the output grid.
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+    mean, variance : ndarray, shape (4, T)
+        Per state (psi, psi_dot, beta, y), thesis (4.51).
+    coefficients : ndarray, shape (4, P, T)
+    mean_gradient, variance_gradient : ndarray, shape (n_theta, 4, T) or None
+    """
+
+    time: np.ndarray
+    mean: np.ndarray
+    variance: np.ndarray
+    coefficients: np.ndarray
+    mean_gradient: np.ndarray | None = None
+    variance_gradient: np.ndarray | None = None
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.sqrt(np.maximum(self.variance, 0.0))
+
+
+class LSTChaosModel:
+    """Galerkin PCE of the LST with uncertain mu, m_load, l_f, mean wind and the KLE wind.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (vehicle, tyre, wind, steering, time; uncertainty for defaults).
+    uncertain : sequence of str
+        Uncertain parameters among ``DISTRIBUTIONS``; the others are fixed.
+    time_variant_wind : bool
+        Include the KLE wind germs (linear germs of the projector).
+    order : int
+        N_PCE.
+    quadrature_points : int
+        Gauss points per parametric germ (N_GLQ,PCE).
+    steer : {"normal", "inverted"}
+    fixed : mapping, optional
+        Values of fixed parameters (default: the config means; the mean wind's midpoint).
+
+    Notes
+    -----
+    The distribution parameters ``theta`` are, per uncertain parameter in order, (mean, std)
+    for a normal and (low, high) for the uniform mean wind; see ``theta_names``.
+    """
+
+    def __init__(
+        self,
+        config: Mapping[str, Any],
+        uncertain: Sequence[str] = ("mu", "m_load", "l_f", "F_w_mean"),
+        time_variant_wind: bool = True,
+        order: int = 2,
+        quadrature_points: int = 4,
+        steer: str = "normal",
+        fixed: Mapping[str, float] | None = None,
+    ):
+        unknown = [u for u in uncertain if u not in DISTRIBUTIONS]
+        if unknown:
+            raise ValueError(f"unknown uncertain parameter(s) {unknown}; choose from {list(DISTRIBUTIONS)}")
+        if order < 0:
+            raise ValueError(f"PCE order must be non-negative, got {order}")
+        self.uncertain = tuple(uncertain)
+        unc = config["uncertainty"]
+        defaults = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
+                    "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
+        self.fixed = {**defaults, **dict(fixed or {})}
+        self.vehicle = VehicleParameters.from_config(config)
+        kle = kle_from_config(config)
+        n_linear = kle.n_modes if time_variant_wind else 0
+        self.wind_scale = config["wind"]["sigma"] * np.sqrt(kle.eigenvalues[:n_linear])
+        self.projector = GalerkinProjector([DISTRIBUTIONS[u] for u in self.uncertain], n_linear, order, quadrature_points)
+        grid = TimeGrid.from_config(config)
+        self.time = grid.output
+        self.dt = grid.dt
+        st = config["steering"]
+        delta = steering_input(self.time, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+        self.inputs = np.column_stack([delta, np.ones_like(delta), kle.eigenfunctions(self.time)[:n_linear].T])
+        self.theta_names = tuple(
+            name
+            for u in self.uncertain
+            for name in ((f"{u}_mean", f"{u}_std") if DISTRIBUTIONS[u] == "normal" else (f"{u}_low", f"{u}_high"))
+        )
+        self.germ_names = self.uncertain + tuple(f"wind_kle_{j + 1}" for j in range(n_linear))
+
+    @staticmethod
+    def theta_from_config(config: Mapping[str, Any], uncertain: Sequence[str]) -> np.ndarray:
+        """The config's true distribution parameters in ``theta`` order."""
+        unc = config["uncertainty"]
+        out = []
+        for u in uncertain:
+            d = unc[u]
+            out += [d["mean"], d["std"]] if DISTRIBUTIONS[u] == "normal" else [d["low"], d["high"]]
+        return np.array(out, float)
+
+    def _parameters_at_nodes(self, theta):
+        """Parameter values (Q,) at the nodes and their derivatives d value / d theta (n_theta, Q)."""
+        theta = np.asarray(theta, float)
+        if theta.shape != (len(self.theta_names),):
+            raise ValueError(f"theta must have {len(self.theta_names)} entries {self.theta_names}, got shape {theta.shape}")
+        xi = self.projector.nodes
+        Q = xi.shape[0]
+        values = {k: np.full(Q, float(v)) for k, v in self.fixed.items()}
+        dvalues = {k: np.zeros((theta.size, Q)) for k in DISTRIBUTIONS}
+        for j, u in enumerate(self.uncertain):
+            a, b = theta[2 * j], theta[2 * j + 1]
+            if DISTRIBUTIONS[u] == "normal":
+                if not b > 0:
+                    raise ValueError(f"standard deviation of {u} must be positive, got {b}")
+                values[u] = a + b * xi[:, j]  # (5.8)-(5.10)
+                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 1.0, xi[:, j]
+            else:
+                if not b > a:
+                    raise ValueError(f"uniform interval of {u} is degenerate or reversed: low {a}, high {b}")
+                values[u] = 0.5 * (a + b + xi[:, j] * (b - a))  # (5.11)
+                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 0.5 * (1 - xi[:, j]), 0.5 * (1 + xi[:, j])
+        return values, dvalues
+
+    def _system(self, values):
+        """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the KLE signals."""
+        p = replace(self.vehicle, mu=values["mu"], m_load=values["m_load"], l_f=values["l_f"])
+        A, B, W = lst_matrices(p)
+        E = np.stack([B, W * values["F_w_mean"][:, None]], axis=-1)
+        F = W[:, :, None] * self.wind_scale
+        return A, E, F
+
+    def _system_derivatives(self, values, dvalues):
+        """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter."""
+        n_theta = len(self.theta_names)
+        dA = dE = dF = 0.0
+        for name in ("mu", "m_load", "l_f", "F_w_mean"):
+            if not np.any(dvalues[name]):
+                continue
+            shifted = dict(values)
+            shifted[name] = values[name] + 1j * _STEP
+            A, E, F = (x.imag / _STEP for x in self._system(shifted))
+            w = dvalues[name]  # (n_theta, Q)
+            dA = dA + w[:, :, None, None] * A
+            dE = dE + w[:, :, None, None] * E
+            dF = dF + w[:, :, None, None] * F
+        Q = self.projector.nodes.shape[0]
+        zeros = lambda *s: np.zeros((n_theta, Q) + s)  # noqa: E731
+        return (dA if np.ndim(dA) else zeros(4, 4)), (dE if np.ndim(dE) else zeros(4, 2)), (dF if np.ndim(dF) else zeros(4, self.projector.n_linear))
+
+    def expanded_system(self, theta):
+        """A_PCE (dP, dP) and the input matrix (dP, 2 + n_linear) for the inputs [delta, 1, f_j]."""
+        values, _ = self._parameters_at_nodes(theta)
+        A, E, F = self._system(values)
+        pr = self.projector
+        return pr.matrix(A), np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)
+
+    def moments(self, theta, gradient: bool = False) -> ChaosMoments:
+        """Mean and variance of every state at every output time, optionally with gradients.
+
+        The expanded system is discretised exactly for inputs linear between output samples
+        (first-order hold); the gradient is the exact derivative of that discretised response.
+        """
+        values, dvalues = self._parameters_at_nodes(theta)
+        A, E, F = self._system(values)
+        pr = self.projector
+        A_pce = pr.matrix(A)
+        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)
+        N = A_pce.shape[0]
+        x0 = np.zeros(N)
+        if not gradient:
+            maps = foh_discretise_single(A_pce, E_pce, self.dt)
+            X = lti_response_single(*maps, self.inputs, x0)
+            return self._moments(X)
+        dA, dE, dF = self._system_derivatives(values, dvalues)
+        dA_pce = pr.matrix(dA)
+        dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)
+        maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
+        X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
+        return self._moments(X, S)
+
+    def _moments(self, X, S=None) -> ChaosMoments:
+        c = self.projector.coefficients(X)  # (T, 4, P)
+        mean, var = c[:, :, 0].T, np.sum(c[:, :, 1:] ** 2, axis=-1).T
+        coefficients = c.transpose(1, 2, 0)
+        if S is None:
+            return ChaosMoments(self.time, mean, var, coefficients)
+        dc = self.projector.coefficients(S)  # (T, p, 4, P)
+        dmean = dc[..., 0].transpose(1, 2, 0)
+        dvar = (2.0 * np.sum(c[:, None, :, 1:] * dc[..., 1:], axis=-1)).transpose(1, 2, 0)
+        return ChaosMoments(self.time, mean, var, coefficients, dmean, dvar)
+
+    def sobol(self, moments: ChaosMoments, total: bool = False):
+        """Sobol indices (n_groups, 4, T) per uncertain parameter, the KLE germs as one group
+        (the time-variant wind, as thesis Fig. 5.4); returns (group names, indices)."""
+        n_par = len(self.uncertain)
+        groups = [[j] for j in range(n_par)]
+        names = list(self.uncertain)
+        if self.projector.n_linear:
+            groups.append(list(range(n_par, n_par + self.projector.n_linear)))
+            names.append("wind (time-variant)")
+        c = moments.coefficients.transpose(1, 0, 2)  # (P, 4, T)
+        return names, self.projector.chaos.sobol(c, groups, total=total)
+
+
+STATE_ORDER = STATES

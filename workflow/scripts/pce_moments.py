@@ -1,0 +1,13 @@
+"""Rule pce_moments: Galerkin PCE of the LST with all uncertainties (Figs 5.3, 5.4)."""
+import sys
+
+sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
+
+from uqdrive.io import write_dataset
+from uqdrive.pce_study import pce_dataset
+from uqdrive.pce_vehicle import LSTChaosModel
+
+config = snakemake.params.config  # noqa: F821
+model = LSTChaosModel(config, order=config["pce"]["order"], quadrature_points=config["pce"]["quadrature_points"])
+moments = model.moments(model.theta_from_config(config, model.uncertain))
+write_dataset(pce_dataset(config, model, moments), snakemake.output[0])  # noqa: F821
