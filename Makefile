@@ -23,6 +23,7 @@ test: $(PYTHON)
 bench: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e .
 	$(PYTHON) benchmarks/bench_montecarlo.py
+	$(PYTHON) benchmarks/bench_pce.py
 
 clean:
 	rm -rf results .snakemake

@@ -36,3 +36,16 @@ def test_all_figures(config, stats, tmp_path):
     _saved(plots.lst_vs_nlst(stats["lst"], stats["nlst"]), tmp_path, "6_5")
     kl = kl_divergence_series(stats["nlst"], stats["lst"]).to_dataset()
     _saved(plots.kl_divergence(kl), tmp_path, "6_6")
+
+
+def test_pce_figures(config, stats, tmp_path):
+    from uqdrive.montecarlo import monte_carlo_moments
+    from uqdrive.pce_study import convergence_study, pce_dataset
+    from uqdrive.pce_vehicle import LSTChaosModel
+
+    model = LSTChaosModel(config, order=1, quadrature_points=2)
+    pce = pce_dataset(config, model, model.moments(model.theta_from_config(config, model.uncertain)))
+    _saved(plots.pce_vs_monte_carlo(pce, stats["lst"]), tmp_path, "5_3")
+    _saved(plots.sobol_indices(pce), tmp_path, "5_4")
+    mean, std, n = monte_carlo_moments(config, "lst", 20, 10)
+    _saved(plots.pce_convergence(convergence_study(config, [1], [2, 3], mean, std, n)), tmp_path, "conv")

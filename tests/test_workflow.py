@@ -32,7 +32,8 @@ def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
     cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
     n_levels = len(cfg["noise"]["levels"])
     figures = {p.name for p in (results / "figures").iterdir()}
-    expected = {"fig_2_3.png", "fig_5_2.png", "fig_7_1.png"} | {f"fig_6_{i}.png" for i in range(1, 7)}
+    expected = {"fig_2_3.png", "fig_5_2.png", "fig_7_1.png", "fig_5_3.png", "fig_5_4.png", "fig_pce_convergence.png"}
+    expected |= {f"fig_6_{i}.png" for i in range(1, 7)}
     expected |= {f"fig_A{n}.png" for n in range(1, 2 * n_levels + 1)}
     assert expected <= figures
     for model in ("lst", "nlst"):
