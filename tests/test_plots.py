@@ -49,3 +49,25 @@ def test_pce_figures(config, stats, tmp_path):
     _saved(plots.sobol_indices(pce), tmp_path, "5_4")
     mean, std, n = monte_carlo_moments(config, "lst", 20, 10)
     _saved(plots.pce_convergence(convergence_study(config, [1], [2, 3], mean, std, n)), tmp_path, "conv")
+
+
+def test_wheelslip_figures(tmp_path):
+    from uqdrive import plots_wheelslip as pw
+    from uqdrive.config import load_config
+    from uqdrive.wheelslip import QuarterCar
+    from uqdrive.wheelslip_products import calibration_dataset, closed_loop_dataset, gp_dataset
+
+    from conftest import REPO
+
+    small = load_config(REPO / "config" / "test.yaml")
+    car = QuarterCar.from_config(small)
+    gp = gp_dataset(small, 10, np.random.default_rng(0))
+    hyper = {"v1": gp.attrs["v1"], "g": np.atleast_1d(gp.attrs["g"]), "v0": gp.attrs["v0"]}
+    cal = calibration_dataset(small, 10, 1, hyper, np.random.default_rng(1))
+    _saved(pw.friction_curves(car, [0.5, 0.9]), tmp_path, "4")
+    _saved(pw.gp_function(gp), tmp_path, "5")
+    _saved(pw.gp_slope(gp), tmp_path, "6")
+    _saved(pw.pole_locations(gp), tmp_path, "7")
+    _saved(pw.pid_schedule_figure(car, {"paper": -0.0787}, (5, 40)), tmp_path, "sched")
+    _saved(pw.calibration_figure([cal]), tmp_path, "cal")
+    _saved(pw.closed_loop_figure(closed_loop_dataset(small, gp, np.random.default_rng(2))), tmp_path, "cl")

@@ -46,7 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _simulate(args) -> None:
-    from .montecarlo import rng_stream, simulate_ensemble
+    from .montecarlo import simulate_ensemble
+    from .rng import rng_stream
     from .noise import noisy_ensemble
 
     config = load_config(args.config)

@@ -14,13 +14,13 @@ from . import __version__
 from .config import config_hash
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from .integrate import lti_foh_response, rk4_fixed_step
+from .rng import rng_stream
 from .vehicle import STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
 
 __all__ = [
     "MODELS",
     "STEERS",
     "TimeGrid",
-    "rng_stream",
     "kle_from_config",
     "simulate_lst",
     "simulate_nlst",
@@ -32,16 +32,6 @@ __all__ = [
 
 MODELS = ("lst", "nlst")
 STEERS = {"normal": 1.0, "inverted": -1.0}
-# Fixed stream identifiers: every random quantity has its own child of the root seed, so that
-# e.g. the LST and NLST ensembles of one seed share their parameter draws.
-_STREAM = {"parameters": 1, "wind": 2, "noise": 3, "kle_figure": 4}
-
-
-def rng_stream(seed: int, stream: str, *keys: int) -> np.random.Generator:
-    """Independent, reproducible generator for a named stream of the root ``seed``."""
-    return np.random.default_rng(np.random.SeedSequence([int(seed), _STREAM[stream], *map(int, keys)]))
-
-
 @dataclass(frozen=True)
 class TimeGrid:
     """Output grid t_k = k dt on [0, t_end] and the fine integration step h = dt / substeps."""

@@ -17,7 +17,7 @@ from .io import atomic_path
 from .uncertainty import KarhunenLoeve
 from .vehicle import VehicleParameters, lst_matrices
 
-__all__ = ["COLUMNS", "ScoreRow", "compare", "write_scorecard", "read_scorecard", "foundation_rows"]
+__all__ = ["COLUMNS", "ScoreRow", "compare", "coverage_row", "write_scorecard", "read_scorecard", "foundation_rows", "wheelslip_rows"]
 
 COLUMNS = ("quantity", "source", "published", "reproduced", "tolerance", "status")
 
@@ -74,4 +74,48 @@ def foundation_rows(config: Mapping[str, Any], kle: KarhunenLoeve) -> list[Score
         for i, pub in enumerate(THESIS_LQR_GAIN)
     ]
     rows.append(compare("KLE eigenpairs kept (p_c = 0.95)", "thesis sec. 7.3, Fig. 7.1", THESIS_KLE_MODES, kle.n_modes, 0.0))
+    return rows
+
+
+#: GP paper, sec. III-C: alpha, beta (rounded in the text), the true slope, (28)-(29), zeta+-.
+PAPER = {"alpha": 0.51, "beta": 441.8, "true_slope": 0.3882, "K_p_per_v": 122.07, "K_p_offset": 67.55,
+         "T_i_offset": 0.0159, "T_i_per_inv_v": 0.0088, "zeta_plus": 0.5940, "zeta_minus": 0.4060}
+
+
+def coverage_row(quantity: str, source: str, hits: int, trials: int, nominal: float = 0.95) -> ScoreRow:
+    """Empirical coverage against its nominal level; the tolerance is the 95 % binomial
+    half-width 1.96 sqrt(p (1 - p) / n) at the nominal p, so a calibrated interval passes."""
+    tol = 1.96 * np.sqrt(nominal * (1 - nominal) / max(trials, 1))
+    return compare(quantity, source, nominal, hits / max(trials, 1), tol)
+
+
+def wheelslip_rows(config: Mapping[str, Any], calibrations) -> list[ScoreRow]:
+    """Rows of the GP paper: design formulas with the paper's E(Gamma), var(Gamma), and the
+    coverage of uqdrive's GP slope intervals (``calibrations``: calibration datasets)."""
+    from .wheelslip import QuarterCar, damping_bounds, friction_slope, pid_gains, pid_schedule
+
+    car = QuarterCar.from_config(config)
+    w = config["wheelslip"]
+    mean, var = w["paper_slope"]["mean"], w["paper_slope"]["variance"]
+    sched = pid_schedule(mean, car)
+    K_p, T_i, _ = pid_gains(mean, w["speed"], car)
+    z_hi, z_lo = damping_bounds(mean, np.sqrt(var), w["speed"], K_p, T_i, car)
+    src = "paper sec. III-C"
+    rows = [
+        compare("alpha = r / J", src, PAPER["alpha"], car.alpha, 0.005),
+        compare("beta = r^2 F_z / J", src, PAPER["beta"], car.beta, 0.05),
+        compare("true slope d mu / d lambda at lambda* = 0.15", src, PAPER["true_slope"], float(friction_slope(car.lambda_star, car.mu_H, car.k)), 5e-5),
+        compare("K_p coefficient of v", "paper eq. (28)", PAPER["K_p_per_v"], sched["K_p_per_v"], 0.005),
+        compare("K_p offset", "paper eq. (28)", PAPER["K_p_offset"], sched["K_p_offset"], 0.005),
+        compare("T_i offset", "paper eq. (29)", PAPER["T_i_offset"], sched["T_i_offset"], 5e-5),
+        compare("T_i coefficient of 1/v", "paper eq. (29)", PAPER["T_i_per_inv_v"], sched["T_i_per_inv_v"], 5e-5),
+        compare("zeta+ at v = 30 m/s", "paper eq. (24)", PAPER["zeta_plus"], float(z_hi), 5e-5),
+        compare("zeta- at v = 30 m/s", "paper eq. (25)", PAPER["zeta_minus"], float(z_lo), 5e-5),
+    ]
+    for ds in calibrations:
+        n = ds.attrs["n_train"]
+        rows.append(coverage_row(f"slope 95% interval coverage, truth from GP prior ({n} points)", "paper sec. II-B (nominal 95%)", ds.attrs["prior_hits"], ds.attrs["prior_sets"]))
+        rows.append(coverage_row(f"slope 95% interval coverage of the true slope, ML ({n} points)", "paper sec. III-C (nominal 95%)", ds.attrs["ml_hits"], ds.attrs["ml_sets"]))
+        if ds.attrs["mcmc_sets"]:
+            rows.append(coverage_row(f"slope 95% interval coverage of the true slope, emcee ({n} points)", "paper footnote 2 (nominal 95%)", ds.attrs["mcmc_hits"], ds.attrs["mcmc_sets"]))
     return rows

@@ -13,3 +13,7 @@ if "normal" in STEERS:
 def appendix_a_model(n):
     """Thesis numbering: A.1-A.L are the LST data sets, A.L+1-A.2L the NLST ones."""
     return "lst" if int(n) <= N_LEVELS else "nlst"
+
+WS_FIGURES = ["paper_fig_4", "paper_fig_5", "paper_fig_6", "paper_pid_schedule", "paper_calibration", "paper_closed_loop"]
+FIGURES += [f"{FIG}/{name}.png" for name in WS_FIGURES]
+FIGURES += [f"{FIG}/paper_fig_poles_{n}.png" for n in config["wheelslip"]["gp"]["training_sizes"]]

@@ -4,7 +4,7 @@ import sys
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.io import read_ensemble, write_dataset
-from uqdrive.montecarlo import rng_stream
+from uqdrive.rng import rng_stream
 from uqdrive.statistics import noise_statistics
 
 p = snakemake.params  # noqa: F821

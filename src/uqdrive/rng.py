@@ -1,0 +1,27 @@
+"""Named, reproducible random streams: every random quantity of uqdrive draws from its own
+child of the root seed (numpy SeedSequence), so adding one stream never changes another.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["STREAMS", "rng_stream"]
+
+#: Fixed stream identifiers; e.g. the LST and NLST ensembles of one seed share "parameters".
+STREAMS = {
+    "parameters": 1,
+    "wind": 2,
+    "noise": 3,
+    "kle_figure": 4,
+    "wheelslip_gp": 5,
+    "wheelslip_calibration": 6,
+    "wheelslip_closed_loop": 7,
+}
+
+
+def rng_stream(seed: int, stream: str, *keys: int) -> np.random.Generator:
+    """Independent generator for a named stream of the root ``seed``, with optional int keys."""
+    if stream not in STREAMS:
+        raise ValueError(f"unknown random stream '{stream}'; known: {', '.join(STREAMS)}")
+    return np.random.default_rng(np.random.SeedSequence([int(seed), STREAMS[stream], *map(int, keys)]))

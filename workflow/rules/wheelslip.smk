@@ -1,0 +1,97 @@
+# The GP wheel-slip paper: GP of the friction curve, PID tuning, calibration, closed loop.
+
+WS_SIZES = config["wheelslip"]["gp"]["training_sizes"]
+WS_KEYS = ("seed", "wheelslip")
+WS_SRC = ("gp", "wheelslip", "wheelslip_study", "wheelslip_products", "rng")
+
+
+rule wheelslip_gp:
+    input:
+        src(*WS_SRC),
+    output:
+        f"{OUT}/data/wheelslip_gp_{{n}}.nc",
+    wildcard_constraints:
+        n=r"\d+",
+    params:
+        config=cfg(*WS_KEYS),
+    log:
+        f"{OUT}/logs/wheelslip_gp_{{n}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/wheelslip_gp.py"
+
+
+rule wheelslip_calibration:
+    input:
+        src(*WS_SRC),
+        gp=f"{OUT}/data/wheelslip_gp_{{n}}.nc",
+    output:
+        f"{OUT}/data/wheelslip_calibration_{{n}}.nc",
+    wildcard_constraints:
+        n=r"\d+",
+    params:
+        config=cfg(*WS_KEYS),
+        mcmc_sets=lambda w: dict(zip(WS_SIZES, config["wheelslip"]["calibration"]["mcmc_sets"])).get(int(w.n), 0),
+    log:
+        f"{OUT}/logs/wheelslip_calibration_{{n}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/wheelslip_calibration.py"
+
+
+rule wheelslip_closed_loop:
+    input:
+        src(*WS_SRC),
+        gp=f"{OUT}/data/wheelslip_gp_{WS_SIZES[0]}.nc",
+    output:
+        f"{OUT}/data/wheelslip_closed_loop.nc",
+    params:
+        config=cfg(*WS_KEYS),
+    log:
+        f"{OUT}/logs/wheelslip_closed_loop.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/wheelslip_closed_loop.py"
+
+
+rule fig_wheelslip:
+    input:
+        src("plots_wheelslip", "wheelslip"),
+        gp=expand(f"{OUT}/data/wheelslip_gp_{{n}}.nc", n=WS_SIZES),
+        calibration=expand(f"{OUT}/data/wheelslip_calibration_{{n}}.nc", n=WS_SIZES),
+        closed_loop=f"{OUT}/data/wheelslip_closed_loop.nc",
+    output:
+        curves=report(f"{FIG}/paper_fig_4.png", caption="../report/paper_fig_4.rst", category="GP wheel slip"),
+        function=report(f"{FIG}/paper_fig_5.png", caption="../report/paper_fig_5.rst", category="GP wheel slip"),
+        slope=report(f"{FIG}/paper_fig_6.png", caption="../report/paper_fig_6.rst", category="GP wheel slip"),
+        poles=report(expand(f"{FIG}/paper_fig_poles_{{n}}.png", n=WS_SIZES), caption="../report/paper_fig_poles.rst", category="GP wheel slip"),
+        schedule=report(f"{FIG}/paper_pid_schedule.png", caption="../report/paper_pid_schedule.rst", category="GP wheel slip"),
+        calibration=report(f"{FIG}/paper_calibration.png", caption="../report/paper_calibration.rst", category="GP wheel slip"),
+        closed_loop=report(f"{FIG}/paper_closed_loop.png", caption="../report/paper_closed_loop.rst", category="GP wheel slip"),
+    params:
+        config=cfg(*WS_KEYS),
+    log:
+        f"{OUT}/logs/fig_wheelslip.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/fig_wheelslip.py"
+
+
+rule scorecard_wheelslip:
+    input:
+        src("scorecard", "wheelslip"),
+        calibration=expand(f"{OUT}/data/wheelslip_calibration_{{n}}.nc", n=WS_SIZES),
+    output:
+        f"{OUT}/scorecard/wheelslip.csv",
+    params:
+        config=cfg(*WS_KEYS),
+    log:
+        f"{OUT}/logs/scorecard_wheelslip.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/scorecard_wheelslip.py"
