@@ -73,7 +73,7 @@ def pole_locations(ds: xr.Dataset):
     ax.axvline(0, color="k", lw=0.8)
     ax.set(xlabel="Re s [1/s]", ylabel="Im s [1/s]", title=f"Poles at v = {ds.attrs['speed']:g} m/s, {ds.attrs['n_train']} training points", aspect="equal")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="center left")
     return fig
 
 
