@@ -31,3 +31,21 @@ def test_wasserstein_uniform_equals_quantile_integral(a1, b1, a2, b2):
 
 def test_wasserstein_normal():
     assert wasserstein2_normal(1.0, 0.2, 0.995, 0.205) == pytest.approx(np.hypot(0.005, 0.005))
+
+
+def test_thesis_printed_uniform_formula_gives_its_quoted_values():
+    from uqdrive.metrics import wasserstein2_uniform_thesis
+
+    assert wasserstein2_uniform_thesis(0.0, 1.0, -1.0, 2.0) == pytest.approx(1.15, abs=0.005)
+    assert wasserstein2_uniform_thesis(0.0, 10.0, -10.0, 20.0) == pytest.approx(11.5, abs=0.05)
+
+
+def test_normalised_distances_5_32_5_33():
+    from uqdrive.metrics import normalised_w2_normal, normalised_w2_uniform
+
+    assert normalised_w2_normal(1.0, 0.2, 1.0, 0.2) == pytest.approx(0.0)
+    assert normalised_w2_normal(1.2, 0.2, 1.0, 0.2) == pytest.approx(1.0)
+    assert normalised_w2_normal(1.0, -0.2, 1.0, 0.2) == pytest.approx(0.0)  # |sigma| (cost is even in it)
+    assert normalised_w2_uniform(-400, 400, -400, 400) == pytest.approx(0.0)
+    # Shift by half the span: U(0, 2) against U(-1, 1) has W2 = 1.
+    assert normalised_w2_uniform(0, 800, -400, 400) == pytest.approx(1.0)

@@ -74,7 +74,17 @@ def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
     return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
 
 
-def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid):
+def gust_input_column(W, gust_yaw_moment: bool):
+    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
+    if gust_yaw_moment:
+        return W
+    W = np.array(W, copy=True)
+    W[..., 1] = 0.0
+    return W
+
+
+def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
     """Ensemble response of the linear single-track model (5.4), exact for piecewise-linear inputs.
 
     The inputs are written as shared signals g(t) = [delta(t), 1, f_1(t), ..., f_nc(t)] with a
@@ -94,22 +104,25 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     eigenfunctions : ndarray, shape (n_c, n_fine)
         KLE eigenfunctions on the fine grid.
     grid : TimeGrid
+    gust_yaw_moment : bool
+        Whether the time-variant wind also exerts the yaw moment M_c F_w.
 
     Returns
     -------
     ndarray, shape (4, n, n_out + 1)
     """
     A, B, W = lst_matrices(p)
+    W_gust = gust_input_column(W, gust_yaw_moment)
     n = A.shape[0]
     E = np.concatenate(
-        [B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None], W[:, :, None] * np.asarray(wind_coeffs)[:, None, :]],
+        [B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None], W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]],
         axis=2,
     )
     g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
     return lti_foh_response(A, E, g, grid.step, grid.substeps, np.zeros((n, 4)))
 
 
-def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid):
+def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
     """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4.
 
     Parameters
@@ -123,6 +136,8 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
         KLE eigenfunctions on the half-step grid.
     grid : TimeGrid
+    gust_yaw_moment : bool
+        Whether the time-variant wind also exerts the yaw moment M_c F_w.
 
     Returns
     -------
@@ -135,7 +150,9 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     vehicle_rhs = make_nlst_rhs(p)
 
     def rhs(x, j):
-        return vehicle_rhs(x, delta_half[j], wind_mean + coeffs @ f_half[j])
+        gust = coeffs @ f_half[j]
+        yaw = p.M_c * (wind_mean + gust) if gust_yaw_moment else p.M_c * wind_mean
+        return vehicle_rhs(x, delta_half[j], wind_mean + gust, yaw)
 
     n_steps = grid.n_out * grid.substeps
     out = rk4_fixed_step(rhs, np.zeros((4, n)), grid.step, n_steps, grid.substeps)
@@ -212,7 +229,7 @@ def simulate_ensemble(
     delta_fine = steering_input(t_fine, delta_max, st["period"], STEERS[steer])
     f_fine = kle.eigenfunctions(t_fine)
     simulate = simulate_lst if model == "lst" else simulate_nlst
-    x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid)
+    x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
 
     t = grid.output
     threshold = config["montecarlo"]["spin_threshold"]
@@ -236,6 +253,7 @@ def simulate_ensemble(
         "n_spun": int(spun.sum()),
         "spin_threshold": float(threshold),
         "wind_sigma": float(config["wind"]["sigma"]),
+        "gust_yaw_moment": int(config["wind"]["gust_yaw_moment"]),
         "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4",
         "integration_step": float(grid.step),
         "seed": seed,

@@ -13,7 +13,7 @@ import numpy as np
 
 from .galerkin import GalerkinProjector
 from .integrate import foh_discretise_single, lti_response_single
-from .montecarlo import STEERS, TimeGrid, kle_from_config
+from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
 from .vehicle import STATES, VehicleParameters, lst_matrices, steering_input
 
 __all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
@@ -97,6 +97,7 @@ class LSTChaosModel:
         kle = kle_from_config(config)
         n_linear = kle.n_modes if time_variant_wind else 0
         self.wind_scale = config["wind"]["sigma"] * np.sqrt(kle.eigenvalues[:n_linear])
+        self.gust_yaw_moment = bool(config["wind"]["gust_yaw_moment"])
         self.projector = GalerkinProjector([DISTRIBUTIONS[u] for u in self.uncertain], n_linear, order, quadrature_points)
         grid = TimeGrid.from_config(config)
         self.time = grid.output
@@ -142,14 +143,22 @@ class LSTChaosModel:
                     raise ValueError(f"uniform interval of {u} is degenerate or reversed: low {a}, high {b}")
                 values[u] = 0.5 * (a + b + xi[:, j] * (b - a))  # (5.11)
                 dvalues[u][2 * j], dvalues[u][2 * j + 1] = 0.5 * (1 - xi[:, j]), 0.5 * (1 + xi[:, j])
+        self._check_physical(values)
         return values, dvalues
+
+    def _check_physical(self, values):
+        """The quadrature nodes must describe physical vehicles: mu > 0 and 0 < l_f < L."""
+        if np.any(values["mu"] <= 0.0):
+            raise ValueError("mu must stay positive at every quadrature node (mean too small or std too large)")
+        if np.any(values["l_f"] <= 0.0) or np.any(values["l_f"] >= self.vehicle.wheelbase):
+            raise ValueError("l_f must stay inside (0, wheelbase) at every quadrature node")
 
     def _system(self, values):
         """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the KLE signals."""
         p = replace(self.vehicle, mu=values["mu"], m_load=values["m_load"], l_f=values["l_f"])
         A, B, W = lst_matrices(p)
         E = np.stack([B, W * values["F_w_mean"][:, None]], axis=-1)
-        F = W[:, :, None] * self.wind_scale
+        F = gust_input_column(W, self.gust_yaw_moment)[:, :, None] * self.wind_scale
         return A, E, F
 
     def _system_derivatives(self, values, dvalues):

@@ -10,7 +10,7 @@ import numpy as np
 import xarray as xr
 from scipy.integrate import solve_ivp
 
-from .montecarlo import STEERS
+from .montecarlo import STEERS, gust_input_column
 from .uncertainty import KarhunenLoeve
 from .vehicle import VehicleParameters, lst_matrices, nlst_rhs, steering_input
 
@@ -52,6 +52,7 @@ def solve_realisations(
     delta_max, period, sign = np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[ensemble.attrs["steer"]]
     coeffs = config["wind"]["sigma"] * ensemble["xi_wind"].values * np.sqrt(kle.eigenvalues)
     linear = ensemble.attrs["model"] == "lst"
+    gust_yaw = bool(config["wind"]["gust_yaw_moment"])
     runs = []
     for j in samples:
         p = VehicleParameters.from_config(
@@ -60,15 +61,17 @@ def solve_realisations(
         F_mean, c = float(ensemble.F_w_mean[j]), coeffs[j]
         if linear:
             A, B, W = lst_matrices(p)
+            W_gust = gust_input_column(W, gust_yaw)
 
             def rhs(tt, x):
-                wind = F_mean + c @ kle.eigenfunctions(np.array([tt]))[:, 0]
-                return A @ x + B * steering_input(tt, delta_max, period, sign) + W * wind
+                gust = c @ kle.eigenfunctions(np.array([tt]))[:, 0]
+                return A @ x + B * steering_input(tt, delta_max, period, sign) + W * F_mean + W_gust * gust
         else:
 
             def rhs(tt, x):
-                wind = F_mean + c @ kle.eigenfunctions(np.array([tt]))[:, 0]
-                return nlst_rhs(x[:, None], steering_input(tt, delta_max, period, sign), wind, p)[:, 0]
+                gust = c @ kle.eigenfunctions(np.array([tt]))[:, 0]
+                yaw = p.M_c * (F_mean + gust) if gust_yaw else p.M_c * F_mean
+                return nlst_rhs(x[:, None], steering_input(tt, delta_max, period, sign), F_mean + gust, p, yaw)[:, 0]
 
         sol = solve_ivp(rhs, (t[0], t[-1]), np.zeros(4), t_eval=t, method=method, rtol=rtol, atol=atol)
         runs.append(sol.y.T)

@@ -190,7 +190,7 @@ def lst_matrices(p: VehicleParameters):
     return A, B, W
 
 
-def nlst_rhs(x, delta, F_w, p: VehicleParameters):
+def nlst_rhs(x, delta, F_w, p: VehicleParameters, M_w=None):
     """Right-hand side of the non-linear single-track model, thesis (5.3a)-(5.3h).
 
     Parameters
@@ -200,9 +200,11 @@ def nlst_rhs(x, delta, F_w, p: VehicleParameters):
     delta : float or ndarray, shape (n,)
         Front steering angle (rad).
     F_w : float or ndarray, shape (n,)
-        Side-wind force (N); its yaw moment is M_c F_w.
+        Side-wind force (N).
     p : VehicleParameters
         Per-realisation parameters with arrays of shape (n,) or scalars.
+    M_w : float or ndarray, shape (n,), optional
+        Wind yaw moment (N m); M_c F_w by default, (5.3f).
 
     Returns
     -------
@@ -217,7 +219,8 @@ def nlst_rhs(x, delta, F_w, p: VehicleParameters):
     F_fy = magic_formula(alpha_f, p.F_fz, p.c_Sf, p.C, p.mu, p.E)
     F_ry = magic_formula(alpha_r, p.F_rz, p.c_Sr, p.C, p.mu, p.E)
     F_fy_cos = F_fy * np.cos(delta)
-    psi_ddot = (p.l_f * F_fy_cos - F_ry * p.l_r + p.M_c * F_w) / p.I_z
+    M_w = p.M_c * F_w if M_w is None else M_w
+    psi_ddot = (p.l_f * F_fy_cos - F_ry * p.l_r + M_w) / p.I_z
     beta_dot = (F_fy_cos + F_ry + F_w) * np.cos(beta) / (p.m * v) - psi_dot
     y_dot = np.sin(psi) * v
     return np.stack(np.broadcast_arrays(psi_dot, psi_ddot, beta_dot, y_dot))
@@ -238,7 +241,7 @@ def make_nlst_rhs(p: VehicleParameters):
     Returns
     -------
     callable
-        ``rhs(x, delta, F_w)`` with the arguments and result of :func:`nlst_rhs`.
+        ``rhs(x, delta, F_w, M_w=None)`` with the arguments and result of :func:`nlst_rhs`.
     """
     v = float(p.v_c)
     n = np.broadcast_shapes(np.shape(p.mu), np.shape(p.m_load), np.shape(p.l_f))
@@ -251,7 +254,7 @@ def make_nlst_rhs(p: VehicleParameters):
     inv_mv = 1.0 / np.broadcast_to(p.m * v, n)
     C, E, M_c = p.C, p.E, p.M_c
 
-    def rhs(x, delta, F_w):
+    def rhs(x, delta, F_w, M_w=None):
         psi, psi_dot, beta, _ = x
         sin_b, cos_b = np.sin(beta), np.cos(beta)
         slip = -np.arctan((v * sin_b + lever * psi_dot) / (v * cos_b))
@@ -261,7 +264,7 @@ def make_nlst_rhs(p: VehicleParameters):
         F_fy_cos = F[0] * np.cos(delta)
         out = np.empty_like(x)
         out[0] = psi_dot
-        out[1] = (l_f * F_fy_cos - l_r * F[1] + M_c * F_w) * inv_I_z
+        out[1] = (l_f * F_fy_cos - l_r * F[1] + (M_c * F_w if M_w is None else M_w)) * inv_I_z
         out[2] = (F_fy_cos + F[1] + F_w) * cos_b * inv_mv - psi_dot
         out[3] = v * np.sin(psi)
         return out
