@@ -10,7 +10,7 @@ import xarray as xr
 
 from .vehicle import STATES
 
-__all__ = ["noise_scale", "add_noise", "added_noise_variance", "noisy_ensemble"]
+__all__ = ["noise_scale", "add_noise", "added_noise_variance", "noisy_ensemble", "estimate_noise_variance"]
 
 
 def noise_scale(signal, A: float):
@@ -63,3 +63,21 @@ def noisy_ensemble(ds: xr.Dataset, A: float, rng: np.random.Generator) -> xr.Dat
         out[name] = (ds[name].dims, add_noise(ds[name].values, A, rng), ds[name].attrs)
     out.attrs["noise_A"] = float(A)
     return out
+
+
+def estimate_noise_variance(signal, dt_axis: int = -1) -> float:
+    """Variance of white measurement noise estimated from the data alone (no knowledge of A).
+
+    Second differences cancel the smooth signal (for a 10 ms grid the vehicle states change by
+    far less than the noise over two steps) while white noise of variance s^2 gives
+    Var(d2) = 6 s^2; the median absolute deviation makes the estimate robust to the fast
+    transient at the start. Per realisation, then averaged: E_j[s_j^2], the variance that (5.6)
+    adds to the ensemble.
+
+    Parameters
+    ----------
+    signal : ndarray, shape (n, n_time)
+    """
+    d2 = np.diff(np.asarray(signal, float), n=2, axis=dt_axis)
+    mad = np.median(np.abs(d2 - np.median(d2, axis=dt_axis, keepdims=True)), axis=dt_axis)
+    return float(np.mean((mad / 0.6744897501960817) ** 2 / 6.0))

@@ -17,6 +17,7 @@ STREAMS = {
     "wheelslip_gp": 5,
     "wheelslip_calibration": 6,
     "wheelslip_closed_loop": 7,
+    "identification": 8,
 }
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import xarray as xr
 
 from .metrics import kl_divergence_normal
-from .noise import add_noise
+from .noise import add_noise, added_noise_variance, estimate_noise_variance
 from .vehicle import STATE_UNITS, STATES
 
 __all__ = ["SPIN_POLICIES", "used_samples", "ensemble_statistics", "noise_statistics", "kl_divergence_series"]
@@ -82,14 +82,18 @@ def noise_statistics(ds: xr.Dataset, levels, rngs, policy: str = "exclude") -> x
         One generator per level (so a level's data do not depend on the other levels).
     """
     mask = used_samples(ds, policy)
-    means, stds = [], []
+    means, stds, est, true = [], [], [], []
     for A, rng in zip(levels, rngs):
         noisy = np.stack([add_noise(ds[s].values, A, rng)[mask] for s in STATES])
         means.append(noisy.mean(axis=1))
         stds.append(noisy.std(axis=1, ddof=1))
+        est.append([estimate_noise_variance(noisy[i]) for i in range(len(STATES))])
+        true.append([added_noise_variance(ds[s].values, A, mask) for s in STATES])
     out = _stats_dataset(
         np.stack(means), np.stack(stds), ds, mask, policy, ("noise",), {"noise": ("noise", np.asarray(levels, float), {"long_name": "noise intensity A (5.6)"})}
     )
+    out["noise_variance"] = (("noise", "state"), np.array(est), {"long_name": "noise variance estimated from the data (second differences)"})
+    out["noise_variance_true"] = (("noise", "state"), np.array(true), {"long_name": "variance added by (5.6), A^2 E[max|s|^2]"})
     out.attrs["title"] = f"noise-corrupted ensemble statistics ({ds.attrs.get('model', 'measured')})"
     return out
 

@@ -17,3 +17,6 @@ def appendix_a_model(n):
 WS_FIGURES = ["paper_fig_4", "paper_fig_5", "paper_fig_6", "paper_pid_schedule", "paper_calibration", "paper_closed_loop"]
 FIGURES += [f"{FIG}/{name}.png" for name in WS_FIGURES]
 FIGURES += [f"{FIG}/paper_fig_poles_{n}.png" for n in config["wheelslip"]["gp"]["training_sizes"]]
+
+ID_FIGURE_NAMES = [f"fig_6_{i}" for i in range(7, 16)] + ["fig_robust_start"] + [f"fig_B{i}" for i in range(1, 14)]
+FIGURES += [f"{FIG}/{name}.png" for name in ID_FIGURE_NAMES] if {"lst", "nlst"} <= set(MODELS) and set(STEERS) == {"normal", "inverted"} else []

@@ -1,0 +1,72 @@
+# Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
+
+ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust"]
+ID_STATS = {
+    "lst_normal": f"{OUT}/data/stats_lst_normal.nc",
+    "nlst_normal": f"{OUT}/data/stats_nlst_normal.nc",
+    "lst_inverted": f"{OUT}/data/stats_lst_inverted.nc",
+    "nlst_inverted": f"{OUT}/data/stats_nlst_inverted.nc",
+    "noise_lst": f"{OUT}/data/noise_stats_lst.nc",
+    "noise_nlst": f"{OUT}/data/noise_stats_nlst.nc",
+}
+
+
+rule identification:
+    input:
+        src("identify", "identification_study", "pce_vehicle", "galerkin", "pce", "polynomials", "integrate", "metrics", "rng"),
+        **ID_STATS,
+    output:
+        f"{OUT}/data/identification_{{experiment}}.nc",
+    wildcard_constraints:
+        experiment="|".join(ID_EXPERIMENTS),
+    params:
+        config=cfg(*SIM_KEYS, "identification", "noise"),
+        stats_keys=list(ID_STATS),
+    log:
+        f"{OUT}/logs/identification_{{experiment}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/identification.py"
+
+
+rule identifiability:
+    input:
+        src("identifiability", "vehicle"),
+    output:
+        f"{OUT}/data/identifiability.csv",
+    params:
+        config=cfg("vehicle", "tyre", "uncertainty", "steering"),
+    log:
+        f"{OUT}/logs/identifiability.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/identifiability.py"
+
+
+ID_FIGS = [f"fig_6_{i}" for i in range(7, 16)] + ["fig_robust_start"]
+B_FIGS = [f"fig_B{i}" for i in range(1, 14)]
+
+
+rule fig_identification:
+    input:
+        src("plots_identification", "identification_tables", "scorecard"),
+        **{e: f"{OUT}/data/identification_{e}.nc" for e in ID_EXPERIMENTS},
+        identifiability=f"{OUT}/data/identifiability.csv",
+    output:
+        figures=report(expand(f"{FIG}/{{name}}.png", name=ID_FIGS), caption="../report/identification.rst", category="Identification"),
+        appendix=report(expand(f"{FIG}/{{name}}.png", name=B_FIGS), caption="../report/appendix_b.rst", category="Appendix B: estimated distributions"),
+        table_6_2=report(f"{OUT}/tables/table_6_2.csv", caption="../report/table_6_2.rst", category="Identification"),
+        table_6_3=report(f"{OUT}/tables/table_6_3.csv", caption="../report/table_6_3.rst", category="Identification"),
+        identifiability=report(f"{OUT}/tables/identifiability.csv", caption="../report/identifiability.rst", category="Identification"),
+        scorecard=f"{OUT}/scorecard/identification.csv",
+    params:
+        config=cfg(*SIM_KEYS, "identification", "noise"),
+        experiments=ID_EXPERIMENTS,
+    log:
+        f"{OUT}/logs/fig_identification.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/fig_identification.py"
