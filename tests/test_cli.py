@@ -58,3 +58,51 @@ def test_unknown_model_exits_nonzero_via_console_script(tmp_path):
     assert proc.returncode == 2
     assert "invalid choice: 'bicycle'" in proc.stderr
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory):
+    path = tmp_path_factory.mktemp("m") / "lst.nc"
+    assert main(["simulate", "--model", "lst", "--samples", "40", "--config", CONFIG, "--out", str(path)]) == 0
+    return path
+
+
+def test_identify_writes_estimate_json(measured, tmp_path):
+    import json
+
+    out = tmp_path / "est"
+    assert main(["identify", str(measured), "--config", CONFIG, "--out", str(out), "--m-load", "105"]) == 0
+    est = json.loads((out / "estimate.json").read_text())
+    for key in ("mu", "l_f", "F_w_mean", "cost", "converged", "iterations"):
+        assert key in est
+    assert len(est["mu"]) == 2 and est["F_w_mean"][0] < est["F_w_mean"][1]
+    assert (out / "fit.png").exists()
+
+
+def _corrupt(src, dst, how):
+    import xarray as xr
+
+    ds = xr.load_dataset(src)
+    if how == "missing":
+        ds = ds.drop_vars("beta")
+    elif how == "nan":
+        ds["psi"][0, 5] = float("nan")
+    elif how == "grid":
+        ds = ds.assign_coords(time=ds["time"].values ** 1.1)
+    elif how == "delta":
+        ds = ds.drop_vars("delta").assign(delta=("t2", ds["delta"].values[:-3]))
+    elif how == "one":
+        ds = ds.isel(sample=[0])
+    ds.to_netcdf(dst)
+
+
+@pytest.mark.parametrize("how, message", [("missing", "missing variable 'beta'"), ("nan", "NaN"), ("grid", "uniform"),
+                                          ("delta", "variable 'delta' has dims"), ("one", "at least 2")])
+def test_identify_bad_input(measured, tmp_path, capsys, how, message):
+    bad = tmp_path / "bad.nc"
+    _corrupt(measured, bad, how)
+    out = tmp_path / "out"
+    assert main(["identify", str(bad), "--config", CONFIG, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (out / "estimate.json").exists()

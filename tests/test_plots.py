@@ -71,3 +71,21 @@ def test_wheelslip_figures(tmp_path):
     _saved(pw.pid_schedule_figure(car, {"paper": -0.0787}, (5, 40)), tmp_path, "sched")
     _saved(pw.calibration_figure([cal]), tmp_path, "cal")
     _saved(pw.closed_loop_figure(closed_loop_dataset(small, gp, np.random.default_rng(2))), tmp_path, "cl")
+
+
+def test_identification_figures(config, tmp_path):
+    import xarray as xr
+
+    from uqdrive import plots_identification as pi
+
+    rng = np.random.default_rng(0)
+    theta = np.array([1.0, 0.2, 1.55, 0.2, -400, 400]) * (1 + 0.05 * rng.normal(size=(2, 2, 6)))
+    ds = xr.Dataset(
+        {"theta": (("run", "estimate", "parameter"), theta), "w2": (("run", "estimate", "distribution"), rng.random((2, 2, 3))),
+         "w2_thesis": (("run", "estimate", "distribution"), rng.random((2, 2, 3))), "truth": ("parameter", [1.0, 0.2, 1.55, 0.2, -400, 400])},
+        coords={"run": [1, 2], "estimate": ["LST-STD", "NLST-STD"], "distribution": ["mu", "l_f", "F_w_mean"]},
+    )
+    _saved(pi.w2_per_run(ds, ["LST-STD", "NLST-STD"], "t"), tmp_path, "67")
+    _saved(pi.w2_against(ds, [0.1, 0.2], "x", ["LST-STD"], "t"), tmp_path, "611")
+    _saved(pi.distributions(ds, "NLST-STD", "t"), tmp_path, "B")
+    _saved(pi.tyre_curves_estimated(config, {"NLST-STD": 0.8}), tmp_path, "610")

@@ -1,4 +1,5 @@
-"""Command line of uqdrive: ``uqdrive simulate`` writes a Monte Carlo ensemble in the data schema.
+"""Command line of uqdrive: ``simulate`` writes an ensemble in the data schema, ``identify`` fits
+the parameter distributions to one.
 
 Errors print one line naming the problem and exit non-zero; no partial output file is left.
 """
@@ -42,6 +43,14 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=int, default=None, metavar="S", help="root seed (default: config seed)")
     sim.add_argument("--config", type=Path, default=DEFAULT_CONFIG, metavar="FILE", help=f"YAML config (default {DEFAULT_CONFIG})")
     sim.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file")
+
+    ident = sub.add_parser("identify", help="identify the distributions of mu, l_f and the mean wind from an ensemble (thesis sec. 5.3)")
+    ident.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (simulated or measured)")
+    ident.add_argument("--cost", default="std", choices=("std", "inp", "dst"), help="weights of the cost (5.25): STD, INP (5.26) or DST (5.28)")
+    ident.add_argument("--m-load", type=float, default=None, metavar="KG", help="assumed load mass (default: config mean)")
+    ident.add_argument("--starts", type=int, default=0, metavar="N", help="extra starting points of a global stage (default 0)")
+    ident.add_argument("--config", type=Path, default=DEFAULT_CONFIG, metavar="FILE", help=f"YAML config (default {DEFAULT_CONFIG})")
+    ident.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder for estimate.json and fit.png")
     return parser
 
 
@@ -63,11 +72,28 @@ def _simulate(args) -> None:
           f"{ds.attrs['n_spun']} spun, noise A = {args.noise:g}")
 
 
+def _identify(args) -> None:
+    from .identify_cli import identify_file
+
+    config = load_config(args.config)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"--out '{out}' exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    check_writable(out / "estimate.json")
+    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, out)
+    state = "converged" if summary["converged"] else "DID NOT CONVERGE"
+    print(f"wrote {out / 'estimate.json'}: mu N{tuple(round(v, 4) for v in summary['mu'])}, l_f N{tuple(round(v, 4) for v in summary['l_f'])}, "
+          f"F_w_mean U{tuple(round(v, 1) for v in summary['F_w_mean'])} ({state}, {summary['iterations']} iterations)")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         if args.command == "simulate":
             _simulate(args)
+        elif args.command == "identify":
+            _identify(args)
     except (ConfigError, DataError, OutputError) as exc:
         print(f"uqdrive: error: {exc}", file=sys.stderr)
         return 2

@@ -49,13 +49,16 @@ def table_rows(ds: xr.Dataset, thesis: dict) -> list[dict]:
     return rows
 
 
-def table_scorecard_rows(basic: xr.Dataset, inverted: xr.Dataset) -> list[ScoreRow]:
+def table_scorecard_rows(basic: xr.Dataset, inverted: xr.Dataset, no_wind_moment: xr.Dataset | None = None) -> list[ScoreRow]:
     """Scorecard rows of Tables 6.2/6.3: run-averaged means against the published ones.
 
     Tolerances from the issue: 0.02 (mu, LST), 0.03 (mu, NLST), 0.02 m (l_f), 30 N (wind).
     """
     out = []
-    for ds, table, src in ((basic, THESIS_TABLE_6_2, "thesis Table 6.2"), (inverted, THESIS_TABLE_6_3, "thesis Table 6.3")):
+    cases = [(basic, THESIS_TABLE_6_2, "thesis Table 6.2"), (inverted, THESIS_TABLE_6_3, "thesis Table 6.3")]
+    if no_wind_moment is not None:
+        cases.append((no_wind_moment, THESIS_TABLE_6_2, "thesis Table 6.2, without the wind yaw moment"))
+    for ds, table, src in cases:
         for est in ("LST-STD", "NLST-STD"):
             if est not in ds["estimate"].values or est not in table:
                 continue

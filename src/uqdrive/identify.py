@@ -164,7 +164,7 @@ class DistributionEstimator:
         lo, hi = np.array(self.bounds, float).T
         for start in starts:
             z0 = np.clip(start, lo, hi) / self._scale
-            res = minimize(self._scaled, z0, jac=True, method="L-BFGS-B", bounds=list(zip(lo / self._scale, hi / self._scale)), options={"maxiter": self.max_iter})
+            res = minimize(self._scaled, z0, jac=True, method="L-BFGS-B", bounds=list(zip(lo / self._scale, hi / self._scale)), options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
             n_iter += res.nit
             n_eval += res.nfev
             if best is None or res.fun < best.fun:

@@ -66,6 +66,8 @@ class LSTChaosModel:
     steer : {"normal", "inverted"}
     fixed : mapping, optional
         Values of fixed parameters (default: the config means; the mean wind's midpoint).
+    delta : ndarray, shape (T,), optional
+        Measured steering angle on the output grid (rad); overrides (5.5)/(5.7) and ``steer``.
 
     Notes
     -----
@@ -82,6 +84,7 @@ class LSTChaosModel:
         quadrature_points: int = 4,
         steer: str = "normal",
         fixed: Mapping[str, float] | None = None,
+        delta=None,
     ):
         unknown = [u for u in uncertain if u not in DISTRIBUTIONS]
         if unknown:
@@ -103,7 +106,10 @@ class LSTChaosModel:
         self.time = grid.output
         self.dt = grid.dt
         st = config["steering"]
-        delta = steering_input(self.time, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+        if delta is None:
+            delta = steering_input(self.time, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+        elif np.shape(delta) != self.time.shape:
+            raise ValueError(f"delta has {np.size(delta)} samples but the time grid has {self.time.size}")
         self.inputs = np.column_stack([delta, np.ones_like(delta), kle.eigenfunctions(self.time)[:n_linear].T])
         self.theta_names = tuple(
             name

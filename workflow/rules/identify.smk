@@ -1,6 +1,6 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
 
-ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust"]
+ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment"]
 ID_STATS = {
     "lst_normal": f"{OUT}/data/stats_lst_normal.nc",
     "nlst_normal": f"{OUT}/data/stats_nlst_normal.nc",
@@ -8,7 +8,26 @@ ID_STATS = {
     "nlst_inverted": f"{OUT}/data/stats_nlst_inverted.nc",
     "noise_lst": f"{OUT}/data/noise_stats_lst.nc",
     "noise_nlst": f"{OUT}/data/noise_stats_nlst.nc",
+    "lst_normal_no_wind_moment": f"{OUT}/data/stats_lst_normal_no_wind_moment.nc",
+    "nlst_normal_no_wind_moment": f"{OUT}/data/stats_nlst_normal_no_wind_moment.nc",
 }
+
+
+rule stats_no_wind_moment:
+    input:
+        src("vehicle", "uncertainty", "integrate", "montecarlo", "statistics", "identification_study"),
+    output:
+        f"{OUT}/data/stats_{{model}}_normal_no_wind_moment.nc",
+    wildcard_constraints:
+        model="lst|nlst",
+    params:
+        config=cfg(*SIM_KEYS),
+    log:
+        f"{OUT}/logs/stats_{{model}}_normal_no_wind_moment.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/stats_no_wind_moment.py"
 
 
 rule identification:

@@ -39,10 +39,12 @@ for path, (exp, est) in zip(o.appendix, b_plan):
     save_figure(pi.distributions(ds[exp], est, f"{path.split('/')[-1][4:-4].replace('B', 'Fig B.')}: {est}, {exp.replace('_', '-')} test"), path)
 for path, d, ref in ((o.table_6_2, ds["basic"], THESIS_TABLE_6_2), (o.table_6_3, ds["inverted"], THESIS_TABLE_6_3)):
     rows = table_rows(d, ref)
+    if path == o.table_6_2 and "no_wind_moment" in ds:
+        rows += [dict(r, estimate=r["estimate"] + " (M_c = 0)") for r in table_rows(ds["no_wind_moment"], ref)]
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
 shutil.copyfile(i.identifiability, o.identifiability)
-write_scorecard(table_scorecard_rows(ds["basic"], ds["inverted"]), o.scorecard)
+write_scorecard(table_scorecard_rows(ds["basic"], ds["inverted"], ds.get("no_wind_moment")), o.scorecard)
