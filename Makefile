@@ -24,6 +24,7 @@ bench: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e .
 	$(PYTHON) benchmarks/bench_montecarlo.py
 	$(PYTHON) benchmarks/bench_pce.py
+	$(PYTHON) benchmarks/bench_identify.py
 
 clean:
 	rm -rf results .snakemake

@@ -131,6 +131,11 @@ class DistributionEstimator:
         g = 2.0 * np.sum(self._w * (em * r.mean_gradient + es * dstd), axis=(1, 2))
         return J, g, r
 
+    def cost_function(self, theta) -> float:
+        """The weighted cost (5.25) at ``theta`` after :meth:`fit` set the data (inf if not physical)."""
+        out = self._objective(np.asarray(theta, float), gradient=False)
+        return float("inf") if out is None else out[0]
+
     def _scaled(self, z):
         theta = z * self._scale
         out = self._objective(theta)
