@@ -74,3 +74,16 @@ def test_bad_projector_input():
         GalerkinProjector(["lognormal"], 0, 2)
     with pytest.raises(ValueError, match="order must be non-negative"):
         GalerkinProjector(["normal"], 0, -1)
+
+
+def test_uniform_linear_germ_initial_state():
+    """x' = -x, x(0) = a + b xi with xi ~ U(-1, 1): mean a e^{-t}, std |b| e^{-t} / sqrt(3)."""
+    pr = GalerkinProjector(["normal"], ["uniform"], 1, quadrature_points=2)
+    Q = pr.nodes.shape[0]
+    A = pr.matrix(-np.ones((Q, 1, 1)))
+    x0 = pr.initial_state(np.full((Q, 1), 2.0)) + pr.linear_initial_state(np.full((Q, 1, 1), 3.0))
+    maps = foh_discretise_single(A, pr.input_matrix(np.zeros((Q, 1, 1))), 0.01)
+    c = pr.coefficients(lti_response_single(*maps, np.zeros((101, 1)), x0))[:, 0, :]
+    t = np.arange(101) * 0.01
+    assert c[:, 0] == pytest.approx(2.0 * np.exp(-t), rel=1e-12)
+    assert np.sqrt((c[:, 1:] ** 2).sum(axis=1)) == pytest.approx(3.0 / np.sqrt(3.0) * np.exp(-t), rel=1e-12)

@@ -89,3 +89,17 @@ def test_identification_figures(config, tmp_path):
     _saved(pi.w2_against(ds, [0.1, 0.2], "x", ["LST-STD"], "t"), tmp_path, "611")
     _saved(pi.distributions(ds, "NLST-STD", "t"), tmp_path, "B")
     _saved(pi.tyre_curves_estimated(config, {"NLST-STD": 0.8}), tmp_path, "610")
+
+
+def test_control_figures(tmp_path):
+    from uqdrive import plots_control as pc
+    from uqdrive.config import load_config
+    from uqdrive.control_study import closed_loop_monte_carlo, gains_dataset, gamma_sweep
+
+    from conftest import REPO
+
+    small = load_config(REPO / "config" / "test.yaml")
+    g = gains_dataset(small)
+    mc = closed_loop_monte_carlo(small, {str(c): g["K"].sel(controller=c).values for c in g["controller"].values}, "lst", 10, 1)
+    _saved(pc.closed_loop_bands("t", g, mc, ["LQR", "SLQR"]), tmp_path, "617")
+    _saved(pc.gamma_sweep_figure(gamma_sweep(small)), tmp_path, "sweep")

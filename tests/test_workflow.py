@@ -33,6 +33,7 @@ def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
     n_levels = len(cfg["noise"]["levels"])
     figures = {p.name for p in (results / "figures").iterdir()}
     expected = {"fig_2_3.png", "fig_5_2.png", "fig_7_1.png", "fig_5_3.png", "fig_5_4.png", "fig_pce_convergence.png"}
+    expected |= {f"fig_6_{i}.png" for i in range(7, 19)} | {f"fig_B{i}.png" for i in range(1, 14)} | {"fig_gamma_sweep.png"}
     expected |= {f"fig_6_{i}.png" for i in range(1, 7)}
     expected |= {f"fig_A{n}.png" for n in range(1, 2 * n_levels + 1)}
     assert expected <= figures
@@ -47,7 +48,7 @@ def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
     assert list(rows[0]) == ["quantity", "source", "published", "reproduced", "tolerance", "status"]
     # Published constants and formulas must pass; coverage and identification rows are statistics
     # of the tiny CI config (48 samples, few draws), so only their presence is checked here.
-    statistical = ("coverage", "Table 6.")
+    statistical = ("coverage", "Table 6.", "(6.2)")
     assert rows and all(r["status"] == "pass" for r in rows if not any(k in r["quantity"] + r["source"] for k in statistical))
     assert any("coverage" in r["quantity"] for r in rows) and any("zeta" in r["quantity"] for r in rows)
     assert any("Table 6.2" in r["source"] for r in rows)

@@ -26,8 +26,9 @@ class GalerkinProjector:
     ----------
     parametric : sequence of str
         Distributions of the germs the matrices depend on ("normal", "uniform").
-    n_linear : int
-        Number of standard normal germs that enter the input linearly.
+    n_linear : int or sequence of str
+        The germs that enter linearly (input or initial state): a count of standard normal
+        germs, or their distributions ("normal", "uniform").
     order : int
         Total order N_PCE of the chaos over all germs (4.21).
     quadrature_points : int
@@ -52,14 +53,21 @@ class GalerkinProjector:
         w_q phi_k(xi_q) for the terms whose linear part is xi_j alone.
     """
 
-    def __init__(self, parametric: Sequence[str], n_linear: int, order: int, quadrature_points: int = 4):
+    def __init__(self, parametric: Sequence[str], n_linear, order: int, quadrature_points: int = 4):
         if quadrature_points < 1:
             raise ValueError(f"quadrature_points must be positive, got {quadrature_points}")
-        if n_linear < 0:
-            raise ValueError(f"n_linear must be non-negative, got {n_linear}")
+        if isinstance(n_linear, (int, np.integer)):
+            if n_linear < 0:
+                raise ValueError(f"n_linear must be non-negative, got {n_linear}")
+            linear = ["normal"] * int(n_linear)
+        else:
+            linear = list(n_linear)
+        n_linear = len(linear)
         parametric = list(parametric)
         n_par = len(parametric)
-        self.chaos = PolynomialChaos(parametric + ["normal"] * n_linear, order, quadrature_points=1)
+        self.chaos = PolynomialChaos(parametric + linear, order, quadrature_points=1)
+        # xi_j = c_j P_1(xi_j) with the orthonormal degree-1 polynomial: c = 1 (Hermite), 1/sqrt(3) (Legendre).
+        self.linear_scale = np.array([1.0 / family(d).evaluate(np.array([1.0]), 1)[0, 1] for d in linear])
         families = [family(d) for d in parametric]
         self.nodes, self.weights = tensor_quadrature(families, quadrature_points)
         alpha = self.chaos.indices
@@ -75,12 +83,30 @@ class GalerkinProjector:
         wpsi = self.weights[:, None] * psi
         self.g0 = wpsi.T * (alpha_lin.sum(axis=1) == 0)[:, None]
         unit = np.eye(n_linear, dtype=int)
-        self.g_lin = np.stack([wpsi.T * (alpha_lin == unit[j]).all(axis=1)[:, None] for j in range(n_linear)]) if n_linear else np.zeros((0,) + wpsi.T.shape)
+        self.g_lin = (
+            np.stack([self.linear_scale[j] * wpsi.T * (alpha_lin == unit[j]).all(axis=1)[:, None] for j in range(n_linear)])
+            if n_linear
+            else np.zeros((0,) + wpsi.T.shape)
+        )
         self.n_parametric, self.n_linear = n_par, n_linear
 
     @property
     def n_terms(self) -> int:
         return self.chaos.n_terms
+
+    @property
+    def excited(self) -> np.ndarray:
+        """Terms that can be non-zero: at most first order in the linear germs.
+
+        A, E and x0 do not depend on the linear germs and they enter linearly, so the blocks of
+        terms with a linear part of order >= 2 start at zero and receive no input: dropping their
+        states is exact and shrinks e.g. 78 terms to 50 for 4 + 7 germs at order 2.
+        """
+        return self.chaos.indices[:, self.n_parametric :].sum(axis=1) <= 1
+
+    def state_mask(self, d: int) -> np.ndarray:
+        """Mask of the expanded states (d P,) that belong to excited terms (state-major layout)."""
+        return np.tile(self.excited, d)
 
     # Layout: the expanded state X is the (d, P) coefficient array flattened state-major,
     # X[i * P + k] = X_ik, as thesis (4.40).
@@ -135,6 +161,13 @@ class GalerkinProjector:
         d, P = v.shape[-2], self.n_terms
         out = np.einsum("jkq,...qij->...ikj", self.g_lin, v, optimize=True)
         return out.reshape(v.shape[:-3] + (d * P, self.n_linear))
+
+    def linear_initial_state(self, values) -> np.ndarray:
+        """X(0) part of an initial state linear in the linear germs, x0 = sum_j x0_j(xi_p) xi_j.
+
+        values : ndarray, shape (Q, d, n_linear) -> (d P,)
+        """
+        return self.linear_input_matrix(values).sum(axis=-1)
 
     def initial_state(self, values) -> np.ndarray:
         """X(0) = <Phi x0>, thesis (4.44c); values (..., Q, d) -> (..., d P)."""

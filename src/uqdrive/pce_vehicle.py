@@ -201,20 +201,26 @@ class LSTChaosModel:
         values, dvalues = self._parameters_at_nodes(theta)
         A, E, F = self._system(values)
         pr = self.projector
-        A_pce = pr.matrix(A)
-        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)
-        N = A_pce.shape[0]
-        x0 = np.zeros(N)
+        keep = pr.state_mask(4)  # drop never-excited terms (exact; GalerkinProjector.excited)
+        A_pce = pr.matrix(A)[np.ix_(keep, keep)]
+        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)[keep]
+        x0 = np.zeros(A_pce.shape[0])
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
             X = lti_response_single(*maps, self.inputs, x0)
-            return self._moments(X)
+            return self._moments(self._full(X, keep))
         dA, dE, dF = self._system_derivatives(values, dvalues)
-        dA_pce = pr.matrix(dA)
-        dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)
+        dA_pce = pr.matrix(dA)[:, keep][:, :, keep]
+        dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
-        return self._moments(X, S)
+        return self._moments(self._full(X, keep), self._full(S, keep))
+
+    @staticmethod
+    def _full(Xr, keep):
+        X = np.zeros(Xr.shape[:-1] + (keep.size,))
+        X[..., keep] = Xr
+        return X
 
     def _moments(self, X, S=None) -> ChaosMoments:
         c = self.projector.coefficients(X)  # (T, 4, P)

@@ -18,6 +18,7 @@ STREAMS = {
     "wheelslip_calibration": 6,
     "wheelslip_closed_loop": 7,
     "identification": 8,
+    "control": 9,
 }
 
 

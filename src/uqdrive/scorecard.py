@@ -17,7 +17,7 @@ from .io import atomic_path
 from .uncertainty import KarhunenLoeve
 from .vehicle import VehicleParameters, lst_matrices
 
-__all__ = ["COLUMNS", "ScoreRow", "compare", "coverage_row", "write_scorecard", "read_scorecard", "foundation_rows", "wheelslip_rows"]
+__all__ = ["COLUMNS", "ScoreRow", "compare", "coverage_row", "write_scorecard", "read_scorecard", "foundation_rows", "wheelslip_rows", "control_rows"]
 
 COLUMNS = ("quantity", "source", "published", "reproduced", "tolerance", "status")
 
@@ -119,3 +119,15 @@ def wheelslip_rows(config: Mapping[str, Any], calibrations) -> list[ScoreRow]:
         if ds.attrs["mcmc_sets"]:
             rows.append(coverage_row(f"slope 95% interval coverage of the true slope, emcee ({n} points)", "paper footnote 2 (nominal 95%)", ds.attrs["mcmc_hits"], ds.attrs["mcmc_sets"]))
     return rows
+
+
+#: Thesis eq. (6.2): the SLQR gain (gamma = 0.001, T = 2 s).
+THESIS_SLQR_GAIN = (-1.81, -0.067, 0.22, -0.30)
+
+
+def control_rows(gains) -> list[ScoreRow]:
+    """SLQR gain against (6.2), half a unit of the printed last digit as tolerance. The thesis
+    does not state the wind's std, its time grid or its optimiser, so a difference is expected."""
+    K = gains["K"].sel(controller="SLQR").values
+    tol = (0.005, 0.0005, 0.005, 0.005)
+    return [compare(f"SLQR gain K[{i + 1}]", "thesis eq. (6.2)", pub, K[i], tol[i]) for i, pub in enumerate(THESIS_SLQR_GAIN)]

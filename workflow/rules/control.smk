@@ -1,0 +1,77 @@
+# LQR and stochastic LQR on the PCE model: the lane-keeping test case (thesis sec. 5.4, 6.3).
+
+CONTROL_KEYS = SIM_KEYS + ("control",)
+CONTROL_SRC = ("control", "control_study", "slqr", "galerkin", "pce", "polynomials", "integrate", "vehicle", "uncertainty", "montecarlo", "rng")
+
+
+rule control_gains:
+    input:
+        src(*CONTROL_SRC),
+        identified=f"{OUT}/data/identification_basic.nc",
+    output:
+        f"{OUT}/data/control_gains.nc",
+    params:
+        config=cfg(*CONTROL_KEYS),
+    log:
+        f"{OUT}/logs/control_gains.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/control_gains.py"
+
+
+rule control_monte_carlo:
+    input:
+        src(*CONTROL_SRC),
+        gains=f"{OUT}/data/control_gains.nc",
+    output:
+        f"{OUT}/data/control_mc_{{model}}.nc",
+    wildcard_constraints:
+        model="lst|nlst",
+    params:
+        config=cfg(*CONTROL_KEYS),
+    log:
+        f"{OUT}/logs/control_mc_{{model}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/control_monte_carlo.py"
+
+
+rule control_gamma_sweep:
+    input:
+        src(*CONTROL_SRC),
+    output:
+        f"{OUT}/data/control_gamma_sweep.nc",
+    params:
+        config=cfg(*CONTROL_KEYS),
+    log:
+        f"{OUT}/logs/control_gamma_sweep.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/control_gamma_sweep.py"
+
+
+rule fig_control:
+    input:
+        src("plots_control", "scorecard"),
+        gains=f"{OUT}/data/control_gains.nc",
+        lst=f"{OUT}/data/control_mc_lst.nc",
+        nlst=f"{OUT}/data/control_mc_nlst.nc",
+        sweep=f"{OUT}/data/control_gamma_sweep.nc",
+    output:
+        fig_6_16=report(f"{FIG}/fig_6_16.png", caption="../report/fig_6_16.rst", category="Control"),
+        fig_6_17=report(f"{FIG}/fig_6_17.png", caption="../report/fig_6_17.rst", category="Control"),
+        fig_6_18=report(f"{FIG}/fig_6_18.png", caption="../report/fig_6_18.rst", category="Control"),
+        sweep=report(f"{FIG}/fig_gamma_sweep.png", caption="../report/fig_gamma_sweep.rst", category="Control"),
+        table=report(f"{OUT}/tables/control_gains.csv", caption="../report/control_gains.rst", category="Control"),
+        scorecard=f"{OUT}/scorecard/control.csv",
+    params:
+        band_sigmas=config["figures"]["band_sigmas"],
+    log:
+        f"{OUT}/logs/fig_control.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/fig_control.py"
