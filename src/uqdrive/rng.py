@@ -19,6 +19,7 @@ STREAMS = {
     "wheelslip_closed_loop": 7,
     "identification": 8,
     "control": 9,
+    "bayes": 10,
 }
 
 

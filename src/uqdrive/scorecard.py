@@ -17,7 +17,7 @@ from .io import atomic_path
 from .uncertainty import KarhunenLoeve
 from .vehicle import VehicleParameters, lst_matrices
 
-__all__ = ["COLUMNS", "ScoreRow", "compare", "coverage_row", "write_scorecard", "read_scorecard", "foundation_rows", "wheelslip_rows", "control_rows"]
+__all__ = ["COLUMNS", "ScoreRow", "compare", "coverage_row", "write_scorecard", "read_scorecard", "foundation_rows", "wheelslip_rows", "control_rows", "bayes_rows"]
 
 COLUMNS = ("quantity", "source", "published", "reproduced", "tolerance", "status")
 
@@ -131,3 +131,15 @@ def control_rows(gains) -> list[ScoreRow]:
     K = gains["K"].sel(controller="SLQR").values
     tol = (0.005, 0.0005, 0.005, 0.005)
     return [compare(f"SLQR gain K[{i + 1}]", "thesis eq. (6.2)", pub, K[i], tol[i]) for i, pub in enumerate(THESIS_SLQR_GAIN)]
+
+
+def bayes_rows(summaries, coverage_hits: int, coverage_total: int) -> list[ScoreRow]:
+    """Cross-check rows: share of parameters whose 95 % posterior interval holds the optimiser
+    estimate and the truth (expected 1), and the coverage over independent ensembles (0.95)."""
+    names = {"lst": "LST-LST", "nlst": "NLST-LST", "lst_noise": "LST-LST A=0.05"}
+    rows = []
+    for case, s in summaries.items():
+        rows.append(compare(f"posterior 95% interval contains optimiser estimate ({names[case]})", "uqdrive cross-check (expected 1)", 1.0, float(np.mean(s["contains_estimate"])), 0.0))
+        rows.append(compare(f"posterior coverage of truth ({names[case]})", "uqdrive cross-check (expected 1)", 1.0, float(np.mean(s["contains_truth"])), 0.0))
+    rows.append(coverage_row("posterior coverage of truth over independent ensembles (LST-LST)", "nominal 95% interval", coverage_hits, coverage_total))
+    return rows

@@ -21,3 +21,4 @@ FIGURES += [f"{FIG}/paper_fig_poles_{n}.png" for n in config["wheelslip"]["gp"][
 ID_FIGURE_NAMES = [f"fig_6_{i}" for i in range(7, 16)] + ["fig_robust_start"] + [f"fig_B{i}" for i in range(1, 14)]
 FIGURES += [f"{FIG}/{name}.png" for name in ID_FIGURE_NAMES] if {"lst", "nlst"} <= set(MODELS) and set(STEERS) == {"normal", "inverted"} else []
 FIGURES += [f"{FIG}/{name}.png" for name in ("fig_6_16", "fig_6_17", "fig_6_18", "fig_gamma_sweep")] if ID_FIGURE_NAMES and {"lst", "nlst"} <= set(MODELS) else []
+FIGURES += [f"{FIG}/posterior_{kind}_{case}.png" for kind in ("corner", "trace") for case in ("lst", "nlst", "lst_noise")] if {"lst", "nlst"} <= set(MODELS) else []

@@ -1,0 +1,57 @@
+# emcee cross-check of the identified distributions (LST-LST, NLST-LST, noisy LST).
+
+BAYES_CASES = ["lst", "nlst", "lst_noise"]
+BAYES_SRC = ("bayes", "bayes_study", "identify", "pce_vehicle", "galerkin", "pce", "polynomials", "integrate", "noise", "rng")
+
+
+rule posterior:
+    input:
+        src(*BAYES_SRC),
+        ensemble=lambda w: f"{OUT}/data/ensemble_{w.case.split('_')[0]}_normal.nc",
+    output:
+        f"{OUT}/data/posterior_{{case}}.nc",
+    wildcard_constraints:
+        case="|".join(BAYES_CASES),
+    params:
+        config=cfg(*SIM_KEYS, "identification", "bayes"),
+    log:
+        f"{OUT}/logs/posterior_{{case}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/posterior.py"
+
+
+rule posterior_coverage:
+    input:
+        src(*BAYES_SRC, "montecarlo"),
+    output:
+        f"{OUT}/data/posterior_coverage.nc",
+    params:
+        config=cfg(*SIM_KEYS, "identification", "bayes"),
+    log:
+        f"{OUT}/logs/posterior_coverage.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/posterior_coverage.py"
+
+
+rule fig_bayes:
+    input:
+        src("plots_bayes", "bayes_study", "scorecard"),
+        posteriors=expand(f"{OUT}/data/posterior_{{case}}.nc", case=BAYES_CASES),
+        coverage=f"{OUT}/data/posterior_coverage.nc",
+    output:
+        corners=report(expand(f"{FIG}/posterior_corner_{{case}}.png", case=BAYES_CASES), caption="../report/posterior_corner.rst", category="emcee cross-check"),
+        traces=report(expand(f"{FIG}/posterior_trace_{{case}}.png", case=BAYES_CASES), caption="../report/posterior_trace.rst", category="emcee cross-check"),
+        table=report(f"{OUT}/tables/posterior_summary.csv", caption="../report/posterior_summary.rst", category="emcee cross-check"),
+        scorecard=f"{OUT}/scorecard/bayes.csv",
+    params:
+        cases=BAYES_CASES,
+    log:
+        f"{OUT}/logs/fig_bayes.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/fig_bayes.py"

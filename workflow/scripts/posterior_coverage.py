@@ -1,0 +1,18 @@
+"""Rule posterior_coverage: LST-LST posteriors on independent ensembles; coverage of the truth."""
+import sys
+
+sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
+
+import numpy as np
+import xarray as xr
+
+from uqdrive.bayes_study import coverage_study
+from uqdrive.io import write_dataset
+from uqdrive.rng import rng_stream
+
+config = snakemake.params.config  # noqa: F821
+b = config["bayes"]
+hits, total, per_set = coverage_study(config, b["calibration_sets"], b["calibration_steps"], rng_stream(config["seed"], "bayes", 99))
+ds = xr.Dataset({"contains_truth": (("set", "parameter"), per_set.reshape(-1, 6))},
+                attrs={"hits": hits, "total": total, "title": "coverage of the truth by 95 % posterior intervals (LST-LST)"})
+write_dataset(ds, snakemake.output[0])  # noqa: F821
