@@ -128,7 +128,9 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
         sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
         state, tau, converged = p0, np.full(centre.size, np.inf), False
         while sampler.iteration < max_steps:
-            state = sampler.run_mcmc(state, check_every, progress=progress)
+            # emcee's condition-number check misfires on a small ball when the parameters have
+            # very different scales (0.1 for mu's std, 500 N for the wind); the ball is its own advice.
+            state = sampler.run_mcmc(state, check_every, progress=progress, skip_initial_state_check=True)
             tau = sampler.get_autocorr_time(tol=0)
             if np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max():
                 converged = True
