@@ -31,3 +31,14 @@ def test_posterior_case_runs_and_summarises(small):
     s = summarise(ds)
     assert np.all(s["low"] <= s["high"]) and s["samples"] > 0
     assert "optimiser_estimate" in ds.attrs and ds.sizes["parameter"] == 6
+
+
+def test_likelihood_times_must_align(small):
+    import copy
+
+    cfg = copy.deepcopy(small)
+    cfg["bayes"]["likelihood_dt"] = 0.25  # not a multiple of model_dt = 0.1
+    ens = simulate_ensemble(cfg, "lst", samples=20)
+    x, nv = prepare_data(cfg, ens)
+    with pytest.raises(ValueError, match="likelihood_dt = 0.25 must be a multiple of"):
+        posterior_case(cfg, x, nv, np.random.default_rng(0), ensembles=2, max_steps=20)

@@ -61,10 +61,14 @@ def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Gener
     full = _model(config)
     truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
     est = DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"]).fit(mean, std, truth)
+    for name, step in (("time.dt", dt), ("bayes.model_dt", b["model_dt"])):
+        ratio = b["likelihood_dt"] / step
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"bayes.likelihood_dt = {b['likelihood_dt']} must be a multiple of {name} = {step}: the model and the data must share the likelihood times")
     stride = int(round(b["likelihood_dt"] / dt))
     data_idx = np.arange(stride, x.shape[2], stride)
     coarse = _model(config, dt=b["model_dt"])
-    model_idx = np.rint(data_idx * dt / b["model_dt"]).astype(int)
+    model_idx = data_idx * int(round(b["likelihood_dt"] / b["model_dt"])) // stride
     like = MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var)
     prior = BoxPrior.from_config(config)
 
