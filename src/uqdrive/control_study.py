@@ -4,7 +4,7 @@ with PCE moments and Monte Carlo on the LST and the NLST, stability, and the gam
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Mapping
 
 import numpy as np
 import xarray as xr

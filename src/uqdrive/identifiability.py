@@ -11,7 +11,6 @@ from typing import Any, Mapping
 import numpy as np
 import sympy as sp
 
-from .vehicle import STATES
 
 __all__ = ["ObservabilityResult", "observability_analysis"]
 

@@ -225,7 +225,6 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
     S = int(substeps)
     if (g.shape[0] - 1) % S:
         raise ValueError("g must hold K * substeps + 1 samples")
-    K = (g.shape[0] - 1) // S
     Phi, P, Q = foh_discretise(A, E, h)
     # M[s] maps the fine sample s of one output interval to the state at its end.
     M = np.zeros((S + 1, n, d, r))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .vehicle import STATE_UNITS, STATES
+from .vehicle import STATE_UNITS
 
 __all__ = ["DataError", "OutputError", "check_writable", "atomic_path", "write_dataset", "read_ensemble", "validate_ensemble"]
 

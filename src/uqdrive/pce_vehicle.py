@@ -14,7 +14,7 @@ import numpy as np
 from .galerkin import GalerkinProjector
 from .integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
-from .vehicle import STATES, VehicleParameters, lst_matrices, steering_input
+from .vehicle import VehicleParameters, lst_matrices, steering_input
 
 __all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
 
@@ -244,6 +244,3 @@ class LSTChaosModel:
             names.append("wind (time-variant)")
         c = moments.coefficients.transpose(1, 0, 2)  # (P, 4, T)
         return names, self.projector.chaos.sobol(c, groups, total=total)
-
-
-STATE_ORDER = STATES

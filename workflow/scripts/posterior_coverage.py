@@ -3,7 +3,6 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-import numpy as np
 import xarray as xr
 
 from uqdrive.bayes_study import coverage_study
