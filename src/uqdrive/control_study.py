@@ -13,7 +13,7 @@ from . import __version__
 from .config import config_hash
 from .control import lqr_gain
 from .integrate import lti_foh_response, rk4_fixed_step
-from .montecarlo import TimeGrid, gust_input_column, kle_from_config
+from .montecarlo import TimeGrid, gust_input_column, kle_from_config, wind_yaw_moment
 from .rng import rng_stream
 from .slqr import ClosedLoopChaos, LaneKeepingCase
 from .uncertainty import ParameterDistribution
@@ -105,8 +105,7 @@ def closed_loop_monte_carlo(config, gains: Mapping[str, np.ndarray], model: str,
 
             def rhs(xs, j):
                 gust = coeffs @ f_half[j]
-                yaw = p.M_c * (wind_mean + gust) if gust_yaw else p.M_c * wind_mean
-                return rhs_vehicle(xs, K @ xs, wind_mean + gust, yaw)
+                return rhs_vehicle(xs, K @ xs, wind_mean + gust, wind_yaw_moment(p.M_c, wind_mean, gust, gust_yaw))
 
             out = rk4_fixed_step(rhs, x0.T.copy(), grid.step, grid.n_out * grid.substeps, grid.substeps)
             x = np.ascontiguousarray(out.transpose(1, 2, 0))

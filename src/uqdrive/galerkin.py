@@ -104,6 +104,13 @@ class GalerkinProjector:
         """
         return self.chaos.indices[:, self.n_parametric :].sum(axis=1) <= 1
 
+    @staticmethod
+    def scatter(reduced, mask) -> np.ndarray:
+        """Put states (..., mask.sum()) of the reduced system back into (..., mask.size), zeros elsewhere."""
+        full = np.zeros(np.shape(reduced)[:-1] + (mask.size,))
+        full[..., mask] = reduced
+        return full
+
     def state_mask(self, d: int) -> np.ndarray:
         """Mask of the expanded states (d P,) that belong to excited terms (state-major layout)."""
         return np.tile(self.excited, d)

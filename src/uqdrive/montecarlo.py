@@ -74,6 +74,12 @@ def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
     return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
 
 
+def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
+    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
+    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
+
+
 def gust_input_column(W, gust_yaw_moment: bool):
     """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
     gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
@@ -151,8 +157,7 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
 
     def rhs(x, j):
         gust = coeffs @ f_half[j]
-        yaw = p.M_c * (wind_mean + gust) if gust_yaw_moment else p.M_c * wind_mean
-        return vehicle_rhs(x, delta_half[j], wind_mean + gust, yaw)
+        return vehicle_rhs(x, delta_half[j], wind_mean + gust, wind_yaw_moment(p.M_c, wind_mean, gust, gust_yaw_moment))
 
     n_steps = grid.n_out * grid.substeps
     out = rk4_fixed_step(rhs, np.zeros((4, n)), grid.step, n_steps, grid.substeps)

@@ -208,19 +208,13 @@ class LSTChaosModel:
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
             X = lti_response_single(*maps, self.inputs, x0)
-            return self._moments(self._full(X, keep))
+            return self._moments(pr.scatter(X, keep))
         dA, dE, dF = self._system_derivatives(values, dvalues)
         dA_pce = pr.matrix(dA)[:, keep][:, :, keep]
         dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
-        return self._moments(self._full(X, keep), self._full(S, keep))
-
-    @staticmethod
-    def _full(Xr, keep):
-        X = np.zeros(Xr.shape[:-1] + (keep.size,))
-        X[..., keep] = Xr
-        return X
+        return self._moments(pr.scatter(X, keep), pr.scatter(S, keep))
 
     def _moments(self, X, S=None) -> ChaosMoments:
         c = self.projector.coefficients(X)  # (T, 4, P)

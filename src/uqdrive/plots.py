@@ -47,6 +47,13 @@ def _state_axes(nrows=2, ncols=2, title=""):
     return fig, np.atleast_1d(axes).ravel()
 
 
+def _time_axis(fig, axes):
+    """Label the time axis of the bottom row of a 2 x 2 state figure; return the figure."""
+    for ax in axes[-2:]:
+        ax.set_xlabel("time [s]")
+    return fig
+
+
 def _label(ax, state):
     ax.set_ylabel(f"{state} [{STATE_UNITS[state]}]")
     ax.set_title(STATE_NAMES[state])
@@ -97,9 +104,7 @@ def ensemble_band(stats: xr.Dataset, band_sigmas: float = 3.0, title: str = "", 
         ax.plot(t, m, lw=1.2, label="mean")
         _label(ax, state)
     axes[0].legend(loc="upper right", fontsize=8)
-    for ax in axes[-2:]:
-        ax.set_xlabel("time [s]")
-    return fig
+    return _time_axis(fig, axes)
 
 
 def noise_levels(noise_stats: xr.Dataset, title: str = ""):
@@ -139,9 +144,7 @@ def lst_vs_nlst(stats_lst: xr.Dataset, stats_nlst: xr.Dataset, band_sigmas: floa
     for ax, state in zip(axes, STATES):
         _label(ax, state)
     axes[0].legend(fontsize=8)
-    for ax in axes[-2:]:
-        ax.set_xlabel("time [s]")
-    return fig
+    return _time_axis(fig, axes)
 
 
 def kl_divergence(kl: xr.Dataset):
@@ -154,9 +157,7 @@ def kl_divergence(kl: xr.Dataset):
         ax.set_ylabel("D_KL [nat]")
         ax.set_title(STATE_NAMES[state])
         ax.grid(alpha=0.3, which="both")
-    for ax in axes[-2:]:
-        ax.set_xlabel("time [s]")
-    return fig
+    return _time_axis(fig, axes)
 
 
 def kle_eigenfunctions(kle_ds: xr.Dataset):
@@ -183,9 +184,7 @@ def pce_vs_monte_carlo(pce: xr.Dataset, mc: xr.Dataset, band_sigmas: float = 3.0
             ax.plot(t, m - band_sigmas * s, style, color=colour, lw=0.7)
         _label(ax, state)
     axes[0].legend(fontsize=7)
-    for ax in axes[-2:]:
-        ax.set_xlabel("time [s]")
-    return fig
+    return _time_axis(fig, axes)
 
 
 def sobol_indices(pce: xr.Dataset):
@@ -200,9 +199,7 @@ def sobol_indices(pce: xr.Dataset):
         ax.set_title(STATE_NAMES[state])
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    for ax in axes[-2:]:
-        ax.set_xlabel("time [s]")
-    return fig
+    return _time_axis(fig, axes)
 
 
 def pce_convergence(conv: xr.Dataset):

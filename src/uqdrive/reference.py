@@ -10,7 +10,7 @@ import numpy as np
 import xarray as xr
 from scipy.integrate import solve_ivp
 
-from .montecarlo import STEERS, gust_input_column
+from .montecarlo import STEERS, gust_input_column, wind_yaw_moment
 from .uncertainty import KarhunenLoeve
 from .vehicle import VehicleParameters, lst_matrices, nlst_rhs, steering_input
 
@@ -70,7 +70,7 @@ def solve_realisations(
 
             def rhs(tt, x):
                 gust = c @ kle.eigenfunctions(np.array([tt]))[:, 0]
-                yaw = p.M_c * (F_mean + gust) if gust_yaw else p.M_c * F_mean
+                yaw = wind_yaw_moment(p.M_c, F_mean, gust, gust_yaw)
                 return nlst_rhs(x[:, None], steering_input(tt, delta_max, period, sign), F_mean + gust, p, yaw)[:, 0]
 
         sol = solve_ivp(rhs, (t[0], t[-1]), np.zeros(4), t_eval=t, method=method, rtol=rtol, atol=atol)

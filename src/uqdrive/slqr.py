@@ -88,20 +88,15 @@ class ClosedLoopChaos:
         self.dt = case.dt
         self.n_terms = pr.n_terms
 
-    def _full(self, Xr):
-        X = np.zeros(Xr.shape[:-1] + (self.keep.size,))
-        X[..., self.keep] = Xr
-        return X
-
     def response(self, K, gradient: bool = False):
         """Expanded closed-loop response X (T, 4 P) and, if asked, dX/dK (T, 4, 4 P)."""
         K = np.asarray(K, float).ravel()
         A = self.A0 + np.tensordot(K, self.M, axes=(0, 0))
         if not gradient:
-            return self._full(lti_response_single(*foh_discretise_single(A, self.E, self.dt), self.inputs, self.X0))
+            return self.projector.scatter(lti_response_single(*foh_discretise_single(A, self.E, self.dt), self.inputs, self.X0), self.keep)
         maps, dmaps = foh_discretise_single(A, self.E, self.dt, self.M, np.zeros((4,) + self.E.shape))
         X, S = lti_response_single(*maps, self.inputs, self.X0, dmaps)
-        return self._full(X), self._full(S)
+        return self.projector.scatter(X, self.keep), self.projector.scatter(S, self.keep)
 
     def moments(self, K):
         """Mean and variance (4, T) of the states and of the steering u = K x."""
