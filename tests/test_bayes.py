@@ -46,3 +46,26 @@ def test_sampler_recovers_a_gaussian_and_diagnoses():
         assert samples.mean(axis=0) == pytest.approx([1.0, 1.0], abs=0.02)
         assert samples.std(axis=0) == pytest.approx([0.1, 0.1], rel=0.15)
         assert r["converged"]
+
+
+@pytest.mark.parametrize("moves", ["stretch", "de"])
+def test_burn_in_is_discarded_and_moves_sample_correctly(moves):
+    """After a burn-in from a tiny ball far in the tail, the stored chain starts in the bulk and
+    both proposal schemes recover N(1, 0.1^2) (mean to 0.02, std to 15 %)."""
+    rng = np.random.default_rng(5)
+
+    def log_prob(t):
+        return -0.5 * np.sum(((t - 1.0) / 0.1) ** 2)
+
+    runs = sample_ensembles(log_prob, [np.ones(3) * 1.4], 8, rng, max_steps=3000, check_every=500, tau_factor=50, burn_in=500, moves=moves)
+    r = runs[0]
+    assert r["burn_in"] == 500 and r["chain"].shape[0] <= 3000
+    assert np.all(np.abs(r["chain"][0].mean(axis=0) - 1.0) < 0.3)  # already in the bulk
+    samples = r["chain"][r["burn"] :: r["thin"]].reshape(-1, 3)
+    assert samples.mean(axis=0) == pytest.approx(np.ones(3), abs=0.02)
+    assert samples.std(axis=0) == pytest.approx(np.full(3, 0.1), rel=0.15)
+
+
+def test_unknown_moves_is_a_clear_error():
+    with pytest.raises(ValueError, match="unknown emcee moves 'gibbs'"):
+        sample_ensembles(lambda t: 0.0, [np.ones(2)], 8, np.random.default_rng(0), 100, moves="gibbs")

@@ -31,6 +31,8 @@ def test_posterior_case_runs_and_summarises(small):
     s = summarise(ds)
     assert np.all(s["low"] <= s["high"]) and s["samples"] > 0
     assert "optimiser_estimate" in ds.attrs and ds.sizes["parameter"] == 6
+    assert ds.attrs["model_gusts"] == int(small["bayes"]["model_gusts"]) and "contains_estimate_unit_free" in s
+    assert np.all(ds["burn_in"].values == small["bayes"]["burn_in"])
 
 
 def test_likelihood_times_must_align(small):

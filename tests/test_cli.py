@@ -77,6 +77,16 @@ def test_identify_writes_estimate_json(measured, tmp_path):
         assert key in est
     assert len(est["mu"]) == 2 and est["F_w_mean"][0] < est["F_w_mean"][1]
     assert (out / "fit.png").exists()
+    assert est["state_scale"] == "none"  # the config's default: the thesis' SI residuals
+
+
+def test_identify_state_scale_flag(measured, tmp_path):
+    import json
+
+    out = tmp_path / "est"
+    assert main(["identify", str(measured), "--config", CONFIG, "--out", str(out), "--state-scale", "rms_mean"]) == 0
+    est = json.loads((out / "estimate.json").read_text())
+    assert est["state_scale"] == "rms_mean" and est["mu"][0] == pytest.approx(1.0, abs=0.2)
 
 
 def _corrupt(src, dst, how):

@@ -5,7 +5,10 @@ import copy
 import numpy as np
 import pytest
 
-from uqdrive.identify import COSTS, DistributionEstimator, WeightContext, cost_weights, default_bounds, initial_guess
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from uqdrive.identify import COSTS, STATE_SCALES, DistributionEstimator, WeightContext, cost_weights, default_bounds, initial_guess, state_weights
 from uqdrive.pce_vehicle import LSTChaosModel
 
 TRUTH = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
@@ -29,6 +32,39 @@ def test_recovers_the_truth_from_model_data(model, data):
     assert est.converged_
     assert est.theta_ == pytest.approx(TRUTH, rel=1e-3, abs=0.5)
     assert np.all(np.isfinite(est.theta_std_))
+
+
+@pytest.mark.parametrize("scale", sorted(STATE_SCALES))
+def test_recovers_the_truth_with_every_state_scale(model, data, scale):
+    """Exact model data: rescaling the residuals per state must not move the optimum (1e-3 rel)."""
+    th0 = initial_guess(TRUTH, 0.1, 0.1, np.random.default_rng(2))
+    est = DistributionEstimator(model, "std", state_scale=scale).fit(*data, th0)
+    assert est.theta_ == pytest.approx(TRUTH, rel=1e-3, abs=0.5)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(1e-3, 1e3), min_size=4, max_size=4), st.sampled_from(["rms_mean", "rms_std"]))
+def test_unit_free_scales_make_the_cost_independent_of_units(units, scale):
+    """Expressing state i in other units (factor c_i) scales its residuals by c_i and its weight
+    by 1/c_i^2, so every weighted squared residual is unchanged (relative 1e-12)."""
+    rng = np.random.default_rng(0)
+    mean, std, resid = rng.normal(size=(4, 50)), rng.uniform(0.1, 1, (4, 50)), rng.normal(size=(4, 50))
+    c = np.array(units)[:, None]
+    before = state_weights(scale, mean, std)[:, None] * resid**2
+    after = state_weights(scale, c * mean, c * std)[:, None] * (c * resid) ** 2
+    assert after == pytest.approx(before, rel=1e-12)
+
+
+def test_state_scale_errors_name_the_problem():
+    with pytest.raises(ValueError, match="unknown state scale 'max'"):
+        state_weights("max", np.ones((4, 3)), np.ones((4, 3)))
+    with pytest.raises(ValueError, match="unknown state scale 'max'"):
+        DistributionEstimator(object(), state_scale="max", wheelbase=2.85)
+    zero = np.ones((4, 3))
+    zero[2] = 0.0
+    with pytest.raises(ValueError, match="state scale 'rms_mean' is zero"):
+        state_weights("rms_mean", zero, np.ones((4, 3)))
+    assert state_weights("none", zero, zero) == pytest.approx(np.ones(4))
 
 
 def test_initial_guess_bounds_5_34():

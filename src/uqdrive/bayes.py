@@ -12,7 +12,22 @@ import emcee
 import numpy as np
 import xarray as xr
 
-__all__ = ["MomentLikelihood", "BoxPrior", "log_posterior", "sample_ensembles", "gelman_rubin", "chain_dataset"]
+__all__ = ["MOVES", "MomentLikelihood", "BoxPrior", "log_posterior", "sample_ensembles", "gelman_rubin", "chain_dataset"]
+
+
+def _stretch():
+    """emcee's default affine-invariant stretch move (Goodman & Weare 2010)."""
+    return None
+
+
+def _differential_evolution():
+    """Differential-evolution proposals with a snooker share, the mix emcee's documentation
+    suggests for correlated posteriors; fewer steps per independent sample here than stretch."""
+    return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+
+
+#: Registry of emcee proposal schemes; config strings (``bayes.moves``) select them.
+MOVES: dict[str, Callable] = {"stretch": _stretch, "de": _differential_evolution}
 
 
 @dataclass
@@ -108,28 +123,40 @@ def gelman_rubin(chains) -> np.ndarray:
 
 
 def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Generator, max_steps: int,
-                     check_every: int = 500, tau_factor: float = 50.0, ball: float = 1e-3, progress: bool = False):
+                     check_every: int = 500, tau_factor: float = 50.0, ball: float = 1e-3, progress: bool = False,
+                     burn_in: int = 0, moves: str = "stretch"):
     """Run one emcee ensemble per start until N > tau_factor * tau (or max_steps).
 
     Parameters
     ----------
     starts : sequence of ndarray, shape (p,)
         Centre of each ensemble's initial ball (relative radius ``ball``).
+    burn_in : int
+        Steps run first and discarded (``sampler.reset()``): the walkers grow out of the small
+        ball before tau is measured, so the transient does not inflate it.
+    moves : {"stretch", "de"}
+        Proposal scheme, see :data:`MOVES`.
+
     Returns
     -------
-    list of dict with "chain" (steps, walkers, p), "log_prob" (steps, walkers), "tau" (p,),
-    "converged" (bool), "burn", "thin".
+    list of dict with "chain" (steps, walkers, p) after the burn-in, "log_prob" (steps, walkers),
+    "tau" (p,), "converged" (bool), "burn", "thin", "acceptance", "burn_in".
     """
+    if moves not in MOVES:
+        raise ValueError(f"unknown emcee moves '{moves}'; choose one of {', '.join(MOVES)}")
     out = []
     for centre in starts:
         centre = np.asarray(centre, float)
         p0 = centre * (1.0 + ball * rng.standard_normal((walkers, centre.size)))
-        sampler = emcee.EnsembleSampler(walkers, centre.size, log_prob)
+        sampler = emcee.EnsembleSampler(walkers, centre.size, log_prob, moves=MOVES[moves]())
         sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
         state, tau, converged = p0, np.full(centre.size, np.inf), False
-        while sampler.iteration < max_steps:
+        if burn_in > 0:
             # emcee's condition-number check misfires on a small ball when the parameters have
             # very different scales (0.1 for mu's std, 500 N for the wind); the ball is its own advice.
+            state = sampler.run_mcmc(state, burn_in, progress=progress, skip_initial_state_check=True)
+            sampler.reset()
+        while sampler.iteration < max_steps:
             state = sampler.run_mcmc(state, check_every, progress=progress, skip_initial_state_check=True)
             tau = sampler.get_autocorr_time(tol=0)
             if np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max():
@@ -138,7 +165,8 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
         burn = int(2 * np.nanmax(tau)) if np.all(np.isfinite(tau)) else sampler.iteration // 2
         thin = max(1, int(0.5 * np.nanmin(tau))) if np.all(np.isfinite(tau)) else 1
         out.append({"chain": sampler.get_chain(), "log_prob": sampler.get_log_prob(), "tau": tau, "converged": converged,
-                    "burn": min(burn, sampler.iteration - 1), "thin": thin, "acceptance": float(np.mean(sampler.acceptance_fraction))})
+                    "burn": min(burn, sampler.iteration - 1), "thin": thin, "acceptance": float(np.mean(sampler.acceptance_fraction)),
+                    "burn_in": int(burn_in)})
     return out
 
 
@@ -165,6 +193,7 @@ def chain_dataset(runs, names, attrs: Mapping[str, Any]) -> xr.Dataset:
             "thin": ("ensemble", [r["thin"] for r in runs]),
             "converged": ("ensemble", np.array([r["converged"] for r in runs], np.int8)),
             "acceptance": ("ensemble", [r["acceptance"] for r in runs]),
+            "burn_in": ("ensemble", [r.get("burn_in", 0) for r in runs], {"long_name": "steps discarded before the stored chain"}),
             "r_hat": ("parameter", rhat, {"long_name": "Gelman-Rubin R-hat between ensembles"}),
             "ess": ("parameter", ess, {"long_name": "effective sample size, sum over ensembles"}),
         },

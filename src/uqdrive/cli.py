@@ -49,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     ident.add_argument("--cost", default="std", choices=("std", "inp", "dst"), help="weights of the cost (5.25): STD, INP (5.26) or DST (5.28)")
     ident.add_argument("--m-load", type=float, default=None, metavar="KG", help="assumed load mass (default: config mean)")
     ident.add_argument("--starts", type=int, default=0, metavar="N", help="extra starting points of a global stage (default 0)")
+    ident.add_argument("--state-scale", default=None, choices=("none", "rms_mean", "rms_std"),
+                       help="per-state residual scale of (5.25): none (SI units, the thesis) or unit-free (default: config identification.state_scale)")
     ident.add_argument("--config", type=Path, default=DEFAULT_CONFIG, metavar="FILE", help=f"YAML config (default {DEFAULT_CONFIG})")
     ident.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder for estimate.json and fit.png")
     return parser
@@ -81,7 +83,7 @@ def _identify(args) -> None:
         raise OutputError(f"--out '{out}' exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     check_writable(out / "estimate.json")
-    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, out)
+    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, out, state_scale=args.state_scale)
     state = "converged" if summary["converged"] else "DID NOT CONVERGE"
     print(f"wrote {out / 'estimate.json'}: mu N{tuple(round(v, 4) for v in summary['mu'])}, l_f N{tuple(round(v, 4) for v in summary['l_f'])}, "
           f"F_w_mean U{tuple(round(v, 1) for v in summary['F_w_mean'])} ({state}, {summary['iterations']} iterations)")

@@ -19,11 +19,11 @@ from .pce_vehicle import LSTChaosModel
 from .statistics import kl_divergence_series
 from .vehicle import steering_input
 
-__all__ = ["EXPERIMENTS", "MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan", "experiment_config"]
+__all__ = ["EXPERIMENTS", "MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan", "experiment_config", "guess_stream_index"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
-EXPERIMENTS = ("basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment")
+EXPERIMENTS = ("basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted")
 DISTRIBUTIONS = ("mu", "l_f", "F_w_mean")
 
 
@@ -49,6 +49,16 @@ class Estimate:
     cost: str
     noise_aware: bool = False
     starts: int = 0
+    state_scale: str | None = None  # None: the config's identification.state_scale
+
+
+#: Variants that start from the same initial guesses as the experiment they vary (paired runs).
+PAIRED_WITH = {"normalised": "basic", "normalised_inverted": "inverted"}
+
+
+def guess_stream_index(name: str) -> int:
+    """Index of the random stream of an experiment's initial guesses (shared by paired variants)."""
+    return EXPERIMENTS.index(PAIRED_WITH.get(name, name))
 
 
 def true_theta(config) -> np.ndarray:
@@ -78,7 +88,9 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
         if data.noise_variance is None:
             raise ValueError(f"{task.label}: noise-aware estimation needs the noise variance of the data")
         std = np.sqrt(np.maximum(std**2 - np.asarray(data.noise_variance)[:, None], 0.0))
-    est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"])
+    scale = task.state_scale or ident.get("state_scale", "none")
+    est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
+                                state_scale=scale)
     theta0 = physical_start(model, theta0)
     try:
         est.fit(data.mean, std, theta0, WeightContext(data.delta, data.kl_divergence))
@@ -175,6 +187,7 @@ def run_experiment(
             "title": f"identification experiment: {name}",
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
+            "state_scales": ",".join(sorted({t.state_scale or ident.get("state_scale", "none") for t in tasks})),
             "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
         },
     )
@@ -220,6 +233,13 @@ def experiment_plan(config: Mapping[str, Any], name: str):
         tasks = [Estimate("LST-STD", "lst", "std"), Estimate("NLST-STD", "nlst", "std")]
         dev = [tuple(ident["basic_deviation"])] * runs
         return tasks, dev, dev, [{"lst": "lst_normal_no_wind_moment", "nlst": "nlst_normal_no_wind_moment"}] * runs
+    if name in ("normalised", "normalised_inverted"):  # the basic / inverted test with unit-free residuals
+        scale = ident.get("normalised_state_scale", "rms_mean")
+        dev = [tuple(ident["basic_deviation"])] * runs
+        nlst_n = [Estimate(t.label, t.data, t.cost, state_scale=scale) for t in nlst]
+        if name == "normalised":
+            return [Estimate("LST-STD", "lst", "std", state_scale=scale)] + nlst_n, dev, dev, [{"lst": "lst_normal", "nlst": "nlst_normal"}] * runs
+        return nlst_n, dev, dev, [{"nlst": "nlst_inverted"}] * runs
     if name == "robust":
         devs = ident["robust_deviations"]
         m = ident["fixed_deviation"]

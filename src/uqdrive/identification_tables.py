@@ -49,15 +49,22 @@ def table_rows(ds: xr.Dataset, thesis: dict) -> list[dict]:
     return rows
 
 
-def table_scorecard_rows(basic: xr.Dataset, inverted: xr.Dataset, no_wind_moment: xr.Dataset | None = None) -> list[ScoreRow]:
+def table_scorecard_rows(basic: xr.Dataset, inverted: xr.Dataset, no_wind_moment: xr.Dataset | None = None,
+                         normalised: xr.Dataset | None = None, normalised_inverted: xr.Dataset | None = None) -> list[ScoreRow]:
     """Scorecard rows of Tables 6.2/6.3: run-averaged means against the published ones.
 
     Tolerances from the issue: 0.02 (mu, LST), 0.03 (mu, NLST), 0.02 m (l_f), 30 N (wind).
+    The variants (no wind yaw moment; unit-free residuals) get their own rows beside the
+    thesis-faithful ones.
     """
     out = []
     cases = [(basic, THESIS_TABLE_6_2, "thesis Table 6.2"), (inverted, THESIS_TABLE_6_3, "thesis Table 6.3")]
     if no_wind_moment is not None:
         cases.append((no_wind_moment, THESIS_TABLE_6_2, "thesis Table 6.2, without the wind yaw moment"))
+    if normalised is not None:
+        cases.append((normalised, THESIS_TABLE_6_2, "thesis Table 6.2, unit-free residuals"))
+    if normalised_inverted is not None:
+        cases.append((normalised_inverted, THESIS_TABLE_6_3, "thesis Table 6.3, unit-free residuals"))
     for ds, table, src in cases:
         for est in ("LST-STD", "NLST-STD"):
             if est not in ds["estimate"].values or est not in table:

@@ -12,7 +12,7 @@ from typing import Callable, Protocol
 import numpy as np
 from scipy.optimize import minimize
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -61,6 +61,44 @@ def cost_weights(name: str, ctx: WeightContext, shape) -> np.ndarray:
     return scheme(ctx, shape)
 
 
+def _no_scale(mean, std):
+    """Residuals in SI units, as the thesis prints (5.25): y (metres) dominates the cost."""
+    return np.ones(mean.shape[0])
+
+
+def _rms_mean(mean, std):
+    """Each state's residuals divided by the RMS of its measured mean trajectory."""
+    return np.sqrt(np.mean(mean**2, axis=1))
+
+
+def _rms_std(mean, std):
+    """Each state's residuals divided by the RMS of its measured standard deviation."""
+    return np.sqrt(np.mean(std**2, axis=1))
+
+
+#: Registry of per-state scales of the residuals of (5.25); config strings select them. Any
+#: scale other than "none" makes the cost independent of the states' units.
+STATE_SCALES: dict[str, Callable] = {"none": _no_scale, "rms_mean": _rms_mean, "rms_std": _rms_std}
+
+
+def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
+    """Per-state factors 1 / scale_i^2 (shape (n_states,)) that multiply the weights of (5.25).
+
+    Parameters
+    ----------
+    name : str
+        Key of :data:`STATE_SCALES`.
+    measured_mean, measured_std : ndarray, shape (n_states, T)
+    """
+    try:
+        scale = STATE_SCALES[name.lower()](np.asarray(measured_mean, float), np.asarray(measured_std, float))
+    except KeyError:
+        raise ValueError(f"unknown state scale '{name}'; choose one of {', '.join(STATE_SCALES)}") from None
+    if not np.all(np.isfinite(scale) & (scale > 0)):
+        raise ValueError(f"state scale '{name}' is zero or not finite for a state ({scale.tolist()}); use state_scale 'none'")
+    return 1.0 / scale**2
+
+
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
     """Random initial guesses deviating from ``theta`` by between e_min and e_max, thesis (5.34)."""
     theta = np.asarray(theta, float)
@@ -94,6 +132,8 @@ class DistributionEstimator:
         Source of the global-stage points.
     max_iter : int
         L-BFGS-B iteration limit per start.
+    state_scale : {"none", "rms_mean", "rms_std"}
+        Per-state scale of the residuals, see :data:`STATE_SCALES` ("none": the thesis' SI units).
 
     Attributes
     ----------
@@ -104,9 +144,13 @@ class DistributionEstimator:
         Gauss-Newton standard errors (see :meth:`fit`).
     """
 
-    def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None):
+    def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
+                 state_scale: str = "none"):
         if cost.lower() not in COSTS:
             raise ValueError(f"unknown cost '{cost}'; choose one of {', '.join(COSTS)}")
+        if state_scale.lower() not in STATE_SCALES:
+            raise ValueError(f"unknown state scale '{state_scale}'; choose one of {', '.join(STATE_SCALES)}")
+        self.state_scale = state_scale.lower()
         self.model = model
         self.cost = cost.lower()
         self.bounds = bounds if bounds is not None else default_bounds(model.theta_names, wheelbase if wheelbase is not None else 2.85)
@@ -156,7 +200,7 @@ class DistributionEstimator:
         if self._mean.shape != self._std.shape or self._mean.ndim != 2:
             raise ValueError("measured mean and std must both have shape (n_states, n_time)")
         ctx = context if context is not None else WeightContext(np.zeros(self._mean.shape[1]))
-        self._w = cost_weights(self.cost, ctx, self._mean.shape)
+        self._w = cost_weights(self.cost, ctx, self._mean.shape) * state_weights(self.state_scale, self._mean, self._std)[:, None]
         theta0 = np.asarray(theta0, float)
         first = self._objective(theta0, gradient=False)
         if first is None:

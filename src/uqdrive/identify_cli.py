@@ -48,8 +48,13 @@ def _dst_divergence(cfg, delta):
                     "the measured delta is neither (5.5) nor (5.7) of the config: use --cost std or inp")
 
 
-def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: float | None, starts: int, out: Path) -> dict:
-    """Identify from the ensemble file ``measured``; write ``out/estimate.json`` and ``out/fit.png``."""
+def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: float | None, starts: int, out: Path,
+                  state_scale: str | None = None) -> dict:
+    """Identify from the ensemble file ``measured``; write ``out/estimate.json`` and ``out/fit.png``.
+
+    ``state_scale`` (None: the config's ``identification.state_scale``) selects the per-state
+    residual scale of (5.25), see :data:`uqdrive.identify.STATE_SCALES`.
+    """
     ds = read_ensemble(measured)
     if ds.sizes["sample"] < 2:
         raise DataError(f"{measured}: {ds.sizes['sample']} sample(s); mean and std need at least 2")
@@ -62,8 +67,9 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    scale = state_scale or cfg["identification"].get("state_scale", "none")
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"])
+                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale)
     est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
     th, err = est.theta_, est.theta_std_
     summary = {
@@ -74,6 +80,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "converged": bool(est.converged_),
         "iterations": int(est.n_iter_),
         "cost_function": cost,
+        "state_scale": scale,
         "m_load": m_load,
         "standard_errors": {"mu": [float(err[0]), float(err[1])], "l_f": [float(err[2]), float(err[3])], "F_w_mean": [float(err[4]), float(err[5])]},
         "samples_used": int(stats.attrs["n_used"]),

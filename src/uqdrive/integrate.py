@@ -8,9 +8,12 @@ from typing import Callable
 
 import numpy as np
 from scipy.linalg import expm, expm_frechet
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "batched_expm",
+    "decoupled_blocks",
     "foh_discretise",
     "foh_discretise_single",
     "lti_foh_response",
@@ -102,6 +105,22 @@ def _split_van_loan(F, d, r, h):
     return Phi, F[:d, d : d + r] - Q, Q
 
 
+def decoupled_blocks(pattern) -> list[np.ndarray]:
+    """Index sets of the decoupled blocks of a square sparsity pattern (connected components).
+
+    Parameters
+    ----------
+    pattern : ndarray of bool, shape (N, N)
+
+    Returns
+    -------
+    list of ndarray of int
+    """
+    pattern = np.asarray(pattern, bool)
+    n, labels = connected_components(csr_matrix(pattern | pattern.T), directed=False)
+    return [np.flatnonzero(labels == c) for c in range(n)]
+
+
 def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     """First-order-hold discretisation of one (large) system, optionally with exact derivatives.
 
@@ -109,6 +128,10 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     the input-sized Van Loan block with SciPy's Pade ``expm``; with directions ``dA``, ``dE``
     the Frechet derivative of the block exponential (``scipy.linalg.expm_frechet``) gives the
     exact derivatives of Phi, P and Q, i.e. of the discretised system.
+
+    Decoupled blocks of A (e.g. the Galerkin terms of each KLE germ of the wind, which never mix
+    with the others) are discretised one at a time with only the inputs that reach them: the
+    result is the same, and the exponentials are of the blocks' size, not the system's.
 
     Parameters
     ----------
@@ -124,6 +147,50 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
+    d, r = E.shape
+    pattern = A != 0
+    reach = E != 0
+    if dA is not None:
+        dA, dE = np.asarray(dA, float), np.asarray(dE, float)
+        pattern = pattern | np.any(dA != 0, axis=0)
+        reach = reach | np.any(dE != 0, axis=0)
+    blocks = decoupled_blocks(pattern)
+    if len(blocks) == 1:
+        return _foh_block(A, E, h, dA, dE)
+    Phi, P, Q = np.zeros((d, d)), np.zeros((d, r)), np.zeros((d, r))
+    if dA is not None:
+        n_p = dA.shape[0]
+        dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
+    if dA is None:
+        # Blocks with identical matrices (the KLE germs' blocks) share one exponential: their
+        # inputs become extra columns of the same Van Loan block.
+        groups: dict = {}
+        for idx in blocks:
+            cols = np.flatnonzero(np.any(reach[idx], axis=0))
+            groups.setdefault((idx.size, A[np.ix_(idx, idx)].tobytes()), []).append((idx, cols))
+        for members in groups.values():
+            first = members[0][0]
+            E_group = np.concatenate([E[np.ix_(idx, cols)] for idx, cols in members], axis=1)
+            Phi_b, P_b, Q_b = _foh_block(A[np.ix_(first, first)], E_group, h)
+            start = 0
+            for idx, cols in members:
+                Phi[np.ix_(idx, idx)] = Phi_b
+                P[np.ix_(idx, cols)] = P_b[:, start : start + cols.size]
+                Q[np.ix_(idx, cols)] = Q_b[:, start : start + cols.size]
+                start += cols.size
+        return Phi, P, Q
+    for idx in blocks:
+        cols = np.flatnonzero(np.any(reach[idx], axis=0))
+        sq, rect = np.ix_(idx, idx), np.ix_(idx, cols)
+        (Phi[sq], P[rect], Q[rect]), (b_dPhi, b_dP, b_dQ) = _foh_block(A[sq], E[rect], h, dA[:, idx][:, :, idx], dE[:, idx][:, :, cols])
+        dPhi[:, idx[:, None], idx] = b_dPhi
+        dP[:, idx[:, None], cols] = b_dP
+        dQ[:, idx[:, None], cols] = b_dQ
+    return (Phi, P, Q), (dPhi, dP, dQ)
+
+
+def _foh_block(A, E, h, dA=None, dE=None):
+    """:func:`foh_discretise_single` for one coupled block."""
     d, r = E.shape
     M = _van_loan_input_block(A, E, h)
     if dA is None:

@@ -1,6 +1,6 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
 
-ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment"]
+ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted"]
 ID_STATS = {
     "lst_normal": f"{OUT}/data/stats_lst_normal.nc",
     "nlst_normal": f"{OUT}/data/stats_nlst_normal.nc",

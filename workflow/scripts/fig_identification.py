@@ -41,10 +41,13 @@ for path, d, ref in ((o.table_6_2, ds["basic"], THESIS_TABLE_6_2), (o.table_6_3,
     rows = table_rows(d, ref)
     if path == o.table_6_2 and "no_wind_moment" in ds:
         rows += [dict(r, estimate=r["estimate"] + " (M_c = 0)") for r in table_rows(ds["no_wind_moment"], ref)]
+    variant = "normalised" if path == o.table_6_2 else "normalised_inverted"
+    if variant in ds:
+        rows += [dict(r, estimate=r["estimate"] + " (unit-free residuals)") for r in table_rows(ds[variant], ref)]
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
 shutil.copyfile(i.identifiability, o.identifiability)
-write_scorecard(table_scorecard_rows(ds["basic"], ds["inverted"], ds.get("no_wind_moment")), o.scorecard)
+write_scorecard(table_scorecard_rows(ds["basic"], ds["inverted"], ds.get("no_wind_moment"), ds.get("normalised"), ds.get("normalised_inverted")), o.scorecard)
