@@ -3,6 +3,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import REPO
+from uqdrive.config import load_config
 from uqdrive.vehicle import VehicleParameters, lst_matrices, magic_formula, make_nlst_rhs, nlst_rhs, steering_input
 
 
@@ -81,3 +83,15 @@ def test_steering_inputs_5_5_and_5_7():
     d = steering_input(t, np.pi / 36, 4.0)
     assert d == pytest.approx(np.pi / 36 * np.array([1.0, 0.0, -1.0, 1.0]), abs=1e-15)
     assert steering_input(t, np.pi / 36, 4.0, -1.0) == pytest.approx(-d)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-0.3, 0.3), min_size=4, max_size=4), st.floats(-0.1, 0.1), st.floats(-800, 800), st.floats(0.3, 1.5))
+def test_nlst_is_odd_in_state_steering_and_wind(x, delta, F_w, mu):
+    """(5.3) is odd: f(-x, -delta, -F_w) = -f(x, delta, F_w). So inverted steering (5.7) with
+    mirrored wind gives the mirrored ensemble, and an estimate of the mean wind from inverted
+    data must be the mirror of the normal-steering one (Table 6.3 discussion, README)."""
+    p = VehicleParameters.from_config(load_config(REPO / "config" / "config.yaml"), mu=np.array([mu]), m_load=np.array([100.0]), l_f=np.array([1.55]))
+    xs = np.array(x)[:, None]
+    f = make_nlst_rhs(p)
+    assert f(-xs, -delta, -np.array([F_w])) == pytest.approx(-f(xs, delta, np.array([F_w])), rel=1e-12, abs=1e-12)

@@ -34,10 +34,13 @@ MOVES: dict[str, Callable] = {"stretch": _stretch, "de": _differential_evolution
 class MomentLikelihood:
     """Gaussian likelihood of the measured mean and std at K aggregated times, whitened.
 
-    The measured mean and std are estimates from N realisations; their sampling covariance
-    across times and states is estimated from the realisations themselves:
-    Cov(m_a, m_b) = C_ab / N and, for near-Gaussian ensembles, Cov(s_a, s_b) = C_ab^2 /
-    (2 s_a s_b (N - 1)) (a, b run over state-time pairs). Consecutive times are strongly
+    The measured mean and std are estimates from N realisations; their joint sampling
+    covariance across times and states is estimated from the realisations themselves by the
+    delta method (a, b run over state-time pairs, z = x - mean): Cov(m_a, m_b) = C_ab / N,
+    Cov(m_a, s_b) = E[z_a z_b^2] / (2 s_b N) and Cov(s_a, s_b) = (E[z_a^2 z_b^2] - C_aa C_bb) /
+    (4 s_a s_b N). For Gaussian states the last is the textbook C_ab^2 / (2 s_a s_b N), i.e.
+    sigma / sqrt(2 N) for one std; the states here are not Gaussian (the uniform wind, products
+    of normal parameters), and the fourth moments say by how much. Consecutive times are strongly
     correlated, so pretending independence would overstate the information many-fold; the
     likelihood uses K well-separated times and the full covariance (whitening by its Cholesky
     factor). A floor of ``model_error`` times each state's largest std is added in quadrature
@@ -57,11 +60,13 @@ class MomentLikelihood:
         d, N, K = x.shape
         flat = x.transpose(1, 0, 2).reshape(N, d * K)
         m, s = flat.mean(axis=0), flat.std(axis=0, ddof=1)
-        C = np.cov(flat, rowvar=False)
-        cov_m = C / N
-        cov_s = C**2 / (2.0 * np.outer(s, s) * (N - 1))
+        z = flat - m
+        joint = np.cov(np.concatenate([z, z**2], axis=1), rowvar=False) / N  # of (mean, variance) estimates
+        n = d * K
+        to_std = np.concatenate([np.ones(n), 0.5 / s])  # d std = d var / (2 s)
+        cov = joint * np.outer(to_std, to_std)
         floor = (model_error * np.repeat(s.reshape(d, K).max(axis=1), K)) ** 2
-        cov = np.block([[cov_m + np.diag(floor), np.zeros_like(C)], [np.zeros_like(C), cov_s + np.diag(floor)]])
+        cov += np.diag(np.concatenate([floor, floor]))
         cov += 1e-12 * np.trace(cov) / cov.shape[0] * np.eye(cov.shape[0])
         return cls(m.reshape(d, K), s.reshape(d, K), np.linalg.cholesky(cov), None if noise_variance is None else np.asarray(noise_variance, float))
 

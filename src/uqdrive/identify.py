@@ -218,10 +218,24 @@ class DistributionEstimator:
             n_eval += res.nfev
             if best is None or res.fun < best.fun:
                 best = res
+        success, message = bool(best.success), str(best.message)
+        if not success and best.fun < self._penalty:
+            # L-BFGS-B also stops "ABNORMAL" when the line search cannot improve at machine
+            # precision. A restart from that point settles it: a true optimum stays put.
+            again = minimize(self._scaled, best.x, jac=True, method="L-BFGS-B", bounds=list(zip(lo / self._scale, hi / self._scale)),
+                             options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+            n_iter, n_eval = n_iter + again.nit, n_eval + again.nfev
+            if again.success and again.fun <= best.fun:
+                success, message = True, f"{again.message} (after a restart from an abnormal stop)"
+            elif abs(again.fun - best.fun) <= 1e-9 * abs(best.fun):
+                success = True
+                message = f"{message}; a restart from there changed the cost by < 1e-9 (stationary to precision)"
+            if again.fun < best.fun:
+                best = again
         theta = best.x * self._scale
         final = self._objective(theta)
-        self.converged_ = bool(best.success and final is not None and best.fun < self._penalty)
-        self.message_ = str(best.message)
+        self.converged_ = bool(success and final is not None and best.fun < self._penalty)
+        self.message_ = message
         if not self.converged_:
             warnings.warn(f"identification did not converge: {self.message_}", RuntimeWarning, stacklevel=2)
         for i, name in enumerate(self.model.theta_names):

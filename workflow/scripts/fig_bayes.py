@@ -27,7 +27,7 @@ for (case, ds), corner_path, trace_path in zip(posts.items(), o.corners, o.trace
                      "95% interval": f"[{s['low'][j]:.4g}, {s['high'][j]:.4g}]", "optimiser": f"{ds.attrs['optimiser_estimate'][j]:.4g}",
                      "optimiser (unit-free)": f"{ds.attrs['optimiser_estimate_unit_free'][j]:.4g}" if "optimiser_estimate_unit_free" in ds.attrs else "",
                      "truth": f"{ds.attrs['truth'][j]:.4g}", "tau": f"{np.nanmax(ds['tau'].values[:, j]):.0f}",
-                     "N/tau": f"{(n_steps.min() / np.nanmax(ds['tau'].values[:, j])):.0f}", "R-hat": f"{ds['r_hat'].values[j]:.3f}",
+                     "N/tau": f"{np.nanmin(n_steps / ds['tau'].values[:, j]):.0f}", "R-hat": f"{ds['r_hat'].values[j]:.3f}",
                      "ESS": f"{ds['ess'].values[j]:.0f}", "seconds": f"{ds.attrs['seconds']:.0f}"})
 with atomic_path(o.table) as tmp:
     with open(tmp, "w", newline="") as fh:
