@@ -41,6 +41,23 @@ def test_whitened_likelihood_is_chi2_for_non_gaussian_states():
     assert np.mean(values) == pytest.approx(8 * K, rel=0.1)
 
 
+def test_likelihood_corrects_the_estimated_precision():
+    """With few realisations (N = 150, p = 24) the inverse of the estimated covariance overstates
+    the precision by (N - 1) / (N - p - 2) = 1.20; with the Hartlap factor the mean of -2 log L
+    at the truth is ~p (within 10 %; measured 25.1), without it it is ~30."""
+    rng = np.random.default_rng(3)
+    K, N = 3, 150
+    values = []
+    for _ in range(400):
+        x = rng.standard_normal((4, N, K))
+        like = MomentLikelihood.from_samples(x, model_error=0.0)
+        values.append(-2.0 * like(np.zeros((4, K)), np.ones((4, K))))
+    assert like.precision_factor == pytest.approx((N - 26) / (N - 1))
+    assert np.mean(values) == pytest.approx(8 * K, rel=0.1)
+    with pytest.raises(ValueError, match="cannot estimate the 24 x 24 covariance"):
+        MomentLikelihood.from_samples(rng.standard_normal((4, 20, K)))
+
+
 def test_box_prior():
     prior = BoxPrior(np.array([0.0] * 4 + [-10.0, -10.0]), np.array([2.0] * 4 + [10.0, 10.0]))
     assert prior([1, 1, 1, 1, -1, 1]) == 0.0
