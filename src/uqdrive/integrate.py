@@ -301,40 +301,37 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
         M[s + 1] += power @ Q
         power = power @ Phi
     windows = np.lib.stride_tricks.sliding_window_view(g, (S + 1, r))[::S, 0]  # (K, S+1, r)
-    # drive[k, i, j] = sum_{s, q} M[s, j, i, q] windows[k, s, q], as one BLAS product
-    # (several times faster than the equivalent einsum).
+    # drive[k, i, j] = sum_{s, q} M[s, j, i, q] windows[k, s, q] is one BLAS product (several
+    # times faster than the equivalent einsum), written straight into the output's slots.
+    K = windows.shape[0]
     M2 = np.ascontiguousarray(M.transpose(0, 3, 2, 1)).reshape((S + 1) * r, d * n)
-    drive = (windows.reshape(windows.shape[0], -1) @ M2).reshape(-1, d, n)  # (K, d, n)
-    return _linear_recursion(power, drive, x0)
+    out = np.empty((K + 1, d, n))
+    np.matmul(windows.reshape(K, -1), M2, out=out[1:].reshape(K, d * n))
+    out[0] = 0.0 if x0 is None else np.asarray(x0, float).T
+    _linear_recursion_in_place(power, out)
+    return out.transpose(1, 2, 0)
 
 
-def _linear_recursion(Phi, drive, x0=None):
-    """x_{k+1} = Phi x_k + drive_k for n systems at once.
+def _linear_recursion_in_place(Phi, out):
+    """x_{k+1} = Phi x_k + drive_k for n systems at once, where out[k + 1] holds drive_k on entry.
 
-    One ``einsum`` over a state-major layout per step, written in place (about 7x faster than
-    a batched ``matmul`` of n 4x4 matrices, which loops over the small matrices). The states
-    are stored time-major, as the recursion produces them, and returned as a transposed view:
-    copying 64 MB into a time-contiguous layout would cost as much as the recursion itself.
+    One ``einsum`` over a state-major layout per step (about 7x faster than a batched
+    ``matmul`` of n 4x4 matrices, which loops over the small matrices). The states are stored
+    time-major, as the recursion produces them; the caller returns a transposed view, because
+    copying 64 MB into a time-contiguous layout would cost as much as the recursion itself, and
+    holding the drive in the output saves another 64 MB of traffic and page faults.
 
     Parameters
     ----------
     Phi : ndarray, shape (n, d, d)
-    drive : ndarray, shape (K, d, n)
-    x0 : ndarray, shape (n, d), optional
-
-    Returns
-    -------
-    ndarray, shape (d, n, K + 1)
-        A view of a (K + 1, d, n) array.
+    out : ndarray, shape (K + 1, d, n)
+        out[0] = x_0 and out[k + 1] = drive_k on entry; the states x_0..x_K on return.
     """
-    K, d, n = drive.shape
     Phi_t = np.ascontiguousarray(np.moveaxis(Phi, 0, -1))  # (d, d, n)
-    out = np.empty((K + 1, d, n))
-    out[0] = 0.0 if x0 is None else np.asarray(x0, float).T
-    for k in range(K):
-        np.einsum("ijn,jn->in", Phi_t, out[k], out=out[k + 1])
-        out[k + 1] += drive[k]
-    return out.transpose(1, 2, 0)
+    step = np.empty(out.shape[1:])
+    for k in range(out.shape[0] - 1):
+        np.einsum("ijn,jn->in", Phi_t, out[k], out=step)
+        out[k + 1] += step
 
 
 def rk4_fixed_step(rhs: Callable[[np.ndarray, int], np.ndarray], x0, h: float, n_steps: int, record_every: int):
