@@ -16,7 +16,11 @@ __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALE
 
 
 class MomentModel(Protocol):
-    """What the estimator needs of a model: parameter names and moments with gradients."""
+    """What the estimator needs of a model: parameter names and moments with gradients.
+
+    A model may also offer ``moments_vjp(theta) -> (moments, vjp)`` with
+    ``vjp(dJ_dmean, dJ_dvariance) -> dJ/dtheta``; the estimator then uses it for the gradient.
+    """
 
     theta_names: tuple
 
@@ -160,8 +164,14 @@ class DistributionEstimator:
 
     # -- objective --------------------------------------------------------------------------
     def _objective(self, theta, gradient=True):
+        # Models with ``moments_vjp`` give the gradient by one adjoint pass (cost independent of
+        # the number of parameters); others by their forward sensitivities.
+        adjoint = gradient and hasattr(self.model, "moments_vjp")
         try:
-            r = self.model.moments(theta, gradient=gradient)
+            if adjoint:
+                r, vjp = self.model.moments_vjp(theta)
+            else:
+                r = self.model.moments(theta, gradient=gradient)
         except (ValueError, np.linalg.LinAlgError):
             return None
         std = np.sqrt(np.maximum(r.variance, 1e-300))
@@ -171,6 +181,8 @@ class DistributionEstimator:
         J = float(np.sum(self._w * (em**2 + es**2)))
         if not gradient:
             return J, None, r
+        if adjoint:
+            return J, vjp(2.0 * self._w * em, self._w * es / std), r
         dstd = r.variance_gradient / (2.0 * std)
         g = 2.0 * np.sum(self._w * (em * r.mean_gradient + es * dstd), axis=(1, 2))
         return J, g, r
@@ -245,7 +257,7 @@ class DistributionEstimator:
         self.cost_ = float(final[0]) if final is not None else float("nan")
         self.n_iter_, self.n_eval_ = int(n_iter), int(n_eval)
         self.moments_ = final[2] if final is not None else None
-        self.theta_std_ = self._gauss_newton_std(final[2]) if final is not None else np.full(theta.size, np.nan)
+        self.theta_std_ = self._gauss_newton_std(self.model.moments(theta, gradient=True)) if final is not None else np.full(theta.size, np.nan)
         return self
 
     def _global_candidates(self):

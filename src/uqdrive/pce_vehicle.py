@@ -11,6 +11,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .adjoint import foh_response_vjp
 from .galerkin import GalerkinProjector
 from .integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
@@ -215,6 +216,38 @@ class LSTChaosModel:
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
         return self._moments(pr.scatter(X, keep), pr.scatter(S, keep))
+
+    def moments_vjp(self, theta):
+        """Moments at ``theta`` and a function giving the gradient of any scalar J of them.
+
+        Returns ``(moments, vjp)``; ``vjp(dJ_dmean, dJ_dvariance)`` (both (4, T)) returns dJ/dtheta
+        (n_theta,) by one backward recursion and one adjoint Frechet derivative
+        (:func:`uqdrive.adjoint.foh_response_vjp`): its cost does not grow with n_theta, unlike
+        the forward sensitivities of ``moments(theta, gradient=True)``.
+        """
+        values, dvalues = self._parameters_at_nodes(theta)
+        A, E, F = self._system(values)
+        pr = self.projector
+        keep = pr.state_mask(4)
+        A_pce = pr.matrix(A)[np.ix_(keep, keep)]
+        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)[keep]
+        maps = foh_discretise_single(A_pce, E_pce, self.dt)
+        X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
+        result = self._moments(pr.scatter(X, keep))
+
+        def vjp(dJ_dmean, dJ_dvariance):
+            c = result.coefficients.transpose(2, 0, 1)  # (T, 4, P)
+            Gc = np.empty_like(c)
+            Gc[:, :, 0] = np.asarray(dJ_dmean).T
+            Gc[:, :, 1:] = 2.0 * c[:, :, 1:] * np.asarray(dJ_dvariance).T[:, :, None]
+            G = Gc.reshape(c.shape[0], -1)[:, keep]
+            dJ_dA, dJ_dE = foh_response_vjp(A_pce, E_pce, self.dt, maps[0], self.inputs, X, G)
+            dA, dE, dF = self._system_derivatives(values, dvalues)
+            dA_pce = pr.matrix(dA)[:, keep][:, :, keep]
+            dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
+            return np.einsum("pij,ij->p", dA_pce, dJ_dA) + np.einsum("pij,ij->p", dE_pce, dJ_dE)
+
+        return result, vjp
 
     def _moments(self, X, S=None) -> ChaosMoments:
         c = self.projector.coefficients(X)  # (T, 4, P)
