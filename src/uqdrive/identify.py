@@ -11,6 +11,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 from scipy.optimize import minimize
+from threadpoolctl import threadpool_limits
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -201,6 +202,16 @@ class DistributionEstimator:
         return J / self._J0, g * self._scale / self._J0
 
     def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
+        """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
+
+        See :meth:`_fit` for the error bars. The model's matrices are small (tens of states), where
+        BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
+        runs with one BLAS thread, as scikit-learn does with threadpoolctl.
+        """
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(measured_mean, measured_std, theta0, context)
+
+    def _fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
 
         Error bars: with residuals r (weighted mean and std errors) and their Jacobian J at the
