@@ -189,9 +189,25 @@ class LSTChaosModel:
     def expanded_system(self, theta):
         """A_PCE (dP, dP) and the input matrix (dP, 2 + n_linear) for the inputs [delta, 1, f_j]."""
         values, _ = self._parameters_at_nodes(theta)
+        return self._full_expanded(values)
+
+    def _full_expanded(self, values):
         A, E, F = self._system(values)
         pr = self.projector
         return pr.matrix(A), np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)
+
+    def _expanded(self, values):
+        """A_PCE and the input matrix of the excited terms (never-excited ones are dropped
+        exactly, see GalerkinProjector.excited) for parameter values at the nodes."""
+        A, E = self._full_expanded(values)
+        keep = self.projector.state_mask(4)
+        return A[np.ix_(keep, keep)], E[keep], keep
+
+    def _expanded_derivatives(self, values, dvalues, keep):
+        """d A_PCE / d theta (p, N, N) and d E_PCE / d theta (p, N, r) of the excited terms."""
+        dA, dE, dF = self._system_derivatives(values, dvalues)
+        pr = self.projector
+        return pr.matrix(dA)[:, keep][:, :, keep], np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
 
     def moments(self, theta, gradient: bool = False) -> ChaosMoments:
         """Mean and variance of every state at every output time, optionally with gradients.
@@ -200,19 +216,14 @@ class LSTChaosModel:
         (first-order hold); the gradient is the exact derivative of that discretised response.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A, E, F = self._system(values)
+        A_pce, E_pce, keep = self._expanded(values)
         pr = self.projector
-        keep = pr.state_mask(4)  # drop never-excited terms (exact; GalerkinProjector.excited)
-        A_pce = pr.matrix(A)[np.ix_(keep, keep)]
-        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)[keep]
         x0 = np.zeros(A_pce.shape[0])
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
             X = lti_response_single(*maps, self.inputs, x0)
             return self._moments(pr.scatter(X, keep))
-        dA, dE, dF = self._system_derivatives(values, dvalues)
-        dA_pce = pr.matrix(dA)[:, keep][:, :, keep]
-        dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
+        dA_pce, dE_pce = self._expanded_derivatives(values, dvalues, keep)
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
         return self._moments(pr.scatter(X, keep), pr.scatter(S, keep))
@@ -226,14 +237,10 @@ class LSTChaosModel:
         the forward sensitivities of ``moments(theta, gradient=True)``.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A, E, F = self._system(values)
-        pr = self.projector
-        keep = pr.state_mask(4)
-        A_pce = pr.matrix(A)[np.ix_(keep, keep)]
-        E_pce = np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)[keep]
+        A_pce, E_pce, keep = self._expanded(values)
         maps = foh_discretise_single(A_pce, E_pce, self.dt)
         X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
-        result = self._moments(pr.scatter(X, keep))
+        result = self._moments(self.projector.scatter(X, keep))
 
         def vjp(dJ_dmean, dJ_dvariance):
             c = result.coefficients.transpose(2, 0, 1)  # (T, 4, P)
@@ -242,9 +249,7 @@ class LSTChaosModel:
             Gc[:, :, 1:] = 2.0 * c[:, :, 1:] * np.asarray(dJ_dvariance).T[:, :, None]
             G = Gc.reshape(c.shape[0], -1)[:, keep]
             dJ_dA, dJ_dE = foh_response_vjp(A_pce, E_pce, self.dt, maps[0], self.inputs, X, G)
-            dA, dE, dF = self._system_derivatives(values, dvalues)
-            dA_pce = pr.matrix(dA)[:, keep][:, :, keep]
-            dE_pce = np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
+            dA_pce, dE_pce = self._expanded_derivatives(values, dvalues, keep)
             return np.einsum("pij,ij->p", dA_pce, dJ_dA) + np.einsum("pij,ij->p", dE_pce, dJ_dE)
 
         return result, vjp
