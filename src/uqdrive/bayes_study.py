@@ -13,7 +13,7 @@ import xarray as xr
 from . import __version__
 from .bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posterior, sample_ensembles
 from .config import config_hash
-from .identify import DistributionEstimator
+from .identify import DistributionEstimator, configured_state_scale
 from .montecarlo import simulate_ensemble
 from .noise import add_noise, estimate_noise_variance
 from .pce_vehicle import LSTChaosModel
@@ -61,11 +61,11 @@ def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Gener
         std = np.sqrt(np.maximum(std**2 - noise_var[:, None], 0.0))
     full = _model(config)
     truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
-    ident = config["identification"]
-    est = DistributionEstimator(full, "std", max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                                state_scale=ident.get("state_scale", "none")).fit(mean, std, truth)
-    unit_free = DistributionEstimator(full, "std", max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                                      state_scale=ident.get("normalised_state_scale", "rms_mean")).fit(mean, std, truth)
+    est, unit_free = (
+        DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
+                              state_scale=configured_state_scale(config, normalised)).fit(mean, std, truth)
+        for normalised in (False, True)
+    )
     for name, step in (("time.dt", dt), ("bayes.model_dt", b["model_dt"])):
         ratio = b["likelihood_dt"] / step
         if abs(ratio - round(ratio)) > 1e-9:
@@ -87,7 +87,7 @@ def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Gener
     runs = sample_ensembles(log_prob, starts, b["walkers"], rng, b["max_steps"] if max_steps is None else max_steps, b["check_every"], b["tau_factor"], progress=progress,
                             burn_in=b.get("burn_in", 0), moves=b.get("moves", "stretch"))
     attrs = {"optimiser_estimate": est.theta_, "optimiser_converged": int(est.converged_), "truth": truth,
-             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": ident.get("normalised_state_scale", "rms_mean"),
+             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": configured_state_scale(config, normalised=True),
              "likelihood_times": int(data_idx.size), "model_gusts": int(b.get("model_gusts", False)), "moves": b.get("moves", "stretch"), "n_samples": int(x.shape[1]), "seed": int(config["seed"]),
              "config_hash": config_hash(config), "uqdrive_version": __version__}
     return chain_dataset(runs, full.theta_names, attrs)

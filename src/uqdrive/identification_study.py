@@ -12,7 +12,7 @@ import xarray as xr
 
 from . import __version__
 from .config import config_hash
-from .identify import DistributionEstimator, WeightContext, initial_guess
+from .identify import DistributionEstimator, WeightContext, configured_state_scale, initial_guess
 from .metrics import normalised_w2_normal, normalised_w2_uniform
 from .montecarlo import STEERS, TimeGrid
 from .pce_vehicle import LSTChaosModel
@@ -88,7 +88,7 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
         if data.noise_variance is None:
             raise ValueError(f"{task.label}: noise-aware estimation needs the noise variance of the data")
         std = np.sqrt(np.maximum(std**2 - np.asarray(data.noise_variance)[:, None], 0.0))
-    scale = task.state_scale or ident.get("state_scale", "none")
+    scale = task.state_scale or configured_state_scale(config)
     est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
                                 state_scale=scale)
     theta0 = physical_start(model, theta0)
@@ -187,7 +187,7 @@ def run_experiment(
             "title": f"identification experiment: {name}",
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
-            "state_scales": ",".join(sorted({t.state_scale or ident.get("state_scale", "none") for t in tasks})),
+            "state_scales": ",".join(sorted({t.state_scale or configured_state_scale(config) for t in tasks})),
             "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
         },
     )
@@ -234,7 +234,7 @@ def experiment_plan(config: Mapping[str, Any], name: str):
         dev = [tuple(ident["basic_deviation"])] * runs
         return tasks, dev, dev, [{"lst": "lst_normal_no_wind_moment", "nlst": "nlst_normal_no_wind_moment"}] * runs
     if name in ("normalised", "normalised_inverted"):  # the basic / inverted test with unit-free residuals
-        scale = ident.get("normalised_state_scale", "rms_mean")
+        scale = configured_state_scale(config, normalised=True)
         dev = [tuple(ident["basic_deviation"])] * runs
         nlst_n = [Estimate(t.label, t.data, t.cost, state_scale=scale) for t in nlst]
         if name == "normalised":

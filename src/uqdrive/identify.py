@@ -13,7 +13,7 @@ import numpy as np
 from scipy.optimize import minimize
 from threadpoolctl import threadpool_limits
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -102,6 +102,13 @@ def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
     if not np.all(np.isfinite(scale) & (scale > 0)):
         raise ValueError(f"state scale '{name}' is zero or not finite for a state ({scale.tolist()}); use state_scale 'none'")
     return 1.0 / scale**2
+
+
+def configured_state_scale(config, normalised: bool = False) -> str:
+    """The state scale the config selects: ``identification.state_scale`` (thesis-faithful
+    experiments; default "none") or ``normalised_state_scale`` (default "rms_mean")."""
+    ident = config["identification"]
+    return ident.get("normalised_state_scale", "rms_mean") if normalised else ident.get("state_scale", "none")
 
 
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
@@ -234,9 +241,13 @@ class DistributionEstimator:
         starts = [theta0] + self._global_candidates()
         best, n_iter, n_eval = None, 0, 0
         lo, hi = np.array(self.bounds, float).T
+        box = list(zip(lo / self._scale, hi / self._scale))
+
+        def local(z0):
+            return minimize(self._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+
         for start in starts:
-            z0 = np.clip(start, lo, hi) / self._scale
-            res = minimize(self._scaled, z0, jac=True, method="L-BFGS-B", bounds=list(zip(lo / self._scale, hi / self._scale)), options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+            res = local(np.clip(start, lo, hi) / self._scale)
             n_iter += res.nit
             n_eval += res.nfev
             if best is None or res.fun < best.fun:
@@ -245,8 +256,7 @@ class DistributionEstimator:
         if not success and best.fun < self._penalty:
             # L-BFGS-B also stops "ABNORMAL" when the line search cannot improve at machine
             # precision. A restart from that point settles it: a true optimum stays put.
-            again = minimize(self._scaled, best.x, jac=True, method="L-BFGS-B", bounds=list(zip(lo / self._scale, hi / self._scale)),
-                             options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+            again = local(best.x)
             n_iter, n_eval = n_iter + again.nit, n_eval + again.nfev
             if again.success and again.fun <= best.fun:
                 success, message = True, f"{again.message} (after a restart from an abnormal stop)"

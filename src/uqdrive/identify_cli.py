@@ -12,7 +12,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .io import DataError, atomic_path, read_ensemble
-from .identify import DistributionEstimator, WeightContext
+from .identify import DistributionEstimator, WeightContext, configured_state_scale
 from .pce_vehicle import LSTChaosModel
 from .statistics import ensemble_statistics, kl_divergence_series
 from .vehicle import STATES
@@ -67,7 +67,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    scale = state_scale or cfg["identification"].get("state_scale", "none")
+    scale = state_scale or configured_state_scale(cfg)
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
                                 wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale)
     est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))

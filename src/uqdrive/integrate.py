@@ -158,9 +158,6 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     if len(blocks) == 1:
         return _foh_block(A, E, h, dA, dE)
     Phi, P, Q = np.zeros((d, d)), np.zeros((d, r)), np.zeros((d, r))
-    if dA is not None:
-        n_p = dA.shape[0]
-        dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
     if dA is None:
         # Blocks with identical matrices (the KLE germs' blocks) share one exponential: their
         # inputs become extra columns of the same Van Loan block.
@@ -179,6 +176,8 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
                 Q[np.ix_(idx, cols)] = Q_b[:, start : start + cols.size]
                 start += cols.size
         return Phi, P, Q
+    n_p = dA.shape[0]
+    dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
     for idx in blocks:
         cols = np.flatnonzero(np.any(reach[idx], axis=0))
         sq, rect = np.ix_(idx, idx), np.ix_(idx, cols)
