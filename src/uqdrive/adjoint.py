@@ -8,6 +8,7 @@ import numpy as np
 from scipy.linalg import expm_frechet
 
 from .integrate import _van_loan_input_block
+from .recursion import reverse_linear_recursion
 
 __all__ = ["backward_recursion", "foh_response_vjp"]
 
@@ -27,13 +28,7 @@ def backward_recursion(Phi, G):
     -------
     ndarray, shape (K + 1, N)
     """
-    G = np.asarray(G, float)
-    lam = np.empty_like(G)
-    lam[-1] = G[-1]
-    Phi_T = np.ascontiguousarray(Phi.T)
-    for k in range(G.shape[0] - 2, -1, -1):
-        lam[k] = G[k] + Phi_T @ lam[k + 1]
-    return lam
+    return reverse_linear_recursion(Phi, G)
 
 
 def foh_response_vjp(A, E, h: float, Phi, g, X, G):

@@ -11,7 +11,8 @@ from typing import Callable, Protocol
 
 import numpy as np
 from scipy.optimize import minimize
-from threadpoolctl import threadpool_limits
+
+from .threads import single_blas_thread
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -215,7 +216,7 @@ class DistributionEstimator:
         BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
         runs with one BLAS thread, as scikit-learn does with threadpoolctl.
         """
-        with threadpool_limits(limits=1, user_api="blas"):
+        with single_blas_thread():
             return self._fit(measured_mean, measured_std, theta0, context)
 
     def _fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":

@@ -8,8 +8,8 @@ from typing import Callable
 
 import numpy as np
 from scipy.linalg import expm, expm_frechet
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
+
+from .recursion import decoupled_blocks, identical_block_groups, linear_recursion
 
 __all__ = [
     "batched_expm",
@@ -105,22 +105,6 @@ def _split_van_loan(F, d, r, h):
     return Phi, F[:d, d : d + r] - Q, Q
 
 
-def decoupled_blocks(pattern) -> list[np.ndarray]:
-    """Index sets of the decoupled blocks of a square sparsity pattern (connected components).
-
-    Parameters
-    ----------
-    pattern : ndarray of bool, shape (N, N)
-
-    Returns
-    -------
-    list of ndarray of int
-    """
-    pattern = np.asarray(pattern, bool)
-    n, labels = connected_components(csr_matrix(pattern | pattern.T), directed=False)
-    return [np.flatnonzero(labels == c) for c in range(n)]
-
-
 def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     """First-order-hold discretisation of one (large) system, optionally with exact derivatives.
 
@@ -213,7 +197,8 @@ def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
 
     x_{k+1} = Phi x_k + P g_k + Q g_{k+1}; the sensitivity s_p = dx/dtheta_p obeys
     s_{p,k+1} = Phi s_{p,k} + dPhi_p x_k + dP_p g_k + dQ_p g_{k+1}, the exact derivative of the
-    discretised recursion. All sensitivities advance together with x as columns of one matrix.
+    discretised recursion. Both recursions run by chunks of steps over Phi's decoupled blocks
+    (:func:`uqdrive.recursion.linear_recursion`), not one Python step per sample.
 
     Parameters
     ----------
@@ -231,28 +216,18 @@ def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
     s : ndarray, shape (K + 1, p, N), only with ``derivatives``
     """
     g = np.asarray(g, float)
-    K = g.shape[0] - 1
     drive = g[:-1] @ P.T + g[1:] @ Q.T  # (K, N)
+    groups = identical_block_groups(Phi)
+    x = linear_recursion(Phi, drive, x0, groups)
     if derivatives is None:
-        x = np.empty((K + 1, Phi.shape[0]))
-        x[0] = x0
-        for k in range(K):
-            x[k + 1] = Phi @ x[k] + drive[k]
         return x
     dPhi, dP, dQ = derivatives
     n_p, N = dPhi.shape[0], Phi.shape[0]
-    d_drive = np.einsum("kr,pnr->kpn", g[:-1], dP) + np.einsum("kr,pnr->kpn", g[1:], dQ)
-    dPhi_stack = dPhi.reshape(n_p * N, N)
-    Z = np.empty((K + 1, 1 + n_p, N))  # row 0: x, rows 1..p: sensitivities
-    Z[0, 0] = x0
-    Z[0, 1:] = 0.0 if dx0 is None else dx0
-    for k in range(K):
-        z = Z[k]
-        nxt = Z[k + 1]
-        np.matmul(z, Phi.T, out=nxt)
-        nxt[0] += drive[k]
-        nxt[1:] += (dPhi_stack @ z[0]).reshape(n_p, N) + d_drive[k]
-    return Z[:, 0], Z[:, 1:]
+    # The sensitivities see the state through dPhi x_k: with x known, their drive is one product
+    # and they advance as p more right-hand sides of the same recursion.
+    d_drive = (x[:-1] @ dPhi.reshape(n_p * N, N).T).reshape(-1, n_p, N)
+    d_drive += np.einsum("kr,pnr->kpn", g[:-1], dP) + np.einsum("kr,pnr->kpn", g[1:], dQ)
+    return x, linear_recursion(Phi, d_drive, None if dx0 is None else dx0, groups)
 
 
 def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):

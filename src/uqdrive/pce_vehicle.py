@@ -15,6 +15,7 @@ from .adjoint import foh_response_vjp
 from .galerkin import GalerkinProjector
 from .integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
+from .threads import with_single_blas_thread
 from .vehicle import VehicleParameters, lst_matrices, steering_input
 
 __all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
@@ -209,11 +210,13 @@ class LSTChaosModel:
         pr = self.projector
         return pr.matrix(dA)[:, keep][:, :, keep], np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
 
+    @with_single_blas_thread
     def moments(self, theta, gradient: bool = False) -> ChaosMoments:
         """Mean and variance of every state at every output time, optionally with gradients.
 
         The expanded system is discretised exactly for inputs linear between output samples
         (first-order hold); the gradient is the exact derivative of that discretised response.
+        Runs with one BLAS thread (:mod:`uqdrive.threads`): the matrices are small.
         """
         values, dvalues = self._parameters_at_nodes(theta)
         A_pce, E_pce, keep = self._expanded(values)
@@ -228,6 +231,7 @@ class LSTChaosModel:
         X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
         return self._moments(pr.scatter(X, keep), pr.scatter(S, keep))
 
+    @with_single_blas_thread
     def moments_vjp(self, theta):
         """Moments at ``theta`` and a function giving the gradient of any scalar J of them.
 
@@ -242,6 +246,7 @@ class LSTChaosModel:
         X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
         result = self._moments(self.projector.scatter(X, keep))
 
+        @with_single_blas_thread
         def vjp(dJ_dmean, dJ_dvariance):
             c = result.coefficients.transpose(2, 0, 1)  # (T, 4, P)
             Gc = np.empty_like(c)
