@@ -97,3 +97,27 @@ def test_block_discretisation_derivatives_equal_the_whole_frechet():
     whole = _foh_block(A, E, 0.05, dA, dE)
     for a, b in zip(split[0] + split[1], whole[0] + whole[1]):
         assert a == pytest.approx(b, rel=1e-12, abs=1e-13)
+
+
+def test_input_only_directions_equal_the_frechet_derivative():
+    """A direction that moves only E is taken as extra input columns (P, Q are linear in E):
+    equal to scipy's Frechet derivative of the Van Loan block (1e-12), with dPhi exactly 0."""
+    from scipy.linalg import expm_frechet
+
+    from uqdrive.integrate import _split_van_loan, _van_loan_input_block
+
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(5, 5)) - 2 * np.eye(5)
+    E = rng.normal(size=(5, 2))
+    dA = np.stack([np.zeros((5, 5)), rng.normal(size=(5, 5)), np.zeros((5, 5))])
+    dE = rng.normal(size=(3, 5, 2))
+    h = 0.05
+    _, (dPhi, dP, dQ) = _foh_block(A, E, h, dA, dE)
+    M = _van_loan_input_block(A, E, h)
+    for p in range(3):
+        dM = np.zeros_like(M)
+        dM[:5, :5], dM[:5, 5:7] = dA[p] * h, dE[p] * h
+        ref = _split_van_loan(expm_frechet(M, dM, compute_expm=False), 5, 2, h)
+        for got, want in zip((dPhi[p], dP[p], dQ[p]), ref):
+            assert got == pytest.approx(want, rel=1e-12, abs=1e-13)
+    assert not np.any(dPhi[[0, 2]])

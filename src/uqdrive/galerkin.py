@@ -106,7 +106,10 @@ class GalerkinProjector:
 
     @staticmethod
     def scatter(reduced, mask) -> np.ndarray:
-        """Put states (..., mask.sum()) of the reduced system back into (..., mask.size), zeros elsewhere."""
+        """Put states (..., mask.sum()) of the reduced system back into (..., mask.size), zeros
+        elsewhere (the input itself, not a copy, when every state is kept)."""
+        if mask.all():
+            return np.asarray(reduced)
         full = np.zeros(np.shape(reduced)[:-1] + (mask.size,))
         full[..., mask] = reduced
         return full

@@ -175,21 +175,27 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
 def _foh_block(A, E, h, dA=None, dE=None):
     """:func:`foh_discretise_single` for one coupled block."""
     d, r = E.shape
-    M = _van_loan_input_block(A, E, h)
     if dA is None:
-        return _split_van_loan(expm(M), d, r, h)
-    F = None
-    dPhi, dP, dQ = [], [], []
-    for dA_p, dE_p in zip(dA, dE):
+        return _split_van_loan(expm(_van_loan_input_block(A, E, h)), d, r, h)
+    n_p = dA.shape[0]
+    moves_A = np.array([np.any(dA_p) for dA_p in dA], bool)
+    # Phi does not depend on E and P, Q are linear in it, so a direction that moves only E
+    # (e.g. the wind bounds) has dPhi = 0 and (dP, dQ) = the maps applied to dE: extra input
+    # columns of the one exponential instead of a Frechet derivative each.
+    E_all = np.concatenate([E] + [dE[p] for p in np.flatnonzero(~moves_A)], axis=1)
+    M = _van_loan_input_block(A, E_all, h)
+    Phi, P_all, Q_all = _split_van_loan(expm(M), d, E_all.shape[1], h)
+    dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
+    n_input_only = int(np.count_nonzero(~moves_A))
+    dP[~moves_A] = P_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
+    dQ[~moves_A] = Q_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
+    M = _van_loan_input_block(A, E, h)
+    for p in np.flatnonzero(moves_A):
         dM = np.zeros_like(M)
-        dM[:d, :d] = dA_p * h
-        dM[:d, d : d + r] = dE_p * h
-        F, L = expm_frechet(M, dM)
-        parts = _split_van_loan(L, d, r, h)
-        dPhi.append(parts[0]), dP.append(parts[1]), dQ.append(parts[2])
-    if F is None:
-        F = expm(M)
-    return _split_van_loan(F, d, r, h), (np.array(dPhi), np.array(dP), np.array(dQ))
+        dM[:d, :d] = dA[p] * h
+        dM[:d, d : d + r] = dE[p] * h
+        dPhi[p], dP[p], dQ[p] = _split_van_loan(expm_frechet(M, dM, compute_expm=False), d, r, h)
+    return (Phi, P_all[:, :r], Q_all[:, :r]), (dPhi, dP, dQ)
 
 
 def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
@@ -225,8 +231,11 @@ def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
     n_p, N = dPhi.shape[0], Phi.shape[0]
     # The sensitivities see the state through dPhi x_k: with x known, their drive is one product
     # and they advance as p more right-hand sides of the same recursion.
-    d_drive = (x[:-1] @ dPhi.reshape(n_p * N, N).T).reshape(-1, n_p, N)
-    d_drive += np.einsum("kr,pnr->kpn", g[:-1], dP) + np.einsum("kr,pnr->kpn", g[1:], dQ)
+    r = g.shape[1]
+    d_drive = x[:-1] @ dPhi.reshape(n_p * N, N).T
+    d_drive += g[:-1] @ dP.transpose(2, 0, 1).reshape(r, n_p * N)  # GEMMs, 5x faster than einsum
+    d_drive += g[1:] @ dQ.transpose(2, 0, 1).reshape(r, n_p * N)
+    d_drive = d_drive.reshape(-1, n_p, N)
     return x, linear_recursion(Phi, d_drive, None if dx0 is None else dx0, groups)
 
 

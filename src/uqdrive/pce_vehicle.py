@@ -267,7 +267,7 @@ class LSTChaosModel:
             return ChaosMoments(self.time, mean, var, coefficients)
         dc = self.projector.coefficients(S)  # (T, p, 4, P)
         dmean = dc[..., 0].transpose(1, 2, 0)
-        dvar = (2.0 * np.sum(c[:, None, :, 1:] * dc[..., 1:], axis=-1)).transpose(1, 2, 0)
+        dvar = 2.0 * np.einsum("tip,tqip->qit", c[:, :, 1:], dc[..., 1:])
         return ChaosMoments(self.time, mean, var, coefficients, dmean, dvar)
 
     def sobol(self, moments: ChaosMoments, total: bool = False):
