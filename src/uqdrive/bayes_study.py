@@ -13,7 +13,7 @@ import xarray as xr
 from . import __version__
 from .bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posterior, sample_ensembles
 from .config import config_hash
-from .identify import DistributionEstimator, configured_state_scale
+from .identify import DistributionEstimator, configured_optimiser, configured_state_scale
 from .montecarlo import simulate_ensemble
 from .noise import add_noise, estimate_noise_variance
 from .pce_vehicle import LSTChaosModel
@@ -63,7 +63,8 @@ def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Gener
     truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
     est, unit_free = (
         DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                              state_scale=configured_state_scale(config, normalised)).fit(mean, std, truth)
+                              state_scale=configured_state_scale(config, normalised),
+                              optimiser=configured_optimiser(config)).fit(mean, std, truth)
         for normalised in (False, True)
     )
     for name, step in (("time.dt", dt), ("bayes.model_dt", b["model_dt"])):

@@ -12,7 +12,7 @@ import xarray as xr
 
 from . import __version__
 from .config import config_hash
-from .identify import DistributionEstimator, WeightContext, configured_state_scale, initial_guess
+from .identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, initial_guess
 from .metrics import normalised_w2_normal, normalised_w2_uniform
 from .montecarlo import STEERS, TimeGrid
 from .pce_vehicle import LSTChaosModel
@@ -90,7 +90,7 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
         std = np.sqrt(np.maximum(std**2 - np.asarray(data.noise_variance)[:, None], 0.0))
     scale = task.state_scale or configured_state_scale(config)
     est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                                state_scale=scale)
+                                state_scale=scale, optimiser=configured_optimiser(config))
     theta0 = physical_start(model, theta0)
     try:
         est.fit(data.mean, std, theta0, WeightContext(data.delta, data.kl_divergence))

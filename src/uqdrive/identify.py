@@ -10,11 +10,11 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from .threads import single_blas_thread
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -112,6 +112,55 @@ def configured_state_scale(config, normalised: bool = False) -> str:
     return ident.get("normalised_state_scale", "rms_mean") if normalised else ident.get("state_scale", "none")
 
 
+def _lbfgsb(est: "DistributionEstimator", z0, box) -> OptimizeResult:
+    """Quasi-Newton (L-BFGS-B) on the scaled cost with the model's analytic gradient."""
+    return minimize(est._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": est.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+
+
+def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
+    """Trust-region Gauss-Newton (scipy ``least_squares``, "trf", bounds) on the residuals of
+    (5.25), r = sqrt(w) [mean error, std error], with the Jacobian from the model's forward
+    sensitivities. (5.25) is a sum of squares, so J'J is a Hessian model for free: about a
+    third of the iterations of L-BFGS-B, each costing one sensitivity solve."""
+    lo, hi = np.array(box, float).T
+    sw = np.sqrt(est._w)
+    n = 2 * est._mean.size
+    cache = {}
+
+    def residuals(z):
+        try:  # the sensitivities come with the moments; the Jacobian reads them back below
+            r = est.model.moments(z * est._scale, gradient=True)
+        except (ValueError, np.linalg.LinAlgError):
+            r = None
+        std = None if r is None else np.sqrt(np.maximum(r.variance, 1e-300))
+        if r is None or not (np.all(np.isfinite(r.mean)) and np.all(np.isfinite(std))):
+            cache.clear()  # non-physical: a cost far above the start makes the step be rejected
+            return np.full(n, np.sqrt(est._penalty * est._J0 / n))
+        cache.update(z=z.copy(), r=r, std=std)
+        return np.concatenate([(sw * (r.mean - est._mean)).ravel(), (sw * (std - est._std)).ravel()]) / np.sqrt(est._J0)
+
+    def jacobian(z):
+        if "z" not in cache or not np.array_equal(cache["z"], z):
+            residuals(z)
+        r, std = cache["r"], cache["std"]
+        Jm = (sw * r.mean_gradient).reshape(z.size, -1)
+        Js = (sw * r.variance_gradient / (2.0 * std)).reshape(z.size, -1)
+        return np.concatenate([Jm, Js], axis=1).T * (est._scale / np.sqrt(est._J0))
+
+    out = least_squares(residuals, np.clip(z0, lo, hi), jac=jacobian, bounds=(lo, hi), method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                        max_nfev=est.max_iter)
+    return OptimizeResult(x=out.x, fun=2.0 * out.cost, nit=out.njev, nfev=out.nfev, success=out.status > 0, message=out.message)
+
+
+#: Registry of local optimisers of the fit; config strings select them.
+OPTIMISERS: dict[str, Callable] = {"lbfgsb": _lbfgsb, "gauss_newton": _gauss_newton}
+
+
+def configured_optimiser(config) -> str:
+    """The local optimiser the config selects (``identification.optimiser``, default "lbfgsb")."""
+    return config["identification"].get("optimiser", "lbfgsb")
+
+
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
     """Random initial guesses deviating from ``theta`` by between e_min and e_max, thesis (5.34)."""
     theta = np.asarray(theta, float)
@@ -147,6 +196,9 @@ class DistributionEstimator:
         L-BFGS-B iteration limit per start.
     state_scale : {"none", "rms_mean", "rms_std"}
         Per-state scale of the residuals, see :data:`STATE_SCALES` ("none": the thesis' SI units).
+    optimiser : {"lbfgsb", "gauss_newton"}
+        Local optimiser, see :data:`OPTIMISERS`: quasi-Newton with the adjoint gradient (the
+        thesis' method class) or trust-region Gauss-Newton with forward sensitivities.
 
     Attributes
     ----------
@@ -158,12 +210,15 @@ class DistributionEstimator:
     """
 
     def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
-                 state_scale: str = "none"):
+                 state_scale: str = "none", optimiser: str = "lbfgsb"):
         if cost.lower() not in COSTS:
             raise ValueError(f"unknown cost '{cost}'; choose one of {', '.join(COSTS)}")
         if state_scale.lower() not in STATE_SCALES:
             raise ValueError(f"unknown state scale '{state_scale}'; choose one of {', '.join(STATE_SCALES)}")
+        if optimiser.lower() not in OPTIMISERS:
+            raise ValueError(f"unknown optimiser '{optimiser}'; choose one of {', '.join(OPTIMISERS)}")
         self.state_scale = state_scale.lower()
+        self.optimiser = optimiser.lower()
         self.model = model
         self.cost = cost.lower()
         self.bounds = bounds if bounds is not None else default_bounds(model.theta_names, wheelbase if wheelbase is not None else 2.85)
@@ -245,7 +300,7 @@ class DistributionEstimator:
         box = list(zip(lo / self._scale, hi / self._scale))
 
         def local(z0):
-            return minimize(self._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": self.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+            return OPTIMISERS[self.optimiser](self, z0, box)
 
         for start in starts:
             res = local(np.clip(start, lo, hi) / self._scale)

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .io import DataError, atomic_path, read_ensemble
-from .identify import DistributionEstimator, WeightContext, configured_state_scale
+from .identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale
 from .pce_vehicle import LSTChaosModel
 from .statistics import ensemble_statistics, kl_divergence_series
 from .vehicle import STATES
@@ -69,7 +69,8 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
     scale = state_scale or configured_state_scale(cfg)
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale)
+                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale,
+                                optimiser=configured_optimiser(cfg))
     est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
     th, err = est.theta_, est.theta_std_
     summary = {
