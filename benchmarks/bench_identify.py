@@ -7,11 +7,12 @@ and the unit-free ones. Run: `make bench`.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize
+
+from timing import best_of
 
 from uqdrive.config import load_config
 from uqdrive.identify import DistributionEstimator, initial_guess
@@ -36,15 +37,6 @@ def main() -> None:
     print("LST-LST identification, STD cost, 6 parameters, start 10-25 % off; times: best of 3 runs")
     for state_scale in ("none", "rms_mean"):
         compare(model, mean, std, theta0, state_scale)
-
-
-def best_of(fn, repeats=3):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def compare(model, mean, std, theta0, state_scale) -> None:

@@ -7,10 +7,11 @@ N_PCE = 2, 1001 time points) with and without gradient. Run: `make bench`.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
+
+from timing import best_of
 
 from uqdrive.config import load_config
 from uqdrive.montecarlo import kle_from_config, monte_carlo_moments, simulate_ensemble
@@ -18,15 +19,6 @@ from uqdrive.pce_vehicle import LSTChaosModel
 from uqdrive.statistics import ensemble_statistics
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def best_of(fn, repeats=5):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def error(mean, std, ref_mean, ref_std):
@@ -45,7 +37,7 @@ def main() -> None:
 
     t_setup, model = best_of(lambda: LSTChaosModel(config), 3)
     theta = model.theta_from_config(config, model.uncertain)
-    t_pce, r = best_of(lambda: model.moments(theta))
+    t_pce, r = best_of(lambda: model.moments(theta), 5)
     t_mc, stats = best_of(lambda: ensemble_statistics(simulate_ensemble(config, "lst", kle=kle), "keep"), 3)
     e_pce = error(r.mean, r.std, ref_mean, ref_std)
     e_mc = error(stats["mean"].values, stats["std"].values, ref_mean, ref_std)
@@ -62,7 +54,7 @@ def main() -> None:
     # against the 10^5-run reference its error is mostly the reference's own sampling error, so
     # the equal-error ratio printed for it is a lower bound.
     fine = LSTChaosModel(config, order=3, quadrature_points=5)
-    t_fine, r3 = best_of(lambda: fine.moments(theta))
+    t_fine, r3 = best_of(lambda: fine.moments(theta), 5)
     e_fine = error(r3.mean, r3.std, ref_mean, ref_std)
     print(f"{'PCE N_PCE=3, 5 pts (moments)':34} {1e3 * t_fine:10.1f} {e_fine[0]:9.4f} {e_fine[1]:9.4f}"
           f"  -> {t_mc * (e_mc[1] / e_fine[1]) ** 2 / t_fine:.0f}x at equal std error (lower bound: reference noise)")

@@ -1,7 +1,5 @@
 """The estimator on exact model data: it must find the truth, guard physics, report failures."""
 
-import copy
-
 import numpy as np
 import pytest
 

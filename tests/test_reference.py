@@ -1,6 +1,3 @@
-import copy
-
-import numpy as np
 import pytest
 
 from uqdrive.montecarlo import kle_from_config, simulate_ensemble
