@@ -145,12 +145,9 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     if dA is None:
         # Blocks with identical matrices (the KLE germs' blocks) share one exponential: their
         # inputs become extra columns of the same Van Loan block.
-        groups: dict = {}
-        for idx in blocks:
-            cols = np.flatnonzero(np.any(reach[idx], axis=0))
-            groups.setdefault((idx.size, A[np.ix_(idx, idx)].tobytes()), []).append((idx, cols))
-        for members in groups.values():
-            first = members[0][0]
+        for group in identical_block_groups(A):
+            members = [(idx, np.flatnonzero(np.any(reach[idx], axis=0))) for idx in group]
+            first = group[0]
             E_group = np.concatenate([E[np.ix_(idx, cols)] for idx, cols in members], axis=1)
             Phi_b, P_b, Q_b = _foh_block(A[np.ix_(first, first)], E_group, h)
             start = 0
