@@ -123,29 +123,25 @@ def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
     sensitivities. (5.25) is a sum of squares, so J'J is a Hessian model for free: about a
     third of the iterations of L-BFGS-B, each costing one sensitivity solve."""
     lo, hi = np.array(box, float).T
-    sw = np.sqrt(est._w)
     n = 2 * est._mean.size
+    root_J0 = np.sqrt(est._J0)
     cache = {}
 
     def residuals(z):
         try:  # the sensitivities come with the moments; the Jacobian reads them back below
-            r = est.model.moments(z * est._scale, gradient=True)
+            res, jac = est._weighted_residuals(est.model.moments(z * est._scale, gradient=True), jacobian=True)
         except (ValueError, np.linalg.LinAlgError):
-            r = None
-        std = None if r is None else np.sqrt(np.maximum(r.variance, 1e-300))
-        if r is None or not (np.all(np.isfinite(r.mean)) and np.all(np.isfinite(std))):
+            res = jac = None
+        if res is None or not (np.all(np.isfinite(res)) and np.all(np.isfinite(jac))):
             cache.clear()  # non-physical: a cost far above the start makes the step be rejected
-            return np.full(n, np.sqrt(est._penalty * est._J0 / n))
-        cache.update(z=z.copy(), r=r, std=std)
-        return np.concatenate([(sw * (r.mean - est._mean)).ravel(), (sw * (std - est._std)).ravel()]) / np.sqrt(est._J0)
+            return np.full(n, np.sqrt(est._penalty / n))
+        cache.update(z=z.copy(), jac=jac * (est._scale / root_J0))
+        return res / root_J0
 
     def jacobian(z):
         if "z" not in cache or not np.array_equal(cache["z"], z):
             residuals(z)
-        r, std = cache["r"], cache["std"]
-        Jm = (sw * r.mean_gradient).reshape(z.size, -1)
-        Js = (sw * r.variance_gradient / (2.0 * std)).reshape(z.size, -1)
-        return np.concatenate([Jm, Js], axis=1).T * (est._scale / np.sqrt(est._J0))
+        return cache["jac"]
 
     out = least_squares(residuals, np.clip(z0, lo, hi), jac=jacobian, bounds=(lo, hi), method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
                         max_nfev=est.max_iter)
@@ -355,13 +351,20 @@ class DistributionEstimator:
         scored.sort(key=lambda s: s[0])
         return [c for _, c in scored[: self.starts]]
 
-    def _gauss_newton_std(self, r) -> np.ndarray:
+    def _weighted_residuals(self, r, jacobian: bool = False):
+        """Residuals of (5.25), sqrt(w) [mean error, std error] flattened (n,), and with
+        ``jacobian`` their derivative (n, p) from the model's sensitivities."""
         std = np.sqrt(np.maximum(r.variance, 1e-300))
         sw = np.sqrt(self._w)
         res = np.concatenate([(sw * (r.mean - self._mean)).ravel(), (sw * (std - self._std)).ravel()])
+        if not jacobian:
+            return res
         Jm = (sw * r.mean_gradient).reshape(r.mean_gradient.shape[0], -1)
         Js = (sw * r.variance_gradient / (2.0 * std)).reshape(r.variance_gradient.shape[0], -1)
-        Jac = np.concatenate([Jm, Js], axis=1).T  # (n, p)
+        return res, np.concatenate([Jm, Js], axis=1).T
+
+    def _gauss_newton_std(self, r) -> np.ndarray:
+        res, Jac = self._weighted_residuals(r, jacobian=True)
         dof = max(res.size - Jac.shape[1], 1)
         s2 = res @ res / dof
         try:
