@@ -87,3 +87,34 @@ def test_uniform_linear_germ_initial_state():
     t = np.arange(101) * 0.01
     assert c[:, 0] == pytest.approx(2.0 * np.exp(-t), rel=1e-12)
     assert np.sqrt((c[:, 1:] ** 2).sum(axis=1)) == pytest.approx(3.0 / np.sqrt(3.0) * np.exp(-t), rel=1e-12)
+
+
+def test_state_selection_equals_rows_and_columns_of_the_full_matrices():
+    """``states`` gathers exactly the rows (and columns) of the full d P layout, in the given
+    order, also with leading derivative axes."""
+    pr = GalerkinProjector(["normal", "uniform"], 2, 2, quadrature_points=3)
+    rng = np.random.default_rng(7)
+    Q, d = pr.nodes.shape[0], 3
+    states = rng.permutation(d * pr.n_terms)[:11]
+    A, E, F = rng.normal(size=(2, Q, d, d)), rng.normal(size=(2, Q, d, 2)), rng.normal(size=(2, Q, d, 2))
+    assert pr.matrix(A, states) == pytest.approx(pr.matrix(A)[:, states][:, :, states], rel=1e-14, abs=1e-14)
+    assert pr.input_matrix(E, states) == pytest.approx(pr.input_matrix(E)[:, states], rel=1e-14, abs=1e-14)
+    assert pr.linear_input_matrix(F, states) == pytest.approx(pr.linear_input_matrix(F)[:, states], rel=1e-14, abs=1e-14)
+
+
+def test_block_order_makes_consecutive_decoupled_blocks():
+    """The excited states in block order: the parametric-only block, then one block per linear
+    germ (identical matrices), each consecutive, and A_PCE block diagonal in that order."""
+    from uqdrive.recursion import identical_block_groups
+
+    pr = GalerkinProjector(["normal", "uniform"], 3, 2, quadrature_points=3)
+    rng = np.random.default_rng(8)
+    d = 2
+    order = pr.block_order(d)
+    assert sorted(order) == list(np.flatnonzero(pr.state_mask(d)))
+    A = pr.matrix(rng.normal(size=(pr.nodes.shape[0], d, d)), order)
+    groups = identical_block_groups(A)
+    n_par_terms = len(np.unique(pr.par[pr.excited & (pr.chaos.indices[:, 2:].sum(axis=1) == 0)]))
+    assert sorted(g.shape for g in groups) == [(1, d * n_par_terms), (3, d * 3)]
+    for g in groups:
+        assert np.array_equal(g.ravel(), np.arange(g[0, 0], g[0, 0] + g.size))

@@ -60,9 +60,9 @@ def test_rk4_passes_half_step_indices():
     assert seen == [0, 1, 1, 2, 2, 3, 3, 4]
 
 
-def _block_system(rng, shared: bool):
-    """Three decoupled 3x3 blocks (two identical if ``shared``), permuted, with 4 inputs of
-    which each block sees only some."""
+def _block_system(rng, shared: bool, permute: bool = True):
+    """Three decoupled 3x3 blocks (two identical if ``shared``), permuted (or consecutive), with
+    4 inputs of which each block sees only some."""
     blocks = [rng.normal(size=(3, 3)) - 2 * np.eye(3) for _ in range(3)]
     if shared:
         blocks[2] = blocks[1].copy()
@@ -73,24 +73,26 @@ def _block_system(rng, shared: bool):
     E[0:3, 0] = rng.normal(size=3)
     E[3:6, 1:3] = rng.normal(size=(3, 2))
     E[6:9, 3] = rng.normal(size=3)
-    perm = rng.permutation(9)
+    perm = rng.permutation(9) if permute else np.arange(9)
     return A[np.ix_(perm, perm)], E[perm], perm
 
 
+@pytest.mark.parametrize("permute", [True, False])
 @pytest.mark.parametrize("shared", [False, True])
-def test_block_discretisation_equals_the_whole_exponential(shared):
-    """Decoupled (and identical) blocks discretised apart give the maps of the full Van Loan
-    exponential to round-off (1e-13 relative)."""
+def test_block_discretisation_equals_the_whole_exponential(shared, permute):
+    """Decoupled (and identical) blocks, scattered or consecutive (sliced, not fancy-indexed),
+    discretised apart give the maps of the full Van Loan exponential to round-off (1e-13)."""
     rng = np.random.default_rng(3)
-    A, E, _ = _block_system(rng, shared)
+    A, E, _ = _block_system(rng, shared, permute)
     assert len(decoupled_blocks(A != 0)) == 3
     for split, whole in zip(foh_discretise_single(A, E, 0.05), _foh_block(A, E, 0.05)):
         assert split == pytest.approx(whole, rel=1e-13, abs=1e-14)
 
 
-def test_block_discretisation_derivatives_equal_the_whole_frechet():
+@pytest.mark.parametrize("permute", [True, False])
+def test_block_discretisation_derivatives_equal_the_whole_frechet(permute):
     rng = np.random.default_rng(4)
-    A, E, _ = _block_system(rng, shared=False)
+    A, E, _ = _block_system(rng, shared=False, permute=permute)
     dA = np.stack([A * rng.normal(), (A != 0) * rng.normal(size=A.shape)])
     dE = np.stack([E * rng.normal(), (E != 0) * rng.normal(size=E.shape)])
     split = foh_discretise_single(A, E, 0.05, dA, dE)

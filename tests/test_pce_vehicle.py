@@ -144,3 +144,14 @@ def test_adjoint_gradient_equals_forward_sensitivities(config):
     # expm and expm_frechet's own exponential round differently: ~1e-12 absolute on the mean
     assert result.mean == pytest.approx(full.mean, rel=1e-8, abs=1e-11)
     assert vjp(w_mean, w_var) == pytest.approx(forward, rel=1e-10)
+
+
+def test_moments_are_those_of_the_coefficients(config, full_model):
+    """Mean and variance read from the block-ordered states equal (4.51) on the full coefficient
+    array (zero for never-excited terms), to round-off."""
+    r = full_model.moments(full_model.theta_from_config(config, full_model.uncertain))
+    c = r.coefficients
+    assert c.shape == (4, full_model.projector.n_terms, full_model.time.size)
+    assert r.mean == pytest.approx(c[:, 0], rel=1e-14, abs=0.0)
+    assert r.variance == pytest.approx((c[:, 1:] ** 2).sum(axis=1), rel=1e-13, abs=1e-300)
+    assert not np.any(c[:, ~full_model.projector.excited])

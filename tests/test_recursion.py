@@ -74,3 +74,21 @@ def test_reverse_recursion_is_the_adjoint():
 def test_zero_steps_returns_the_initial_state():
     out = linear_recursion(np.eye(2), np.zeros((0, 2)), np.array([1.0, 2.0]))
     assert out.tolist() == [[1.0, 2.0]]
+
+
+def test_in_place_recursion_on_a_strided_view():
+    """The drive may sit in a column slice of a larger array (a block of a block-ordered state):
+    the states are written there and nowhere else."""
+    from uqdrive.recursion import linear_recursion_in_place
+
+    rng = np.random.default_rng(3)
+    Phi = np.zeros((9, 9))
+    Phi[:4, :4], Phi[4:, 4:] = _stable(rng, 4), _stable(rng, 5)
+    drive, x0 = rng.normal(size=(300, 2, 9)), rng.normal(size=(2, 9))
+    big = rng.normal(size=(301, 2, 12))
+    before = big.copy()
+    view = big[..., 2:11]
+    view[0], view[1:] = x0, drive
+    linear_recursion_in_place(Phi, view)
+    assert big[..., 2:11] == pytest.approx(_loop(Phi, drive, x0), rel=1e-12, abs=1e-12 * np.abs(big).max())
+    assert np.array_equal(big[..., :2], before[..., :2]) and np.array_equal(big[..., 11:], before[..., 11:])

@@ -9,6 +9,7 @@ products are exact and analytic: <phi_k xi_j> = 1 if alpha_k = e_j on the linear
 
 from __future__ import annotations
 
+import functools
 from typing import Sequence
 
 import numpy as np
@@ -89,6 +90,8 @@ class GalerkinProjector:
             else np.zeros((0,) + wpsi.T.shape)
         )
         self.n_parametric, self.n_linear = n_par, n_linear
+        self._G_flat = self.G_par.reshape(-1, self.G_par.shape[-1])  # (Pp Pp, Q)
+        self._n_par_terms = unique_par.shape[0]
 
     @property
     def n_terms(self) -> int:
@@ -118,59 +121,118 @@ class GalerkinProjector:
         """Mask of the expanded states (d P,) that belong to excited terms (state-major layout)."""
         return np.tile(self.excited, d)
 
+    def block_order(self, d: int) -> np.ndarray:
+        """The excited expanded states (indices into the state-major d P layout), block by block.
+
+        First the terms without linear germs, then for each linear germ j the terms whose linear
+        part is xi_j; state-major inside each block. A does not depend on the linear germs, so
+        these blocks never couple: in this order the expanded A is block diagonal with
+        consecutive blocks, and the recursion advances them by slices (the KLE germs' blocks,
+        which are identical, as one batch).
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+        """
+        P = self.n_terms
+        alpha_lin = self.chaos.indices[:, self.n_parametric :]
+        block = (alpha_lin > 0).argmax(axis=1) + 1 if self.n_linear else np.zeros(P, int)
+        block[alpha_lin.sum(axis=1) == 0] = 0
+        excited = self.excited
+        return np.array(
+            [i * P + k for b in range(self.n_linear + 1) for i in range(d) for k in np.flatnonzero(excited & (block == b))],
+            int,
+        )
+
     # Layout: the expanded state X is the (d, P) coefficient array flattened state-major,
-    # X[i * P + k] = X_ik, as thesis (4.40).
-    def matrix(self, values) -> np.ndarray:
+    # X[i * P + k] = X_ik, as thesis (4.40). ``states`` selects and orders rows (and columns)
+    # of that layout, e.g. ``block_order``; the selection is a gather from the small products
+    # of the quadrature tensors with the node values, so no full d P x d P matrix is formed.
+    def matrix(self, values, states=None) -> np.ndarray:
         """A_PCE = <Phi A Phi^T>, thesis (4.44a) (and (4.48) for a stochastic input).
 
         Parameters
         ----------
         values : ndarray, shape (..., Q, d, d)
             A(xi_q) at the nodes; leading axes (e.g. parameter derivatives) are kept.
+        states : ndarray of int, shape (N,), optional
+            Rows and columns to return, in the state-major d P layout (all by default).
 
         Returns
         -------
-        ndarray, shape (..., d P, d P)
+        ndarray, shape (..., N, N)
         """
         v = np.asarray(values, float)
-        d, P = v.shape[-1], self.n_terms
-        small = np.einsum("abq,...qij->...iajb", self.G_par, v, optimize=True)  # (..., d, Pp, d, Pp)
-        out = np.take(np.take(small, self.par, axis=-3), self.par, axis=-1)
-        out *= self.same_linear[:, None, :]
-        return out.reshape(v.shape[:-3] + (d * P, d * P))
+        d = v.shape[-1]
+        index, mask = self._matrix_gather(d, self._states_key(d, states))
+        small = self._G_flat @ v.reshape(v.shape[:-2] + (d * d,))  # (..., Pp Pp, d d)
+        return np.take(small.reshape(v.shape[:-3] + (small.shape[-2] * d * d,)), index, axis=-1) * mask
 
-    def input_matrix(self, values) -> np.ndarray:
+    def input_matrix(self, values, states=None) -> np.ndarray:
         """E_PCE = <Phi E>, thesis (4.44b), for inputs g(t) shared by all realisations.
 
         Parameters
         ----------
         values : ndarray, shape (..., Q, d, r)
+        states : ndarray of int, shape (N,), optional
+            Rows to return (all d P by default).
 
         Returns
         -------
-        ndarray, shape (..., d P, r)
+        ndarray, shape (..., N, r)
         """
         v = np.asarray(values, float)
-        d, r, P = v.shape[-2], v.shape[-1], self.n_terms
-        out = np.einsum("kq,...qir->...ikr", self.g0, v, optimize=True)
-        return out.reshape(v.shape[:-3] + (d * P, r))
+        d, r = v.shape[-2], v.shape[-1]
+        rows = self._term_major_rows(d, self._states_key(d, states))
+        out = self.g0 @ v.reshape(v.shape[:-2] + (d * r,))  # (..., P, d r)
+        return np.take(out.reshape(v.shape[:-3] + (self.n_terms * d, r)), rows, axis=-2)
 
-    def linear_input_matrix(self, values) -> np.ndarray:
+    def linear_input_matrix(self, values, states=None) -> np.ndarray:
         """<Phi F_j xi_j> for the linear germs: column j multiplies the signal h_j(t).
 
         Parameters
         ----------
         values : ndarray, shape (..., Q, d, n_linear)
             F_j(xi_q) at the nodes.
+        states : ndarray of int, shape (N,), optional
+            Rows to return (all d P by default).
 
         Returns
         -------
-        ndarray, shape (..., d P, n_linear)
+        ndarray, shape (..., N, n_linear)
         """
         v = np.asarray(values, float)
-        d, P = v.shape[-2], self.n_terms
-        out = np.einsum("jkq,...qij->...ikj", self.g_lin, v, optimize=True)
-        return out.reshape(v.shape[:-3] + (d * P, self.n_linear))
+        d = v.shape[-2]
+        rows = self._term_major_rows(d, self._states_key(d, states))
+        out = self.g_lin @ np.moveaxis(v, -1, -3)  # (..., n_linear, P, d)
+        out = np.take(out.reshape(out.shape[:-2] + (self.n_terms * d,)), rows, axis=-1)  # (..., n_linear, N)
+        return np.swapaxes(out, -1, -2)
+
+    def _states_key(self, d, states):
+        if states is None:
+            return (d * self.n_terms, None)
+        states = np.asarray(states, int)
+        return (states.size, states.tobytes())
+
+    def _states(self, d, key):
+        n, packed = key
+        return np.arange(n) if packed is None else np.frombuffer(packed, int)
+
+    @functools.lru_cache(maxsize=16)
+    def _matrix_gather(self, d, key):
+        """Flat indices into the (Pp, Pp, d, d) products and the same-linear-part mask, (N, N)."""
+        states = self._states(d, key)
+        i, k = np.divmod(states, self.n_terms)
+        a = self.par[k]
+        Pp = self._n_par_terms
+        index = ((a[:, None] * Pp + a[None, :]) * d + i[:, None]) * d + i[None, :]
+        return index, self.same_linear[np.ix_(k, k)].astype(float)
+
+    @functools.lru_cache(maxsize=16)
+    def _term_major_rows(self, d, key):
+        """Row k d + i of a (P, d) term-major array for each selected state i P + k."""
+        i, k = np.divmod(self._states(d, key), self.n_terms)
+        return k * d + i
 
     def linear_initial_state(self, values) -> np.ndarray:
         """X(0) part of an initial state linear in the linear germs, x0 = sum_j x0_j(xi_p) xi_j.

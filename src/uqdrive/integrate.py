@@ -9,7 +9,7 @@ from typing import Callable
 import numpy as np
 from scipy.linalg import expm, expm_frechet
 
-from .recursion import decoupled_blocks, identical_block_groups, linear_recursion
+from .recursion import decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
     "batched_expm",
@@ -146,27 +146,37 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
         # Blocks with identical matrices (the KLE germs' blocks) share one exponential: their
         # inputs become extra columns of the same Van Loan block.
         for group in identical_block_groups(A):
-            members = [(idx, np.flatnonzero(np.any(reach[idx], axis=0))) for idx in group]
-            first = group[0]
-            E_group = np.concatenate([E[np.ix_(idx, cols)] for idx, cols in members], axis=1)
-            Phi_b, P_b, Q_b = _foh_block(A[np.ix_(first, first)], E_group, h)
+            members = [(_ix(idx, idx), _ix(idx, np.flatnonzero(np.any(reach[idx], axis=0)))) for idx in group]
+            E_group = np.concatenate([E[rect] for _, rect in members], axis=1)
+            Phi_b, P_b, Q_b = _foh_block(A[members[0][0]], E_group, h)
             start = 0
-            for idx, cols in members:
-                Phi[np.ix_(idx, idx)] = Phi_b
-                P[np.ix_(idx, cols)] = P_b[:, start : start + cols.size]
-                Q[np.ix_(idx, cols)] = Q_b[:, start : start + cols.size]
-                start += cols.size
+            for square, rect in members:
+                Phi[square] = Phi_b
+                stop = start + E[rect].shape[1]
+                P[rect], Q[rect] = P_b[:, start:stop], Q_b[:, start:stop]
+                start = stop
         return Phi, P, Q
     n_p = dA.shape[0]
     dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
     for idx in blocks:
         cols = np.flatnonzero(np.any(reach[idx], axis=0))
-        sq, rect = np.ix_(idx, idx), np.ix_(idx, cols)
-        (Phi[sq], P[rect], Q[rect]), (b_dPhi, b_dP, b_dQ) = _foh_block(A[sq], E[rect], h, dA[:, idx][:, :, idx], dE[:, idx][:, :, cols])
-        dPhi[:, idx[:, None], idx] = b_dPhi
-        dP[:, idx[:, None], cols] = b_dP
-        dQ[:, idx[:, None], cols] = b_dQ
+        sq, rect = _ix(idx, idx), _ix(idx, cols)
+        (Phi[sq], P[rect], Q[rect]), (b_dPhi, b_dP, b_dQ) = _foh_block(A[sq], E[rect], h, dA[(slice(None),) + sq], dE[(slice(None),) + rect])
+        dPhi[(slice(None),) + sq] = b_dPhi
+        dP[(slice(None),) + rect] = b_dP
+        dQ[(slice(None),) + rect] = b_dQ
     return (Phi, P, Q), (dPhi, dP, dQ)
+
+
+def _ix(rows, cols):
+    """``np.ix_(rows, cols)`` for ascending index arrays, with a slice for a run of consecutive
+    rows (the block-ordered layouts): basic indexing, far cheaper than fancy indexing."""
+    if rows.size and rows[-1] - rows[0] + 1 == rows.size:
+        rows = slice(int(rows[0]), int(rows[-1]) + 1)
+        if cols.size and cols[-1] - cols[0] + 1 == cols.size:
+            return rows, slice(int(cols[0]), int(cols[-1]) + 1)
+        return rows, cols
+    return np.ix_(rows, cols)
 
 
 def _foh_block(A, E, h, dA=None, dE=None):
@@ -219,21 +229,24 @@ def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
     s : ndarray, shape (K + 1, p, N), only with ``derivatives``
     """
     g = np.asarray(g, float)
-    drive = g[:-1] @ P.T + g[1:] @ Q.T  # (K, N)
+    K, N = g.shape[0] - 1, Phi.shape[0]
+    # Drives are formed straight in the output by one GEMM each: [g_k, g_{k+1}] [P Q]^T, and for
+    # the sensitivities [x_k, g_k, g_{k+1}] [dPhi dP dQ]^T (the state enters through dPhi x_k).
+    pairs = np.concatenate([g[:-1], g[1:]], axis=1)  # (K, 2 r)
+    x = np.empty((K + 1, N))
+    x[0] = x0
+    np.matmul(pairs, np.concatenate([P, Q], axis=1).T, out=x[1:])
     groups = identical_block_groups(Phi)
-    x = linear_recursion(Phi, drive, x0, groups)
+    linear_recursion_in_place(Phi, x, groups)
     if derivatives is None:
         return x
     dPhi, dP, dQ = derivatives
-    n_p, N = dPhi.shape[0], Phi.shape[0]
-    # The sensitivities see the state through dPhi x_k: with x known, their drive is one product
-    # and they advance as p more right-hand sides of the same recursion.
-    r = g.shape[1]
-    d_drive = x[:-1] @ dPhi.reshape(n_p * N, N).T
-    d_drive += g[:-1] @ dP.transpose(2, 0, 1).reshape(r, n_p * N)  # GEMMs, 5x faster than einsum
-    d_drive += g[1:] @ dQ.transpose(2, 0, 1).reshape(r, n_p * N)
-    d_drive = d_drive.reshape(-1, n_p, N)
-    return x, linear_recursion(Phi, d_drive, None if dx0 is None else dx0, groups)
+    n_p = dPhi.shape[0]
+    s = np.empty((K + 1, n_p, N))
+    s[0] = 0.0 if dx0 is None else dx0
+    maps = np.concatenate([dPhi, dP, dQ], axis=2)  # (p, N, N + 2 r)
+    np.matmul(np.concatenate([x[:-1], pairs], axis=1), maps.transpose(2, 0, 1).reshape(-1, n_p * N), out=s[1:].reshape(K, n_p * N))
+    return x, linear_recursion_in_place(Phi, s, groups)
 
 
 def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):

@@ -6,6 +6,7 @@ This is the model interface the identification uses: ``moments(theta, gradient=.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 from typing import Any, Mapping, Sequence
 
@@ -34,20 +35,34 @@ class ChaosMoments:
     time : ndarray, shape (T,)
     mean, variance : ndarray, shape (4, T)
         Per state (psi, psi_dot, beta, y), thesis (4.51).
-    coefficients : ndarray, shape (4, P, T)
     mean_gradient, variance_gradient : ndarray, shape (n_theta, 4, T) or None
+    states : ndarray, shape (T, N)
+        The expanded states as computed (excited terms only, in ``state_index`` order).
+    state_index : ndarray of int, shape (N,)
+        Position of each computed state in the state-major (4, P) coefficient layout.
+    n_terms : int
+        P.
     """
 
     time: np.ndarray
     mean: np.ndarray
     variance: np.ndarray
-    coefficients: np.ndarray
-    mean_gradient: np.ndarray | None = None
-    variance_gradient: np.ndarray | None = None
+    mean_gradient: np.ndarray | None
+    variance_gradient: np.ndarray | None
+    states: np.ndarray
+    state_index: np.ndarray
+    n_terms: int
 
     @property
     def std(self) -> np.ndarray:
         return np.sqrt(np.maximum(self.variance, 0.0))
+
+    @functools.cached_property
+    def coefficients(self) -> np.ndarray:
+        """PCE coefficients (4, P, T) of every state (zero for the never-excited terms)."""
+        full = np.zeros((self.states.shape[0], 4 * self.n_terms))
+        full[:, self.state_index] = self.states
+        return full.reshape(-1, 4, self.n_terms).transpose(1, 2, 0)
 
 
 class LSTChaosModel:
@@ -119,6 +134,13 @@ class LSTChaosModel:
             for name in ((f"{u}_mean", f"{u}_std") if DISTRIBUTIONS[u] == "normal" else (f"{u}_low", f"{u}_high"))
         )
         self.germ_names = self.uncertain + tuple(f"wind_kle_{j + 1}" for j in range(n_linear))
+        # The expanded states are computed in the projector's block order (consecutive decoupled
+        # blocks); the moments read them there: the mean from the constant terms, the variance
+        # as a sum of squares of the others (one product with a state indicator).
+        self.states = self.projector.block_order(4)
+        state, term = np.divmod(self.states, self.projector.n_terms)
+        self._mean_rows = np.array([np.flatnonzero((state == i) & (term == 0))[0] for i in range(4)])
+        self._variance_indicator = ((state[:, None] == np.arange(4)) & (term[:, None] != 0)).astype(float)
 
     @staticmethod
     def theta_from_config(config: Mapping[str, Any], uncertain: Sequence[str]) -> np.ndarray:
@@ -190,25 +212,21 @@ class LSTChaosModel:
     def expanded_system(self, theta):
         """A_PCE (dP, dP) and the input matrix (dP, 2 + n_linear) for the inputs [delta, 1, f_j]."""
         values, _ = self._parameters_at_nodes(theta)
-        return self._full_expanded(values)
+        return self._expanded(values, None)
 
-    def _full_expanded(self, values):
+    def _expanded(self, values, states):
+        """A_PCE and the input matrix for parameter values at the nodes, rows and columns
+        ``states`` (the excited terms in block order for the moments: the never-excited ones are
+        dropped exactly, see GalerkinProjector.excited)."""
         A, E, F = self._system(values)
         pr = self.projector
-        return pr.matrix(A), np.concatenate([pr.input_matrix(E), pr.linear_input_matrix(F)], axis=-1)
+        return pr.matrix(A, states), np.concatenate([pr.input_matrix(E, states), pr.linear_input_matrix(F, states)], axis=-1)
 
-    def _expanded(self, values):
-        """A_PCE and the input matrix of the excited terms (never-excited ones are dropped
-        exactly, see GalerkinProjector.excited) for parameter values at the nodes."""
-        A, E = self._full_expanded(values)
-        keep = self.projector.state_mask(4)
-        return A[np.ix_(keep, keep)], E[keep], keep
-
-    def _expanded_derivatives(self, values, dvalues, keep):
-        """d A_PCE / d theta (p, N, N) and d E_PCE / d theta (p, N, r) of the excited terms."""
+    def _expanded_derivatives(self, values, dvalues):
+        """d A_PCE / d theta (p, N, N) and d E_PCE / d theta (p, N, r) of the computed states."""
         dA, dE, dF = self._system_derivatives(values, dvalues)
         pr = self.projector
-        return pr.matrix(dA)[:, keep][:, :, keep], np.concatenate([pr.input_matrix(dE), pr.linear_input_matrix(dF)], axis=-1)[:, keep]
+        return pr.matrix(dA, self.states), np.concatenate([pr.input_matrix(dE, self.states), pr.linear_input_matrix(dF, self.states)], axis=-1)
 
     @with_single_blas_thread
     def moments(self, theta, gradient: bool = False) -> ChaosMoments:
@@ -219,17 +237,14 @@ class LSTChaosModel:
         Runs with one BLAS thread (:mod:`uqdrive.threads`): the matrices are small.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce, keep = self._expanded(values)
-        pr = self.projector
+        A_pce, E_pce = self._expanded(values, self.states)
         x0 = np.zeros(A_pce.shape[0])
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
-            X = lti_response_single(*maps, self.inputs, x0)
-            return self._moments(pr.scatter(X, keep))
-        dA_pce, dE_pce = self._expanded_derivatives(values, dvalues, keep)
+            return self._moments(lti_response_single(*maps, self.inputs, x0))
+        dA_pce, dE_pce = self._expanded_derivatives(values, dvalues)
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
-        X, S = lti_response_single(*maps, self.inputs, x0, dmaps)
-        return self._moments(pr.scatter(X, keep), pr.scatter(S, keep))
+        return self._moments(*lti_response_single(*maps, self.inputs, x0, dmaps))
 
     @with_single_blas_thread
     def moments_vjp(self, theta):
@@ -241,34 +256,34 @@ class LSTChaosModel:
         the forward sensitivities of ``moments(theta, gradient=True)``.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce, keep = self._expanded(values)
+        A_pce, E_pce = self._expanded(values, self.states)
         maps = foh_discretise_single(A_pce, E_pce, self.dt)
         X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
-        result = self._moments(self.projector.scatter(X, keep))
+        result = self._moments(X)
 
         @with_single_blas_thread
         def vjp(dJ_dmean, dJ_dvariance):
-            c = result.coefficients.transpose(2, 0, 1)  # (T, 4, P)
-            Gc = np.empty_like(c)
-            Gc[:, :, 0] = np.asarray(dJ_dmean).T
-            Gc[:, :, 1:] = 2.0 * c[:, :, 1:] * np.asarray(dJ_dvariance).T[:, :, None]
-            G = Gc.reshape(c.shape[0], -1)[:, keep]
+            # J depends on X through mean = X[:, mean rows] and variance = X^2 @ indicator.
+            G = 2.0 * X * (np.asarray(dJ_dvariance).T @ self._variance_indicator.T)
+            G[:, self._mean_rows] = np.asarray(dJ_dmean).T
             dJ_dA, dJ_dE = foh_response_vjp(A_pce, E_pce, self.dt, maps[0], self.inputs, X, G)
-            dA_pce, dE_pce = self._expanded_derivatives(values, dvalues, keep)
+            dA_pce, dE_pce = self._expanded_derivatives(values, dvalues)
             return np.einsum("pij,ij->p", dA_pce, dJ_dA) + np.einsum("pij,ij->p", dE_pce, dJ_dE)
 
         return result, vjp
 
     def _moments(self, X, S=None) -> ChaosMoments:
-        c = self.projector.coefficients(X)  # (T, 4, P)
-        mean, var = c[:, :, 0].T, np.sum(c[:, :, 1:] ** 2, axis=-1).T
-        coefficients = c.transpose(1, 2, 0)
-        if S is None:
-            return ChaosMoments(self.time, mean, var, coefficients)
-        dc = self.projector.coefficients(S)  # (T, p, 4, P)
-        dmean = dc[..., 0].transpose(1, 2, 0)
-        dvar = 2.0 * np.einsum("tip,tqip->qit", c[:, :, 1:], dc[..., 1:])
-        return ChaosMoments(self.time, mean, var, coefficients, dmean, dvar)
+        """Moments (4.51) from the computed states X (T, N) and sensitivities S (T, p, N); S is
+        overwritten."""
+        mean = X[:, self._mean_rows].T
+        var = ((X * X) @ self._variance_indicator).T
+        dmean = dvar = None
+        if S is not None:
+            T, p, N = S.shape
+            dmean = S[:, :, self._mean_rows].transpose(1, 2, 0)
+            S *= X[:, None, :]  # S is ours and not kept: d var = 2 sum X S, without a copy of S
+            dvar = 2.0 * (S.reshape(T * p, N) @ self._variance_indicator).reshape(T, p, 4).transpose(1, 2, 0)
+        return ChaosMoments(self.time, mean, var, dmean, dvar, X, self.states, self.projector.n_terms)
 
     def sobol(self, moments: ChaosMoments, total: bool = False):
         """Sobol indices (n_groups, 4, T) per uncertain parameter, the KLE germs as one group
