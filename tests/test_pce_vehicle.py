@@ -155,3 +155,27 @@ def test_moments_are_those_of_the_coefficients(config, full_model):
     assert r.mean == pytest.approx(c[:, 0], rel=1e-14, abs=0.0)
     assert r.variance == pytest.approx((c[:, 1:] ** 2).sum(axis=1), rel=1e-13, abs=1e-300)
     assert not np.any(c[:, ~full_model.projector.excited])
+
+
+def test_input_only_wind_germ_equals_the_parametric_treatment(ident_model):
+    """The mean wind's germ as a linear germ (exact products, its order >= 2 terms dropped)
+    gives the thesis' treatment, the germ integrated by 4 Gauss-Legendre points like the
+    others, to round-off (1e-10 relative): the quadrature is exact for that germ's degree 5."""
+    from dataclasses import replace
+
+    from uqdrive.galerkin import GalerkinProjector
+    from uqdrive.integrate import foh_discretise_single, lti_response_single
+    from uqdrive.vehicle import lst_matrices
+
+    theta = np.array([0.9, 0.25, 1.5, 0.18, -300.0, 450.0])
+    r = ident_model.moments(theta)
+    pr = GalerkinProjector(["normal", "normal", "uniform"], 0, 2, quadrature_points=4)
+    xi = pr.nodes
+    p = replace(ident_model.vehicle, mu=theta[0] + theta[1] * xi[:, 0], m_load=np.full(xi.shape[0], 110.0), l_f=theta[2] + theta[3] * xi[:, 1])
+    A, B, W = lst_matrices(p)
+    wind = 0.5 * (theta[4] + theta[5] + xi[:, 2] * (theta[5] - theta[4]))
+    maps = foh_discretise_single(pr.matrix(A), pr.input_matrix(np.stack([B, W * wind[:, None]], axis=-1)), ident_model.dt)
+    c = pr.coefficients(lti_response_single(*maps, ident_model.inputs[:, :2], np.zeros(4 * pr.n_terms)))
+    assert r.mean == pytest.approx(c[:, :, 0].T, rel=1e-10, abs=1e-12 * np.abs(r.mean).max())
+    assert r.variance == pytest.approx((c[:, :, 1:] ** 2).sum(axis=-1).T, rel=1e-10, abs=1e-12 * r.variance.max())
+    assert ident_model.projector.nodes.shape[0] == 16 and pr.nodes.shape[0] == 64

@@ -43,9 +43,15 @@ def test_integrator_chains_stay_exact():
     assert linear_recursion(Phi, drive, np.ones(2)) == pytest.approx(want, rel=1e-12, abs=1e-12 * np.abs(want).max())
 
 
-def test_block_groups_and_identical_blocks():
+@pytest.mark.parametrize("merge", [True, False])
+def test_block_groups_and_identical_blocks(merge, monkeypatch):
     """Three decoupled blocks, two of them identical, in a permuted order: two groups, the
-    recursion by groups equals the dense loop."""
+    recursion by groups (or, for blocks this small, as one merged dense system) equals the
+    dense loop."""
+    import uqdrive.recursion
+
+    if not merge:
+        monkeypatch.setattr(uqdrive.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
     rng = np.random.default_rng(1)
     B1, B2 = _stable(rng, 3), _stable(rng, 2)
     Phi = np.zeros((7, 7))
@@ -76,10 +82,15 @@ def test_zero_steps_returns_the_initial_state():
     assert out.tolist() == [[1.0, 2.0]]
 
 
-def test_in_place_recursion_on_a_strided_view():
+@pytest.mark.parametrize("merge", [True, False])
+def test_in_place_recursion_on_a_strided_view(merge, monkeypatch):
     """The drive may sit in a column slice of a larger array (a block of a block-ordered state):
-    the states are written there and nowhere else."""
+    the states are written there and nowhere else, by blocks or merged."""
+    import uqdrive.recursion
     from uqdrive.recursion import linear_recursion_in_place
+
+    if not merge:
+        monkeypatch.setattr(uqdrive.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
 
     rng = np.random.default_rng(3)
     Phi = np.zeros((9, 9))

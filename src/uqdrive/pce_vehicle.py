@@ -23,6 +23,9 @@ __all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
 
 #: Distribution of each uncertain parameter, thesis (5.8)-(5.11).
 DISTRIBUTIONS = {"mu": "normal", "m_load": "normal", "l_f": "normal", "F_w_mean": "uniform"}
+#: Parameters that enter the LST only through its input, linearly (E = [B, W F_w]): their germs
+#: are linear germs of the projector, integrated exactly, not by quadrature.
+INPUT_ONLY = ("F_w_mean",)
 _STEP = 1e-30  # complex step: derivatives exact to round-off
 
 
@@ -90,6 +93,14 @@ class LSTChaosModel:
     -----
     The distribution parameters ``theta`` are, per uncertain parameter in order, (mean, std)
     for a normal and (low, high) for the uniform mean wind; see ``theta_names``.
+
+    The system matrix depends on mu, m_load and l_f only; the mean wind enters the input,
+    linearly in its germ (F_w = c + h xi_w). Its germ is therefore a linear germ of the
+    projector, like the KLE germs: the basis is the thesis' (total order N_PCE over all germs),
+    the Galerkin products in xi_w are exact, the terms of order >= 2 in xi_w stay exactly zero
+    and are dropped, and the wind's terms form their own decoupled block. For the thesis'
+    settings this gives the parametric treatment's numbers to round-off with a quarter of the
+    quadrature nodes and a smaller system.
     """
 
     def __init__(
@@ -118,7 +129,10 @@ class LSTChaosModel:
         n_linear = kle.n_modes if time_variant_wind else 0
         self.wind_scale = config["wind"]["sigma"] * np.sqrt(kle.eigenvalues[:n_linear])
         self.gust_yaw_moment = bool(config["wind"]["gust_yaw_moment"])
-        self.projector = GalerkinProjector([DISTRIBUTIONS[u] for u in self.uncertain], n_linear, order, quadrature_points)
+        self.parametric = tuple(u for u in self.uncertain if u not in INPUT_ONLY)
+        self.input_germs = tuple(u for u in self.uncertain if u in INPUT_ONLY)
+        linear = [DISTRIBUTIONS[u] for u in self.input_germs] + ["normal"] * n_linear
+        self.projector = GalerkinProjector([DISTRIBUTIONS[u] for u in self.parametric], linear, order, quadrature_points)
         grid = TimeGrid.from_config(config)
         self.time = grid.output
         self.dt = grid.dt
@@ -127,13 +141,15 @@ class LSTChaosModel:
             delta = steering_input(self.time, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
         elif np.shape(delta) != self.time.shape:
             raise ValueError(f"delta has {np.size(delta)} samples but the time grid has {self.time.size}")
-        self.inputs = np.column_stack([delta, np.ones_like(delta), kle.eigenfunctions(self.time)[:n_linear].T])
+        one = np.ones_like(delta)
+        # signals [delta, 1 (mean wind's midpoint), 1 (its germ's part, if uncertain), f_j (KLE)]
+        self.inputs = np.column_stack([delta, one] + [one] * len(self.input_germs) + list(kle.eigenfunctions(self.time)[:n_linear]))
         self.theta_names = tuple(
             name
             for u in self.uncertain
             for name in ((f"{u}_mean", f"{u}_std") if DISTRIBUTIONS[u] == "normal" else (f"{u}_low", f"{u}_high"))
         )
-        self.germ_names = self.uncertain + tuple(f"wind_kle_{j + 1}" for j in range(n_linear))
+        self.germ_names = self.parametric + self.input_germs + tuple(f"wind_kle_{j + 1}" for j in range(n_linear))
         # The expanded states are computed in the projector's block order (consecutive decoupled
         # blocks); the moments read them there: the mean from the constant terms, the variance
         # as a sum of squares of the others (one product with a state indicator).
@@ -160,19 +176,23 @@ class LSTChaosModel:
         xi = self.projector.nodes
         Q = xi.shape[0]
         values = {k: np.full(Q, float(v)) for k, v in self.fixed.items()}
-        dvalues = {k: np.zeros((theta.size, Q)) for k in DISTRIBUTIONS}
+        values["F_w_half"] = np.zeros(Q)  # half width of the mean wind's interval: its germ's coefficient
+        dvalues = {k: np.zeros((theta.size, Q)) for k in values}
         for j, u in enumerate(self.uncertain):
             a, b = theta[2 * j], theta[2 * j + 1]
             if DISTRIBUTIONS[u] == "normal":
                 if not b > 0:
                     raise ValueError(f"standard deviation of {u} must be positive, got {b}")
-                values[u] = a + b * xi[:, j]  # (5.8)-(5.10)
-                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 1.0, xi[:, j]
+                column = self.parametric.index(u)
+                values[u] = a + b * xi[:, column]  # (5.8)-(5.10)
+                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 1.0, xi[:, column]
             else:
                 if not b > a:
                     raise ValueError(f"uniform interval of {u} is degenerate or reversed: low {a}, high {b}")
-                values[u] = 0.5 * (a + b + xi[:, j] * (b - a))  # (5.11)
-                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 0.5 * (1 - xi[:, j]), 0.5 * (1 + xi[:, j])
+                # (5.11) F_w = c + h xi_w, xi_w a linear germ of the projector
+                values[u], values["F_w_half"] = np.full(Q, 0.5 * (a + b)), np.full(Q, 0.5 * (b - a))
+                dvalues[u][2 * j], dvalues[u][2 * j + 1] = 0.5, 0.5
+                dvalues["F_w_half"][2 * j], dvalues["F_w_half"][2 * j + 1] = -0.5, 0.5
         self._check_physical(values)
         return values, dvalues
 
@@ -184,18 +204,20 @@ class LSTChaosModel:
             raise ValueError("l_f must stay inside (0, wheelbase) at every quadrature node")
 
     def _system(self, values):
-        """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the KLE signals."""
+        """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the linear germs'
+        signals (the mean wind's germ, then the KLE germs)."""
         p = replace(self.vehicle, mu=values["mu"], m_load=values["m_load"], l_f=values["l_f"])
         A, B, W = lst_matrices(p)
         E = np.stack([B, W * values["F_w_mean"][:, None]], axis=-1)
-        F = gust_input_column(W, self.gust_yaw_moment)[:, :, None] * self.wind_scale
+        gusts = gust_input_column(W, self.gust_yaw_moment)[:, :, None] * self.wind_scale
+        F = np.concatenate([W[:, :, None] * values["F_w_half"][:, None, None]] * len(self.input_germs) + [gusts], axis=-1)
         return A, E, F
 
     def _system_derivatives(self, values, dvalues):
         """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter."""
         n_theta = len(self.theta_names)
         dA = dE = dF = 0.0
-        for name in ("mu", "m_load", "l_f", "F_w_mean"):
+        for name in dvalues:
             if not np.any(dvalues[name]):
                 continue
             shifted = dict(values)
@@ -210,7 +232,7 @@ class LSTChaosModel:
         return (dA if np.ndim(dA) else zeros(4, 4)), (dE if np.ndim(dE) else zeros(4, 2)), (dF if np.ndim(dF) else zeros(4, self.projector.n_linear))
 
     def expanded_system(self, theta):
-        """A_PCE (dP, dP) and the input matrix (dP, 2 + n_linear) for the inputs [delta, 1, f_j]."""
+        """A_PCE (dP, dP) and the input matrix (dP, r) for the signals ``inputs``."""
         values, _ = self._parameters_at_nodes(theta)
         return self._expanded(values, None)
 
@@ -288,11 +310,11 @@ class LSTChaosModel:
     def sobol(self, moments: ChaosMoments, total: bool = False):
         """Sobol indices (n_groups, 4, T) per uncertain parameter, the KLE germs as one group
         (the time-variant wind, as thesis Fig. 5.4); returns (group names, indices)."""
-        n_par = len(self.uncertain)
-        groups = [[j] for j in range(n_par)]
+        groups = [[self.germ_names.index(u)] for u in self.uncertain]
         names = list(self.uncertain)
-        if self.projector.n_linear:
-            groups.append(list(range(n_par, n_par + self.projector.n_linear)))
+        kle = [j for j, g in enumerate(self.germ_names) if g.startswith("wind_kle_")]
+        if kle:
+            groups.append(kle)
             names.append("wind (time-variant)")
         c = moments.coefficients.transpose(1, 0, 2)  # (P, 4, T)
         return names, self.projector.chaos.sobol(c, groups, total=total)

@@ -48,6 +48,10 @@ def _components(n, packed: bytes) -> tuple:
 
 
 _DIRECT_STEPS = 4  # up to this many steps, the plain step-by-step loop
+# One block recursion costs ~45 steps of a few numpy calls, ~0.2 ms: the time of ~8 MFLOP of
+# small matrix products on one core. Blocks whose separate recursions would save less arithmetic
+# than that per extra group are advanced together as one dense system.
+_GROUP_OVERHEAD_FLOPS = 8e6
 
 
 def _multilevel_in_place(Phi_T, out):
@@ -155,6 +159,11 @@ def linear_recursion_in_place(Phi, out, groups=None):
     Phi = np.asarray(Phi, float)
     if groups is None:
         groups = identical_block_groups(Phi)
+    N, K = Phi.shape[0], out.shape[0] - 1
+    batch = out[0].size // max(N, 1)
+    blocks_flops = sum(idx.shape[0] * idx.shape[1] ** 2 for idx in groups)
+    if len(groups) > 1 and 4 * K * batch * (N * N - blocks_flops) < (len(groups) - 1) * _GROUP_OVERHEAD_FLOPS:
+        groups = [np.arange(N)[None]]
     for idx in groups:
         first = idx[0]
         block_T = np.ascontiguousarray(Phi[np.ix_(first, first)].T)
