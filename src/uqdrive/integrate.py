@@ -7,8 +7,9 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import expm, expm_frechet
+from scipy.linalg import expm
 
+from .matrix_exponential import batched_expm, expm_frechet_directions
 from .recursion import decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
@@ -20,37 +21,6 @@ __all__ = [
     "lti_response_single",
     "rk4_fixed_step",
 ]
-
-_TAYLOR_DEGREE = 12
-
-
-def batched_expm(M):
-    """Matrix exponential of a stack of small matrices, vectorised over the stack.
-
-    Scaling and squaring with a degree-12 Taylor polynomial: each matrix is scaled by 2^-s so
-    that its 1-norm is at most 1/4, where the truncation error (1/4)^13 / 13! ~ 2e-18 is below
-    double precision, then squared s times. ``scipy.linalg.expm`` gives the same result but
-    loops over the stack in Python, which costs ten times more for thousands of 12x12 blocks.
-
-    Parameters
-    ----------
-    M : ndarray, shape (..., d, d)
-
-    Returns
-    -------
-    ndarray, shape (..., d, d)
-    """
-    M = np.asarray(M, float)
-    norm = np.abs(M).sum(axis=-2).max(axis=-1).max() if M.size else 0.0
-    s = max(0, int(np.ceil(np.log2(norm / 0.25)))) if norm > 0.25 else 0
-    X = M / 2.0**s
-    eye = np.broadcast_to(np.eye(M.shape[-1]), M.shape)
-    F = eye + X / _TAYLOR_DEGREE
-    for k in range(_TAYLOR_DEGREE - 1, 0, -1):  # Horner: I + X/1 (I + X/2 (I + ...))
-        F = eye + (X @ F) / k
-    for _ in range(s):
-        F = F @ F
-    return F
 
 
 def foh_discretise(A, E, h: float):
@@ -110,7 +80,7 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
 
     Same maps as :func:`foh_discretise` (x_{k+1} = Phi x_k + P g_k + Q g_{k+1}), computed from
     the input-sized Van Loan block with SciPy's Pade ``expm``; with directions ``dA``, ``dE``
-    the Frechet derivative of the block exponential (``scipy.linalg.expm_frechet``) gives the
+    the Frechet derivatives of the block exponential (:func:`expm_frechet_directions`) give the
     exact derivatives of Phi, P and Q, i.e. of the discretised system.
 
     Decoupled blocks of A (e.g. the Galerkin terms of each KLE germ of the wind, which never mix
@@ -197,12 +167,20 @@ def _foh_block(A, E, h, dA=None, dE=None):
     dP[~moves_A] = P_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
     dQ[~moves_A] = Q_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
     M = _van_loan_input_block(A, E, h)
-    for p in np.flatnonzero(moves_A):
-        dM = np.zeros_like(M)
-        dM[:d, :d] = dA[p] * h
-        dM[:d, d : d + r] = dE[p] * h
-        dPhi[p], dP[p], dQ[p] = _split_van_loan(expm_frechet(M, dM, compute_expm=False), d, r, h)
+    moving = np.flatnonzero(moves_A)
+    if moving.size:
+        dM = np.zeros((moving.size,) + M.shape)
+        dM[:, :d, :d] = dA[moving] * h
+        dM[:, :d, d : d + r] = dE[moving] * h
+        dF = expm_frechet_directions(M, dM)
+        dPhi[moving], dP[moving], dQ[moving] = _split_van_loan_stack(dF, d, r, h)
     return (Phi, P_all[:, :r], Q_all[:, :r]), (dPhi, dP, dQ)
+
+
+def _split_van_loan_stack(F, d, r, h):
+    """:func:`_split_van_loan` for a stack (p, d + 2r, d + 2r)."""
+    Q = F[:, :d, d + r :] / h
+    return F[:, :d, :d], F[:, :d, d : d + r] - Q, Q
 
 
 def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):

@@ -214,22 +214,23 @@ class LSTChaosModel:
         return A, E, F
 
     def _system_derivatives(self, values, dvalues):
-        """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter."""
-        n_theta = len(self.theta_names)
-        dA = dE = dF = 0.0
-        for name in dvalues:
-            if not np.any(dvalues[name]):
-                continue
-            shifted = dict(values)
-            shifted[name] = values[name] + 1j * _STEP
-            A, E, F = (x.imag / _STEP for x in self._system(shifted))
-            w = dvalues[name]  # (n_theta, Q)
-            dA = dA + w[:, :, None, None] * A
-            dE = dE + w[:, :, None, None] * E
-            dF = dF + w[:, :, None, None] * F
-        Q = self.projector.nodes.shape[0]
-        zeros = lambda *s: np.zeros((n_theta, Q) + s)  # noqa: E731
-        return (dA if np.ndim(dA) else zeros(4, 4)), (dE if np.ndim(dE) else zeros(4, 2)), (dF if np.ndim(dF) else zeros(4, self.projector.n_linear))
+        """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter, all
+        parameters in one evaluation of the vehicle matrices (stacked along the node axis)."""
+        moving = [name for name in dvalues if np.any(dvalues[name])]
+        n_theta, Q = len(self.theta_names), self.projector.nodes.shape[0]
+        if not moving:
+            return np.zeros((n_theta, Q, 4, 4)), np.zeros((n_theta, Q, 4, 2)), np.zeros((n_theta, Q, 4, self.projector.n_linear))
+        shifted = {}
+        for name, v in values.items():
+            stacked = np.tile(np.asarray(v, complex), (len(moving), 1))
+            if name in moving:
+                stacked[moving.index(name)] += 1j * _STEP
+            shifted[name] = stacked.ravel()
+        weights = np.stack([dvalues[name] for name in moving])  # (n_moving, n_theta, Q)
+        return tuple(
+            np.einsum("kpq,kq...->pq...", weights, (x.imag / _STEP).reshape((len(moving), Q) + x.shape[1:]))
+            for x in self._system(shifted)
+        )
 
     def expanded_system(self, theta):
         """A_PCE (dP, dP) and the input matrix (dP, r) for the signals ``inputs``."""

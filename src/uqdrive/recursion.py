@@ -1,5 +1,5 @@
 """Linear recursions x_{k+1} = Phi x_k + d_k of one discretised system over many steps, in a few
-batched matrix products instead of one Python step per sample (two-level, chunked evaluation).
+batched matrix products instead of one Python step per sample (nested chunks, in place).
 """
 
 from __future__ import annotations
