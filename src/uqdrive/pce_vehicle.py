@@ -153,8 +153,8 @@ class LSTChaosModel:
         # The expanded states are computed in the projector's block order (consecutive decoupled
         # blocks); the moments read them there: the mean from the constant terms, the variance
         # as a sum of squares of the others (one product with a state indicator).
-        self.states = self.projector.block_order(4)
-        state, term = np.divmod(self.states, self.projector.n_terms)
+        self.expanded_states = self.projector.block_order(4)
+        state, term = np.divmod(self.expanded_states, self.projector.n_terms)
         self._mean_rows = np.array([np.flatnonzero((state == i) & (term == 0))[0] for i in range(4)])
         self._variance_indicator = ((state[:, None] == np.arange(4)) & (term[:, None] != 0)).astype(float)
 
@@ -249,7 +249,7 @@ class LSTChaosModel:
         """d A_PCE / d theta (p, N, N) and d E_PCE / d theta (p, N, r) of the computed states."""
         dA, dE, dF = self._system_derivatives(values, dvalues)
         pr = self.projector
-        return pr.matrix(dA, self.states), np.concatenate([pr.input_matrix(dE, self.states), pr.linear_input_matrix(dF, self.states)], axis=-1)
+        return pr.matrix(dA, self.expanded_states), np.concatenate([pr.input_matrix(dE, self.expanded_states), pr.linear_input_matrix(dF, self.expanded_states)], axis=-1)
 
     @with_single_blas_thread
     def moments(self, theta, gradient: bool = False) -> ChaosMoments:
@@ -260,7 +260,7 @@ class LSTChaosModel:
         Runs with one BLAS thread (:mod:`uqdrive.threads`): the matrices are small.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce = self._expanded(values, self.states)
+        A_pce, E_pce = self._expanded(values, self.expanded_states)
         x0 = np.zeros(A_pce.shape[0])
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
@@ -279,7 +279,7 @@ class LSTChaosModel:
         the forward sensitivities of ``moments(theta, gradient=True)``.
         """
         values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce = self._expanded(values, self.states)
+        A_pce, E_pce = self._expanded(values, self.expanded_states)
         maps = foh_discretise_single(A_pce, E_pce, self.dt)
         X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
         result = self._moments(X)
@@ -306,7 +306,7 @@ class LSTChaosModel:
             dmean = S[:, :, self._mean_rows].transpose(1, 2, 0)
             S *= X[:, None, :]  # S is ours and not kept: d var = 2 sum X S, without a copy of S
             dvar = 2.0 * (S.reshape(T * p, N) @ self._variance_indicator).reshape(T, p, 4).transpose(1, 2, 0)
-        return ChaosMoments(self.time, mean, var, dmean, dvar, X, self.states, self.projector.n_terms)
+        return ChaosMoments(self.time, mean, var, dmean, dvar, X, self.expanded_states, self.projector.n_terms)
 
     def sobol(self, moments: ChaosMoments, total: bool = False):
         """Sobol indices (n_groups, 4, T) per uncertain parameter, the KLE germs as one group
