@@ -208,15 +208,13 @@ class GalerkinProjector:
         out = np.take(out.reshape(out.shape[:-2] + (self.n_terms * d,)), rows, axis=-1)  # (..., n_linear, N)
         return np.swapaxes(out, -1, -2)
 
-    def _states_key(self, d, states):
-        if states is None:
-            return (d * self.n_terms, None)
-        states = np.asarray(states, int)
-        return (states.size, states.tobytes())
+    @staticmethod
+    def _states_key(d, states):
+        """A hashable form of a state selection, for the cached gathers (None: all states)."""
+        return None if states is None else np.asarray(states, int).tobytes()
 
     def _states(self, d, key):
-        n, packed = key
-        return np.arange(n) if packed is None else np.frombuffer(packed, int)
+        return np.arange(d * self.n_terms) if key is None else np.frombuffer(key, int)
 
     @functools.lru_cache(maxsize=16)
     def _matrix_gather(self, d, key):
