@@ -164,7 +164,7 @@ class GalerkinProjector:
         """
         v = np.asarray(values, float)
         d = v.shape[-1]
-        index, mask = self._matrix_gather(d, self._states_key(d, states))
+        index, mask = self._matrix_gather(d, self._states_key(states))
         small = self._G_flat @ v.reshape(v.shape[:-2] + (d * d,))  # (..., Pp Pp, d d)
         return np.take(small.reshape(v.shape[:-3] + (small.shape[-2] * d * d,)), index, axis=-1) * mask
 
@@ -183,7 +183,7 @@ class GalerkinProjector:
         """
         v = np.asarray(values, float)
         d, r = v.shape[-2], v.shape[-1]
-        rows = self._term_major_rows(d, self._states_key(d, states))
+        rows = self._term_major_rows(d, self._states_key(states))
         out = self.g0 @ v.reshape(v.shape[:-2] + (d * r,))  # (..., P, d r)
         return np.take(out.reshape(v.shape[:-3] + (self.n_terms * d, r)), rows, axis=-2)
 
@@ -203,13 +203,13 @@ class GalerkinProjector:
         """
         v = np.asarray(values, float)
         d = v.shape[-2]
-        rows = self._term_major_rows(d, self._states_key(d, states))
+        rows = self._term_major_rows(d, self._states_key(states))
         out = self.g_lin @ np.moveaxis(v, -1, -3)  # (..., n_linear, P, d)
         out = np.take(out.reshape(out.shape[:-2] + (self.n_terms * d,)), rows, axis=-1)  # (..., n_linear, N)
         return np.swapaxes(out, -1, -2)
 
     @staticmethod
-    def _states_key(d, states):
+    def _states_key(states):
         """A hashable form of a state selection, for the cached gathers (None: all states)."""
         return None if states is None else np.asarray(states, int).tobytes()
 

@@ -10,7 +10,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from .matrix_exponential import batched_expm, expm_frechet_directions
-from .recursion import decoupled_blocks, identical_block_groups, linear_recursion_in_place
+from .recursion import consecutive_slice, decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
     "batched_expm",
@@ -70,9 +70,10 @@ def _van_loan_input_block(A, E, h):
 
 
 def _split_van_loan(F, d, r, h):
-    Phi = F[:d, :d]
-    Q = F[:d, d + r :] / h
-    return Phi, F[:d, d : d + r] - Q, Q
+    """Phi, P, Q from the Van Loan exponential F (..., d + 2r, d + 2r), or from its derivative."""
+    Phi = F[..., :d, :d]
+    Q = F[..., :d, d + r :] / h
+    return Phi, F[..., :d, d : d + r] - Q, Q
 
 
 def foh_discretise_single(A, E, h: float, dA=None, dE=None):
@@ -139,14 +140,12 @@ def foh_discretise_single(A, E, h: float, dA=None, dE=None):
 
 
 def _ix(rows, cols):
-    """``np.ix_(rows, cols)`` for ascending index arrays, with a slice for a run of consecutive
-    rows (the block-ordered layouts): basic indexing, far cheaper than fancy indexing."""
-    if rows.size and rows[-1] - rows[0] + 1 == rows.size:
-        rows = slice(int(rows[0]), int(rows[-1]) + 1)
-        if cols.size and cols[-1] - cols[0] + 1 == cols.size:
-            return rows, slice(int(cols[0]), int(cols[-1]) + 1)
-        return rows, cols
-    return np.ix_(rows, cols)
+    """``np.ix_(rows, cols)``, with slices for runs of consecutive indices (the block-ordered
+    layouts): basic indexing, far cheaper than fancy indexing."""
+    row_run, col_run = consecutive_slice(rows), consecutive_slice(cols)
+    if row_run is None:
+        return np.ix_(rows, cols)
+    return row_run, cols if col_run is None else col_run
 
 
 def _foh_block(A, E, h, dA=None, dE=None):
@@ -166,21 +165,16 @@ def _foh_block(A, E, h, dA=None, dE=None):
     n_input_only = int(np.count_nonzero(~moves_A))
     dP[~moves_A] = P_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
     dQ[~moves_A] = Q_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
-    M = _van_loan_input_block(A, E, h)
     moving = np.flatnonzero(moves_A)
     if moving.size:
+        M = _van_loan_input_block(A, E, h)
         dM = np.zeros((moving.size,) + M.shape)
         dM[:, :d, :d] = dA[moving] * h
         dM[:, :d, d : d + r] = dE[moving] * h
         dF = expm_frechet_directions(M, dM)
-        dPhi[moving], dP[moving], dQ[moving] = _split_van_loan_stack(dF, d, r, h)
+        dPhi[moving], dP[moving], dQ[moving] = _split_van_loan(dF, d, r, h)
     return (Phi, P_all[:, :r], Q_all[:, :r]), (dPhi, dP, dQ)
 
-
-def _split_van_loan_stack(F, d, r, h):
-    """:func:`_split_van_loan` for a stack (p, d + 2r, d + 2r)."""
-    Q = F[:, :d, d + r :] / h
-    return F[:, :d, :d], F[:, :d, d : d + r] - Q, Q
 
 
 def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):

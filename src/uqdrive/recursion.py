@@ -11,6 +11,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 __all__ = [
+    "consecutive_slice",
     "decoupled_blocks",
     "identical_block_groups",
     "linear_recursion",
@@ -45,6 +46,23 @@ def _components(n, packed: bytes) -> tuple:
     for b in blocks:
         b.setflags(write=False)
     return blocks
+
+
+def consecutive_slice(idx):
+    """The slice equal to an index array that is a run of consecutive indices, else None.
+
+    Parameters
+    ----------
+    idx : ndarray of int, any shape (read in C order)
+
+    Returns
+    -------
+    slice or None
+    """
+    flat = np.ravel(idx)
+    if flat.size and np.array_equal(flat, np.arange(flat[0], flat[0] + flat.size)):
+        return slice(int(flat[0]), int(flat[0]) + flat.size)
+    return None
 
 
 _DIRECT_STEPS = 4  # up to this many steps, the plain step-by-step loop
@@ -167,11 +185,10 @@ def linear_recursion_in_place(Phi, out, groups=None):
     for idx in groups:
         first = idx[0]
         block_T = np.ascontiguousarray(Phi[np.ix_(first, first)].T)
-        m, b = idx.shape
-        start = idx[0, 0]
-        if np.array_equal(idx.ravel(), np.arange(start, start + m * b)):
+        run = consecutive_slice(idx)
+        if run is not None:
             # Consecutive states (a block-ordered layout): a view, recursed in place.
-            view = out[..., start : start + m * b].reshape(out.shape[:-1] + (m, b))
+            view = out[..., run].reshape(out.shape[:-1] + idx.shape)
             _multilevel_in_place(block_T, view)
         else:
             part = out[..., idx]
