@@ -15,10 +15,10 @@ from scipy.optimize import minimize
 from timing import best_of
 
 from uqdrive.config import load_config
-from uqdrive.identify import DistributionEstimator, initial_guess
-from uqdrive.montecarlo import simulate_ensemble
-from uqdrive.pce_vehicle import LSTChaosModel
-from uqdrive.statistics import ensemble_statistics
+from uqdrive.inference.identify import DistributionEstimator, initial_guess
+from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.vehicle.statistics import ensemble_statistics
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from uqdrive.config import load_config
-from uqdrive.montecarlo import kle_from_config, simulate_ensemble
-from uqdrive.reference import solve_realisations
-from uqdrive.vehicle import STATES
+from uqdrive.vehicle.montecarlo import kle_from_config, simulate_ensemble
+from uqdrive.vehicle.reference import solve_realisations
+from uqdrive.vehicle.single_track import STATES
 
 REPO = Path(__file__).resolve().parents[1]
 

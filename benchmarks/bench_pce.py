@@ -14,9 +14,9 @@ import numpy as np
 from timing import best_of
 
 from uqdrive.config import load_config
-from uqdrive.montecarlo import kle_from_config, monte_carlo_moments, simulate_ensemble
-from uqdrive.pce_vehicle import LSTChaosModel
-from uqdrive.statistics import ensemble_statistics
+from uqdrive.vehicle.montecarlo import kle_from_config, monte_carlo_moments, simulate_ensemble
+from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.vehicle.statistics import ensemble_statistics
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from uqdrive.adjoint import backward_recursion, foh_response_vjp
-from uqdrive.integrate import foh_discretise_single, lti_response_single
+from uqdrive.numerics.adjoint import backward_recursion, foh_response_vjp
+from uqdrive.numerics.integrate import foh_discretise_single, lti_response_single
 
 
 def test_backward_recursion_is_the_transpose_of_the_forward_map():

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from uqdrive.bayes import BoxPrior, MomentLikelihood, gelman_rubin, sample_ensembles
+from uqdrive.inference.bayes import BoxPrior, MomentLikelihood, gelman_rubin, sample_ensembles
 
 
 def test_gelman_rubin_identical_chains_and_separated_chains():

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from uqdrive.bayes_study import posterior_case, prepare_data, summarise
+from uqdrive.studies.bayes import posterior_case, prepare_data, summarise
 from uqdrive.config import load_config
-from uqdrive.montecarlo import simulate_ensemble
+from uqdrive.vehicle.montecarlo import simulate_ensemble
 
 from conftest import REPO
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from uqdrive.cli import main
+from uqdrive.cli.main import main
 from uqdrive.io import read_ensemble
 
 from conftest import REPO

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from uqdrive.control import lqr_gain
-from uqdrive.vehicle import VehicleParameters, lst_matrices
+from uqdrive.control.lqr import lqr_gain
+from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices
 
 
 def test_lqr_gain_of_mean_lst_matches_facts(config):

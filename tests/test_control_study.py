@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from uqdrive.config import load_config
-from uqdrive.control_study import closed_loop_monte_carlo, distribution_from_theta, gains_dataset, gamma_sweep, lqr_mean_gain
-from uqdrive.scorecard import control_rows
+from uqdrive.studies.control import closed_loop_monte_carlo, distribution_from_theta, gains_dataset, gamma_sweep, lqr_mean_gain
+from uqdrive.studies.scorecard import control_rows
 
 from conftest import REPO
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from uqdrive.galerkin import GalerkinProjector
-from uqdrive.integrate import foh_discretise_single, lti_response_single
+from uqdrive.numerics.galerkin import GalerkinProjector
+from uqdrive.numerics.integrate import foh_discretise_single, lti_response_single
 
 
 def _scalar_decay(dist, a0, s, order, t_end=1.0, steps=100):
@@ -105,7 +105,7 @@ def test_state_selection_equals_rows_and_columns_of_the_full_matrices():
 def test_block_order_makes_consecutive_decoupled_blocks():
     """The excited states in block order: the parametric-only block, then one block per linear
     germ (identical matrices), each consecutive, and A_PCE block diagonal in that order."""
-    from uqdrive.recursion import identical_block_groups
+    from uqdrive.numerics.recursion import identical_block_groups
 
     pr = GalerkinProjector(["normal", "uniform"], 3, 2, quadrature_points=3)
     rng = np.random.default_rng(8)

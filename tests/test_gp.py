@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import approx_fprime
 
-from uqdrive.gp import ArcsineGP, arcsine_kernel, arcsine_kernel_grad_x, arcsine_kernel_grad_xx
+from uqdrive.wheelslip.gp import ArcsineGP, arcsine_kernel, arcsine_kernel_grad_x, arcsine_kernel_grad_xx
 
 X = np.linspace(-0.3, 1.1, 9)
 G = np.array([0.4, 7.0])

@@ -1,6 +1,6 @@
 import pytest
 
-from uqdrive.identifiability import observability_analysis
+from uqdrive.inference.identifiability import observability_analysis
 
 
 @pytest.fixture(scope="module")

@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 
 from uqdrive.config import load_config
-from uqdrive.identification_study import EXPERIMENTS, PAIRED_WITH, guess_stream_index, experiment_plan, measured_data_sets, run_experiment, true_theta, w2_scores
-from uqdrive.identification_tables import table_rows, table_scorecard_rows, THESIS_TABLE_6_2, THESIS_TABLE_6_3
-from uqdrive.montecarlo import simulate_ensemble
+from uqdrive.studies.identification import EXPERIMENTS, PAIRED_WITH, guess_stream_index, experiment_plan, measured_data_sets, run_experiment, true_theta, w2_scores
+from uqdrive.studies.tables import table_rows, table_scorecard_rows, THESIS_TABLE_6_2, THESIS_TABLE_6_3
+from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.rng import rng_stream
-from uqdrive.statistics import ensemble_statistics, noise_statistics
+from uqdrive.vehicle.statistics import ensemble_statistics, noise_statistics
 
 from conftest import REPO
 
@@ -67,7 +67,7 @@ def test_unit_free_residuals_reproduce_table_6_2(config):
     is met within the issue's tolerances (0.02 mu, 0.02 m l_f, 30 N wind) and the NLST row's mu
     within 0.03 and l_f within 0.02 m; the NLST upper wind bound is ~60 N off (README).
     In SI units ([1 1 1 1]) the NLST mu comes out ~0.74 and l_f's std collapses, see README."""
-    from uqdrive.identification_study import Estimate, _fit
+    from uqdrive.studies.identification import Estimate, _fit
 
     stats = {f"{m}_normal": ensemble_statistics(simulate_ensemble(config, m), "exclude") for m in ("lst", "nlst")}
     data = measured_data_sets(config, stats)

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.identify import COSTS, OPTIMISERS, STATE_SCALES, DistributionEstimator, WeightContext, cost_weights, default_bounds, initial_guess, state_weights
-from uqdrive.pce_vehicle import LSTChaosModel
+from uqdrive.inference.identify import COSTS, OPTIMISERS, STATE_SCALES, DistributionEstimator, WeightContext, cost_weights, default_bounds, initial_guess, state_weights
+from uqdrive.vehicle.chaos import LSTChaosModel
 
 TRUTH = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from uqdrive.integrate import _foh_block, decoupled_blocks, foh_discretise, foh_discretise_single, lti_foh_response, rk4_fixed_step
+from uqdrive.numerics.integrate import _foh_block, decoupled_blocks, foh_discretise, foh_discretise_single, lti_foh_response, rk4_fixed_step
 
 
 def test_foh_is_exact_for_a_ramp():
@@ -106,7 +106,7 @@ def test_input_only_directions_equal_the_frechet_derivative():
     equal to scipy's Frechet derivative of the Van Loan block (1e-12), with dPhi exactly 0."""
     from scipy.linalg import expm_frechet
 
-    from uqdrive.integrate import _split_van_loan, _van_loan_input_block
+    from uqdrive.numerics.integrate import _split_van_loan, _van_loan_input_block
 
     rng = np.random.default_rng(5)
     A = rng.normal(size=(5, 5)) - 2 * np.eye(5)

@@ -3,7 +3,7 @@ import pytest
 import xarray as xr
 
 from uqdrive.io import DataError, OutputError, atomic_path, read_ensemble, validate_ensemble, write_dataset
-from uqdrive.montecarlo import simulate_ensemble
+from uqdrive.vehicle.montecarlo import simulate_ensemble
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm, expm_frechet
 
-from uqdrive.matrix_exponential import batched_expm, expm_frechet_directions
+from uqdrive.numerics.matrix_exponential import batched_expm, expm_frechet_directions
 
 
 def test_batched_expm_equals_scipy_for_every_matrix_of_the_stack():

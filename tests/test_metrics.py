@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from uqdrive.metrics import kl_divergence_normal, wasserstein2_normal, wasserstein2_uniform
+from uqdrive.numerics.metrics import kl_divergence_normal, wasserstein2_normal, wasserstein2_uniform
 
 
 def test_kl_divergence_of_identical_normals_is_zero():
@@ -34,14 +34,14 @@ def test_wasserstein_normal():
 
 
 def test_thesis_printed_uniform_formula_gives_its_quoted_values():
-    from uqdrive.metrics import wasserstein2_uniform_thesis
+    from uqdrive.numerics.metrics import wasserstein2_uniform_thesis
 
     assert wasserstein2_uniform_thesis(0.0, 1.0, -1.0, 2.0) == pytest.approx(1.15, abs=0.005)
     assert wasserstein2_uniform_thesis(0.0, 10.0, -10.0, 20.0) == pytest.approx(11.5, abs=0.05)
 
 
 def test_normalised_distances_5_32_5_33():
-    from uqdrive.metrics import normalised_w2_normal, normalised_w2_uniform
+    from uqdrive.numerics.metrics import normalised_w2_normal, normalised_w2_uniform
 
     assert normalised_w2_normal(1.0, 0.2, 1.0, 0.2) == pytest.approx(0.0)
     assert normalised_w2_normal(1.2, 0.2, 1.0, 0.2) == pytest.approx(1.0)

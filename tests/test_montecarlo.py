@@ -5,11 +5,11 @@ import copy
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import TimeGrid, kle_from_config, simulate_ensemble, spin_mask
+from uqdrive.vehicle.montecarlo import TimeGrid, kle_from_config, simulate_ensemble, spin_mask
 from uqdrive.io import validate_ensemble
-from uqdrive.reference import solve_realisations
-from uqdrive.statistics import ensemble_statistics
-from uqdrive.vehicle import STATES
+from uqdrive.vehicle.reference import solve_realisations
+from uqdrive.vehicle.statistics import ensemble_statistics
+from uqdrive.vehicle.single_track import STATES
 
 
 def test_ensemble_follows_schema_and_carries_provenance(config):

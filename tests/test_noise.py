@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import simulate_ensemble
-from uqdrive.noise import add_noise, added_noise_variance, noise_scale, noisy_ensemble
-from uqdrive.vehicle import STATES
+from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.vehicle.noise import add_noise, added_noise_variance, noise_scale, noisy_ensemble
+from uqdrive.vehicle.single_track import STATES
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.pce import PolynomialChaos
+from uqdrive.numerics.pce import PolynomialChaos
 
 
 def test_projection_recovers_a_polynomial():

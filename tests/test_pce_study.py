@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import monte_carlo_moments
-from uqdrive.pce_study import convergence_study, pce_dataset
-from uqdrive.pce_vehicle import LSTChaosModel
+from uqdrive.vehicle.montecarlo import monte_carlo_moments
+from uqdrive.studies.pce import convergence_study, pce_dataset
+from uqdrive.vehicle.chaos import LSTChaosModel
 
 
 def test_pce_dataset_contents(config):
@@ -15,8 +15,8 @@ def test_pce_dataset_contents(config):
 
 def test_monte_carlo_moments_merge_chunks_exactly(config):
     """Chunked (Chan) merging equals one pass over the same realisations."""
-    from uqdrive.montecarlo import simulate_ensemble
-    from uqdrive.vehicle import STATES
+    from uqdrive.vehicle.montecarlo import simulate_ensemble
+    from uqdrive.vehicle.single_track import STATES
 
     mean, std, n = monte_carlo_moments(config, "lst", 30, 10)
     blocks = [simulate_ensemble(config, "lst", samples=10, chunk=c) for c in range(3)]

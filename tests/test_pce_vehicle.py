@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import lst_response, simulate_ensemble
-from uqdrive.pce_vehicle import LSTChaosModel
-from uqdrive.statistics import ensemble_statistics
+from uqdrive.vehicle.montecarlo import lst_response, simulate_ensemble
+from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.vehicle.statistics import ensemble_statistics
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +132,7 @@ def test_adjoint_gradient_equals_forward_sensitivities(config):
     """moments_vjp (one backward recursion + one adjoint Frechet derivative) gives the same
     gradient of a random linear functional of the mean and variance as the forward
     sensitivities, to 1e-10 relative (round-off of two exact derivatives)."""
-    from uqdrive.pce_vehicle import LSTChaosModel
+    from uqdrive.vehicle.chaos import LSTChaosModel
 
     model = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
     theta = np.array([0.9, 0.25, 1.5, 0.15, -300.0, 500.0])
@@ -163,9 +163,9 @@ def test_input_only_wind_germ_equals_the_parametric_treatment(ident_model):
     others, to round-off (1e-10 relative): the quadrature is exact for that germ's degree 5."""
     from dataclasses import replace
 
-    from uqdrive.galerkin import GalerkinProjector
-    from uqdrive.integrate import foh_discretise_single, lti_response_single
-    from uqdrive.vehicle import lst_matrices
+    from uqdrive.numerics.galerkin import GalerkinProjector
+    from uqdrive.numerics.integrate import foh_discretise_single, lti_response_single
+    from uqdrive.vehicle.single_track import lst_matrices
 
     theta = np.array([0.9, 0.25, 1.5, 0.18, -300.0, 450.0])
     r = ident_model.moments(theta)

@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from uqdrive import plots
-from uqdrive.montecarlo import kle_from_config, simulate_ensemble
-from uqdrive.statistics import ensemble_statistics, kl_divergence_series, noise_statistics
-from uqdrive.wind import kle_dataset
+from uqdrive.plots import data as plots
+from uqdrive.plots import pce as pce_plots
+from uqdrive.vehicle.montecarlo import kle_from_config, simulate_ensemble
+from uqdrive.vehicle.statistics import ensemble_statistics, kl_divergence_series, noise_statistics
+from uqdrive.studies.kle import kle_dataset
 
 
 @pytest.fixture(scope="module")
@@ -39,23 +40,23 @@ def test_all_figures(config, stats, tmp_path):
 
 
 def test_pce_figures(config, stats, tmp_path):
-    from uqdrive.montecarlo import monte_carlo_moments
-    from uqdrive.pce_study import convergence_study, pce_dataset
-    from uqdrive.pce_vehicle import LSTChaosModel
+    from uqdrive.vehicle.montecarlo import monte_carlo_moments
+    from uqdrive.studies.pce import convergence_study, pce_dataset
+    from uqdrive.vehicle.chaos import LSTChaosModel
 
     model = LSTChaosModel(config, order=1, quadrature_points=2)
     pce = pce_dataset(config, model, model.moments(model.theta_from_config(config, model.uncertain)))
-    _saved(plots.pce_vs_monte_carlo(pce, stats["lst"]), tmp_path, "5_3")
-    _saved(plots.sobol_indices(pce), tmp_path, "5_4")
+    _saved(pce_plots.pce_vs_monte_carlo(pce, stats["lst"]), tmp_path, "5_3")
+    _saved(pce_plots.sobol_indices(pce), tmp_path, "5_4")
     mean, std, n = monte_carlo_moments(config, "lst", 20, 10)
-    _saved(plots.pce_convergence(convergence_study(config, [1], [2, 3], mean, std, n)), tmp_path, "conv")
+    _saved(pce_plots.pce_convergence(convergence_study(config, [1], [2, 3], mean, std, n)), tmp_path, "conv")
 
 
 def test_wheelslip_figures(tmp_path):
-    from uqdrive import plots_wheelslip as pw
+    from uqdrive.plots import wheelslip as pw
     from uqdrive.config import load_config
-    from uqdrive.wheelslip import QuarterCar
-    from uqdrive.wheelslip_products import calibration_dataset, closed_loop_dataset, gp_dataset
+    from uqdrive.wheelslip.quarter_car import QuarterCar
+    from uqdrive.studies.wheelslip import calibration_dataset, closed_loop_dataset, gp_dataset
 
     from conftest import REPO
 
@@ -76,7 +77,7 @@ def test_wheelslip_figures(tmp_path):
 def test_identification_figures(config, tmp_path):
     import xarray as xr
 
-    from uqdrive import plots_identification as pi
+    from uqdrive.plots import identification as pi
 
     rng = np.random.default_rng(0)
     theta = np.array([1.0, 0.2, 1.55, 0.2, -400, 400]) * (1 + 0.05 * rng.normal(size=(2, 2, 6)))
@@ -92,9 +93,9 @@ def test_identification_figures(config, tmp_path):
 
 
 def test_control_figures(tmp_path):
-    from uqdrive import plots_control as pc
+    from uqdrive.plots import control as pc
     from uqdrive.config import load_config
-    from uqdrive.control_study import closed_loop_monte_carlo, gains_dataset, gamma_sweep
+    from uqdrive.studies.control import closed_loop_monte_carlo, gains_dataset, gamma_sweep
 
     from conftest import REPO
 
@@ -106,10 +107,10 @@ def test_control_figures(tmp_path):
 
 
 def test_bayes_figures(tmp_path):
-    from uqdrive import plots_bayes as pbay
-    from uqdrive.bayes_study import posterior_case, prepare_data
+    from uqdrive.plots import bayes as pbay
+    from uqdrive.studies.bayes import posterior_case, prepare_data
     from uqdrive.config import load_config
-    from uqdrive.montecarlo import simulate_ensemble
+    from uqdrive.vehicle.montecarlo import simulate_ensemble
 
     from conftest import REPO
 

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.polynomials import family, multi_indices, n_terms, tensor_quadrature
+from uqdrive.numerics.polynomials import family, multi_indices, n_terms, tensor_quadrature
 
 
 @pytest.mark.parametrize("name", ["normal", "uniform"])

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.recursion import decoupled_blocks, identical_block_groups, linear_recursion, reverse_linear_recursion
+from uqdrive.numerics.recursion import decoupled_blocks, identical_block_groups, linear_recursion, reverse_linear_recursion
 
 
 def _loop(Phi, drive, x0):
@@ -48,10 +48,10 @@ def test_block_groups_and_identical_blocks(merge, monkeypatch):
     """Three decoupled blocks, two of them identical, in a permuted order: two groups, the
     recursion by groups (or, for blocks this small, as one merged dense system) equals the
     dense loop."""
-    import uqdrive.recursion
+    import uqdrive.numerics.recursion
 
     if not merge:
-        monkeypatch.setattr(uqdrive.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
+        monkeypatch.setattr(uqdrive.numerics.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
     rng = np.random.default_rng(1)
     B1, B2 = _stable(rng, 3), _stable(rng, 2)
     Phi = np.zeros((7, 7))
@@ -86,11 +86,11 @@ def test_zero_steps_returns_the_initial_state():
 def test_in_place_recursion_on_a_strided_view(merge, monkeypatch):
     """The drive may sit in a column slice of a larger array (a block of a block-ordered state):
     the states are written there and nowhere else, by blocks or merged."""
-    import uqdrive.recursion
-    from uqdrive.recursion import linear_recursion_in_place
+    import uqdrive.numerics.recursion
+    from uqdrive.numerics.recursion import linear_recursion_in_place
 
     if not merge:
-        monkeypatch.setattr(uqdrive.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
+        monkeypatch.setattr(uqdrive.numerics.recursion, "_GROUP_OVERHEAD_FLOPS", 0.0)
 
     rng = np.random.default_rng(3)
     Phi = np.zeros((9, 9))

@@ -1,7 +1,7 @@
 import pytest
 
-from uqdrive.montecarlo import kle_from_config, simulate_ensemble
-from uqdrive.reference import solve_realisations
+from uqdrive.vehicle.montecarlo import kle_from_config, simulate_ensemble
+from uqdrive.vehicle.reference import solve_realisations
 
 
 def test_reference_lst_is_odd_in_the_steering_without_wind(cfg):

@@ -1,7 +1,7 @@
 import csv
 
-from uqdrive.montecarlo import kle_from_config
-from uqdrive.scorecard import COLUMNS, compare, foundation_rows, read_scorecard, write_scorecard
+from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.studies.scorecard import COLUMNS, compare, foundation_rows, read_scorecard, write_scorecard
 
 
 def test_foundation_rows_pass(config):

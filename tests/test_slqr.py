@@ -3,10 +3,10 @@ import copy
 import numpy as np
 import pytest
 
-from uqdrive.control import lqr_gain
-from uqdrive.slqr import ClosedLoopChaos, LaneKeepingCase, mean_variance_weights
-from uqdrive.uncertainty import ParameterDistribution
-from uqdrive.vehicle import VehicleParameters, lst_matrices
+from uqdrive.control.lqr import lqr_gain
+from uqdrive.control.slqr import ClosedLoopChaos, LaneKeepingCase, mean_variance_weights
+from uqdrive.vehicle.uncertainty import ParameterDistribution
+from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices
 
 Q, R = np.diag([1.0, 1.0, 1.0, 10.0]), 100.0
 
@@ -37,7 +37,7 @@ def test_pce_closed_loop_matches_monte_carlo(config, k_lqr):
     """Closed-loop PCE moments (N_PCE = 2) against 2000 Monte Carlo runs of the LST: mean within
     4 standard errors and std within 5 % of its maximum, at every time (initial conditions
     uniform: the PCE is exact in them; the parameters enter through order-2 truncation)."""
-    from uqdrive.control_study import closed_loop_monte_carlo
+    from uqdrive.studies.control import closed_loop_monte_carlo
 
     cfg = copy.deepcopy(config)
     cfg["control"]["simulation_time"] = 3.0

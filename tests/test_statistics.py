@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import simulate_ensemble
-from uqdrive.statistics import ensemble_statistics, kl_divergence_series, noise_statistics, used_samples
+from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.vehicle.statistics import ensemble_statistics, kl_divergence_series, noise_statistics, used_samples
 
 
 @pytest.fixture(scope="module")

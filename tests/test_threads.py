@@ -1,7 +1,7 @@
 import numpy as np
 from threadpoolctl import threadpool_info
 
-from uqdrive.threads import single_blas_thread, with_single_blas_thread
+from uqdrive.numerics.threads import single_blas_thread, with_single_blas_thread
 
 
 def _blas_threads():

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.uncertainty import ParameterDistribution, kle_nystrom, squared_exponential_covariance, uniform_from_germ
+from uqdrive.vehicle.uncertainty import ParameterDistribution, kle_nystrom, squared_exponential_covariance, uniform_from_germ
 
 
 @pytest.fixture(scope="module")

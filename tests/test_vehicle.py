@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 
 from conftest import REPO
 from uqdrive.config import load_config
-from uqdrive.vehicle import VehicleParameters, lst_matrices, magic_formula, make_nlst_rhs, nlst_rhs, steering_input
+from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, magic_formula, make_nlst_rhs, nlst_rhs, steering_input
 
 
 @pytest.fixture

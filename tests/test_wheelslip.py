@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from uqdrive.wheelslip import (
+from uqdrive.wheelslip.quarter_car import (
     QuarterCar,
     closed_loop_poles,
     damping,

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from uqdrive.config import load_config
-from uqdrive.scorecard import wheelslip_rows
-from uqdrive.wheelslip_products import calibration_dataset, closed_loop_dataset, gp_dataset, gp_from_dataset
+from uqdrive.studies.scorecard import wheelslip_rows
+from uqdrive.studies.wheelslip import calibration_dataset, closed_loop_dataset, gp_dataset, gp_from_dataset
 
 from conftest import REPO
 

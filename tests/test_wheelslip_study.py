@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from uqdrive.wheelslip import QuarterCar
-from uqdrive.wheelslip_study import binomial_interval, calibration, fit_friction_gp, posterior_curves, prior_calibration, slope_interval_mcmc, training_data
+from uqdrive.wheelslip.quarter_car import QuarterCar
+from uqdrive.wheelslip.calibration import binomial_interval, calibration, fit_friction_gp, posterior_curves, prior_calibration, slope_interval_mcmc, training_data
 
 CAR = QuarterCar()
 

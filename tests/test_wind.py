@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from uqdrive.montecarlo import kle_from_config
-from uqdrive.uncertainty import squared_exponential_covariance
-from uqdrive.wind import direct_samples, kle_dataset
+from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.vehicle.uncertainty import squared_exponential_covariance
+from uqdrive.studies.kle import direct_samples, kle_dataset
 
 
 def test_direct_samples_have_the_covariance():

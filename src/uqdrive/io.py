@@ -1,20 +1,23 @@
-"""Files at the edge of uqdrive: atomic writes (no half-written output survives a failure) and
-validation of ensembles in the shared data schema (dims, units, NaN) with messages that name the fix.
+"""Files at the edge of uqdrive: atomic writes (no half-written output survives a failure), CSV
+tables from lists of rows, and validation of ensembles in the shared data schema (dims, units,
+NaN) with messages that name the fix.
 """
 
 from __future__ import annotations
 
+import csv
 import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
-from .vehicle import STATE_UNITS
+from .vehicle.single_track import STATE_UNITS
 
-__all__ = ["DataError", "OutputError", "check_writable", "atomic_path", "write_dataset", "read_ensemble", "validate_ensemble"]
+__all__ = ["DataError", "OutputError", "check_writable", "atomic_path", "write_csv_rows", "write_dataset", "read_ensemble", "validate_ensemble"]
 
 
 class DataError(ValueError):
@@ -53,6 +56,39 @@ def atomic_path(path: str | Path):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def write_csv_rows(rows: Sequence[Mapping[str, object]], path: str | Path) -> None:
+    """Write a table given as rows (dicts) to a CSV file atomically.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        The table's rows, at least one. The keys of the first row are the columns, in their
+        order; a later row lacking one of them gets an empty cell there.
+    path : str or Path
+        CSV file to write; replaced only once the whole table is written.
+
+    Raises
+    ------
+    ValueError
+        If ``rows`` is empty (there would be no header) or a row has a key the first lacks.
+    OutputError
+        If ``path`` cannot be written.
+
+    Notes
+    -----
+    The dialect is :mod:`csv`'s default ("excel": comma separated, ``\\r\\n`` line ends,
+    minimal quoting); ``None`` is written empty and any other value as ``str(value)``.
+    """
+    rows = list(rows)
+    if not rows:
+        raise ValueError(f"no rows to write to '{path}': a CSV table needs at least one row for its header")
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
 
 
 def write_dataset(ds: xr.Dataset, path: str | Path) -> None:

@@ -20,6 +20,9 @@ STREAMS = {
     "identification": 8,
     "control": 9,
     "bayes": 10,
+    "hidden_parameters": 11, "hidden_wind": 12, "hidden_noise": 13,
+    "discrepancy_model": 20,
+    "discrepancy_bootstrap": 21,
 }
 
 

@@ -1,7 +1,7 @@
 # emcee cross-check of the identified distributions (LST-LST, NLST-LST, noisy LST).
 
 BAYES_CASES = ["lst", "nlst", "lst_noise"]
-BAYES_SRC = ("bayes", "bayes_study", "identify", "pce_vehicle", "galerkin", "pce", "polynomials", "integrate", "noise", "rng")
+BAYES_SRC = ("inference.bayes", "studies.bayes", "inference.identify", "vehicle.chaos", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "vehicle.noise", "rng")
 
 
 rule posterior:
@@ -24,7 +24,7 @@ rule posterior:
 
 rule posterior_coverage:
     input:
-        src(*BAYES_SRC, "montecarlo"),
+        src(*BAYES_SRC, "vehicle.montecarlo"),
     output:
         f"{OUT}/data/posterior_coverage.nc",
     params:
@@ -39,7 +39,7 @@ rule posterior_coverage:
 
 rule fig_bayes:
     input:
-        src("plots_bayes", "bayes_study", "scorecard"),
+        src("plots.bayes", "studies.bayes", "studies.scorecard"),
         posteriors=expand(f"{OUT}/data/posterior_{{case}}.nc", case=BAYES_CASES),
         coverage=f"{OUT}/data/posterior_coverage.nc",
     output:

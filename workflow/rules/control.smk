@@ -1,7 +1,7 @@
 # LQR and stochastic LQR on the PCE model: the lane-keeping test case (thesis sec. 5.4, 6.3).
 
 CONTROL_KEYS = SIM_KEYS + ("control",)
-CONTROL_SRC = ("control", "control_study", "slqr", "galerkin", "pce", "polynomials", "integrate", "vehicle", "uncertainty", "montecarlo", "rng")
+CONTROL_SRC = ("control.lqr", "studies.control", "control.slqr", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "vehicle.single_track", "vehicle.uncertainty", "vehicle.montecarlo", "rng")
 
 
 rule control_gains:
@@ -55,7 +55,7 @@ rule control_gamma_sweep:
 
 rule fig_control:
     input:
-        src("plots_control", "scorecard"),
+        src("plots.control", "studies.control", "studies.scorecard"),
         gains=f"{OUT}/data/control_gains.nc",
         lst=f"{OUT}/data/control_mc_lst.nc",
         nlst=f"{OUT}/data/control_mc_nlst.nc",

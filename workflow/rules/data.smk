@@ -3,7 +3,7 @@
 
 rule kle:
     input:
-        src("uncertainty", "wind", "montecarlo"),
+        src("vehicle.uncertainty", "studies.kle", "vehicle.montecarlo"),
     output:
         f"{OUT}/data/kle.nc",
     params:
@@ -18,7 +18,7 @@ rule kle:
 
 rule ensemble:
     input:
-        src("vehicle", "uncertainty", "integrate", "montecarlo", "io"),
+        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "io"),
     output:
         f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
     params:
@@ -36,7 +36,7 @@ rule ensemble:
 
 rule statistics:
     input:
-        src("statistics", "io"),
+        src("vehicle.statistics", "io"),
         ensemble=f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
     output:
         f"{OUT}/data/stats_{{model}}_{{steer}}.nc",
@@ -52,7 +52,7 @@ rule statistics:
 
 rule noise_statistics:
     input:
-        src("statistics", "noise", "io"),
+        src("vehicle.statistics", "vehicle.noise", "io"),
         ensemble=f"{OUT}/data/ensemble_{{model}}_normal.nc",
     output:
         f"{OUT}/data/noise_stats_{{model}}.nc",
@@ -70,7 +70,7 @@ rule noise_statistics:
 
 rule kl_divergence:
     input:
-        src("statistics", "metrics"),
+        src("vehicle.statistics", "numerics.metrics"),
         lst=f"{OUT}/data/stats_lst_normal.nc",
         nlst=f"{OUT}/data/stats_nlst_normal.nc",
     output:

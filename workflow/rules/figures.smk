@@ -2,7 +2,7 @@
 
 rule fig_tyre_curves:
     input:
-        src("vehicle", "plots"),
+        src("vehicle.single_track", "plots.data"),
     output:
         report(f"{FIG}/fig_2_3.png", caption="../report/fig_2_3.rst", category="Vehicle model"),
     params:
@@ -17,7 +17,7 @@ rule fig_tyre_curves:
 
 rule fig_kle:
     input:
-        src("plots"),
+        src("plots.data"),
         kle=f"{OUT}/data/kle.nc",
     output:
         realisations=report(f"{FIG}/fig_5_2.png", caption="../report/fig_5_2.rst", category="Wind KLE"),
@@ -32,7 +32,7 @@ rule fig_kle:
 
 rule fig_data_band:
     input:
-        src("plots"),
+        src("plots.data"),
         stats=lambda w: f"{OUT}/data/stats_{'lst' if w.number == '1' else 'nlst'}_normal.nc",
     output:
         report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_1_2.rst", category="Measured data"),
@@ -50,7 +50,7 @@ rule fig_data_band:
 
 rule fig_noise_levels:
     input:
-        src("plots"),
+        src("plots.data"),
         stats=lambda w: f"{OUT}/data/noise_stats_{'lst' if w.number == '3' else 'nlst'}.nc",
     output:
         report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_3_4.rst", category="Measured data"),
@@ -66,7 +66,7 @@ rule fig_noise_levels:
 
 rule fig_lst_vs_nlst:
     input:
-        src("plots"),
+        src("plots.data"),
         lst=f"{OUT}/data/stats_lst_normal.nc",
         nlst=f"{OUT}/data/stats_nlst_normal.nc",
         kl=f"{OUT}/data/kl_nlst_lst.nc",
@@ -85,7 +85,7 @@ rule fig_lst_vs_nlst:
 
 rule fig_appendix_a:
     input:
-        src("plots"),
+        src("plots.data"),
         stats=lambda w: f"{OUT}/data/noise_stats_{appendix_a_model(w.n)}.nc",
     output:
         report(f"{FIG}/fig_A{{n}}.png", caption="../report/fig_A.rst", category="Appendix A: measured data"),

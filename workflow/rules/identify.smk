@@ -15,7 +15,7 @@ ID_STATS = {
 
 rule stats_no_wind_moment:
     input:
-        src("vehicle", "uncertainty", "integrate", "montecarlo", "statistics", "identification_study"),
+        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "vehicle.statistics", "studies.identification"),
     output:
         f"{OUT}/data/stats_{{model}}_normal_no_wind_moment.nc",
     wildcard_constraints:
@@ -32,7 +32,7 @@ rule stats_no_wind_moment:
 
 rule identification:
     input:
-        src("identify", "identification_study", "pce_vehicle", "galerkin", "pce", "polynomials", "integrate", "metrics", "rng"),
+        src("inference.identify", "studies.identification", "vehicle.chaos", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "numerics.metrics", "rng"),
         **ID_STATS,
     output:
         f"{OUT}/data/identification_{{experiment}}.nc",
@@ -51,7 +51,7 @@ rule identification:
 
 rule identifiability:
     input:
-        src("identifiability", "vehicle"),
+        src("inference.identifiability", "vehicle.single_track"),
     output:
         f"{OUT}/data/identifiability.csv",
     params:
@@ -70,7 +70,7 @@ B_FIGS = [f"fig_B{i}" for i in range(1, 14)]
 
 rule fig_identification:
     input:
-        src("plots_identification", "identification_tables", "scorecard"),
+        src("plots.identification", "studies.tables", "studies.scorecard"),
         **{e: f"{OUT}/data/identification_{e}.nc" for e in ID_EXPERIMENTS},
         identifiability=f"{OUT}/data/identifiability.csv",
     output:

@@ -5,7 +5,7 @@ PCE_KEYS = SIM_KEYS + ("pce",)
 
 rule pce_moments:
     input:
-        src("polynomials", "pce", "galerkin", "integrate", "pce_vehicle", "pce_study", "vehicle", "uncertainty"),
+        src("numerics.polynomials", "numerics.pce", "numerics.galerkin", "numerics.integrate", "vehicle.chaos", "studies.pce", "vehicle.single_track", "vehicle.uncertainty"),
     output:
         f"{OUT}/data/pce_lst.nc",
     params:
@@ -20,7 +20,7 @@ rule pce_moments:
 
 rule mc_reference:
     input:
-        src("vehicle", "uncertainty", "integrate", "montecarlo"),
+        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo"),
     output:
         f"{OUT}/data/mc_reference_lst.nc",
     params:
@@ -35,7 +35,7 @@ rule mc_reference:
 
 rule pce_convergence:
     input:
-        src("polynomials", "pce", "galerkin", "integrate", "pce_vehicle", "pce_study"),
+        src("numerics.polynomials", "numerics.pce", "numerics.galerkin", "numerics.integrate", "vehicle.chaos", "studies.pce"),
         reference=f"{OUT}/data/mc_reference_lst.nc",
     output:
         f"{OUT}/data/pce_convergence.nc",
@@ -51,7 +51,7 @@ rule pce_convergence:
 
 rule fig_pce:
     input:
-        src("plots"),
+        src("plots.pce"),
         pce=f"{OUT}/data/pce_lst.nc",
         mc=f"{OUT}/data/stats_lst_normal.nc",
         convergence=f"{OUT}/data/pce_convergence.nc",

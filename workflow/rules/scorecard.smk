@@ -3,7 +3,7 @@
 
 rule scorecard_foundation:
     input:
-        src("scorecard", "control", "vehicle", "uncertainty", "montecarlo"),
+        src("studies.scorecard", "control.lqr", "vehicle.single_track", "vehicle.uncertainty", "vehicle.montecarlo"),
     output:
         f"{OUT}/scorecard/foundation.csv",
     params:
@@ -18,7 +18,7 @@ rule scorecard_foundation:
 
 rule scorecard:
     input:
-        src("scorecard"),
+        src("studies.scorecard"),
         parts=expand(f"{OUT}/scorecard/{{part}}.csv", part=SCORECARD_PARTS),
     output:
         report(f"{OUT}/scorecard.csv", caption="../report/scorecard.rst", category="Scorecard"),

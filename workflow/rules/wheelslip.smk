@@ -2,7 +2,7 @@
 
 WS_SIZES = config["wheelslip"]["gp"]["training_sizes"]
 WS_KEYS = ("seed", "wheelslip")
-WS_SRC = ("gp", "wheelslip", "wheelslip_study", "wheelslip_products", "rng")
+WS_SRC = ("wheelslip.gp", "wheelslip.quarter_car", "wheelslip.calibration", "studies.wheelslip", "rng")
 
 
 rule wheelslip_gp:
@@ -59,7 +59,7 @@ rule wheelslip_closed_loop:
 
 rule fig_wheelslip:
     input:
-        src("plots_wheelslip", "wheelslip"),
+        src("plots.wheelslip", "wheelslip.quarter_car"),
         gp=expand(f"{OUT}/data/wheelslip_gp_{{n}}.nc", n=WS_SIZES),
         calibration=expand(f"{OUT}/data/wheelslip_calibration_{{n}}.nc", n=WS_SIZES),
         closed_loop=f"{OUT}/data/wheelslip_closed_loop.nc",
@@ -83,7 +83,7 @@ rule fig_wheelslip:
 
 rule scorecard_wheelslip:
     input:
-        src("scorecard", "wheelslip"),
+        src("studies.scorecard", "wheelslip.quarter_car"),
         calibration=expand(f"{OUT}/data/wheelslip_calibration_{{n}}.nc", n=WS_SIZES),
     output:
         f"{OUT}/scorecard/wheelslip.csv",

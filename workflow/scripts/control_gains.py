@@ -6,7 +6,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import numpy as np
 import xarray as xr
 
-from uqdrive.control_study import gains_dataset
+from uqdrive.studies.control import gains_dataset
 from uqdrive.io import write_dataset
 
 ident = xr.load_dataset(snakemake.input.identified)  # noqa: F821

@@ -3,7 +3,7 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-from uqdrive.control_study import gamma_sweep
+from uqdrive.studies.control import gamma_sweep
 from uqdrive.io import write_dataset
 
 write_dataset(gamma_sweep(snakemake.params.config), snakemake.output[0])  # noqa: F821

@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.control_study import closed_loop_monte_carlo
+from uqdrive.studies.control import closed_loop_monte_carlo
 from uqdrive.io import write_dataset
 
 config = snakemake.params.config  # noqa: F821

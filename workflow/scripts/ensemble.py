@@ -4,7 +4,7 @@ import sys
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.io import write_dataset
-from uqdrive.montecarlo import simulate_ensemble
+from uqdrive.vehicle.montecarlo import simulate_ensemble
 
 w = snakemake.wildcards  # noqa: F821
 ds = simulate_ensemble(snakemake.params.config, w.model, w.steer)  # noqa: F821

@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive import plots
+from uqdrive.plots import data as plots
 
 p = snakemake.params  # noqa: F821
 stats = xr.load_dataset(snakemake.input.stats)  # noqa: F821

@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive import plots
+from uqdrive.plots import data as plots
 
 stats = xr.load_dataset(snakemake.input.stats)  # noqa: F821
 title = f"{stats.attrs['model'].upper()} data, {stats.attrs['n_used']} of {stats.attrs['n_samples']} samples ({stats.attrs['spin_policy']} spun)"

@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive import plots
+from uqdrive.plots import data as plots
 
 i = snakemake.input  # noqa: F821
 lst, nlst, kl = xr.load_dataset(i.lst), xr.load_dataset(i.nlst), xr.load_dataset(i.kl)

@@ -5,9 +5,9 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive import plots_wheelslip as pw
-from uqdrive.plots import save_figure
-from uqdrive.wheelslip import QuarterCar
+from uqdrive.plots import wheelslip as pw
+from uqdrive.plots.figure import save_figure
+from uqdrive.wheelslip.quarter_car import QuarterCar
 
 i, o, config = snakemake.input, snakemake.output, snakemake.params.config  # noqa: F821
 car = QuarterCar.from_config(config)

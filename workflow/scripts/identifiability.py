@@ -4,7 +4,7 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-from uqdrive.identifiability import observability_analysis
+from uqdrive.inference.identifiability import observability_analysis
 from uqdrive.io import atomic_path
 
 r = observability_analysis(snakemake.params.config)  # noqa: F821

@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.identification_study import experiment_config, guess_stream_index, experiment_plan, measured_data_sets, run_experiment
+from uqdrive.studies.identification import experiment_config, guess_stream_index, experiment_plan, measured_data_sets, run_experiment
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
 

@@ -6,7 +6,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import xarray as xr
 
 from uqdrive.io import write_dataset
-from uqdrive.statistics import kl_divergence_series
+from uqdrive.vehicle.statistics import kl_divergence_series
 
 lst = xr.load_dataset(snakemake.input.lst)  # noqa: F821
 nlst = xr.load_dataset(snakemake.input.nlst)  # noqa: F821

@@ -4,9 +4,9 @@ import sys
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.io import write_dataset
-from uqdrive.montecarlo import TimeGrid, kle_from_config
+from uqdrive.vehicle.montecarlo import TimeGrid, kle_from_config
 from uqdrive.rng import rng_stream
-from uqdrive.wind import kle_dataset
+from uqdrive.studies.kle import kle_dataset
 
 config = snakemake.params.config  # noqa: F821
 kle = kle_from_config(config)

@@ -6,8 +6,8 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import xarray as xr
 
 from uqdrive.io import write_dataset
-from uqdrive.montecarlo import TimeGrid, monte_carlo_moments
-from uqdrive.vehicle import STATES
+from uqdrive.vehicle.montecarlo import TimeGrid, monte_carlo_moments
+from uqdrive.vehicle.single_track import STATES
 
 config = snakemake.params.config  # noqa: F821
 conv = config["pce"]["convergence"]

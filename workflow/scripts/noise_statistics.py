@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.io import read_ensemble, write_dataset
 from uqdrive.rng import rng_stream
-from uqdrive.statistics import noise_statistics
+from uqdrive.vehicle.statistics import noise_statistics
 
 p = snakemake.params  # noqa: F821
 ds = read_ensemble(snakemake.input.ensemble)  # noqa: F821

@@ -6,7 +6,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import xarray as xr
 
 from uqdrive.io import write_dataset
-from uqdrive.pce_study import convergence_study
+from uqdrive.studies.pce import convergence_study
 
 config = snakemake.params.config  # noqa: F821
 conv = config["pce"]["convergence"]

@@ -4,8 +4,8 @@ import sys
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.io import write_dataset
-from uqdrive.pce_study import pce_dataset
-from uqdrive.pce_vehicle import LSTChaosModel
+from uqdrive.studies.pce import pce_dataset
+from uqdrive.vehicle.chaos import LSTChaosModel
 
 config = snakemake.params.config  # noqa: F821
 model = LSTChaosModel(config, order=config["pce"]["order"], quadrature_points=config["pce"]["quadrature_points"])

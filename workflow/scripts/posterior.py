@@ -6,7 +6,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.bayes_study import CASES, posterior_case, prepare_data
+from uqdrive.studies.bayes import CASES, posterior_case, prepare_data
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
 

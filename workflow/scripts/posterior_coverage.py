@@ -5,7 +5,7 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.bayes_study import coverage_study
+from uqdrive.studies.bayes import coverage_study
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
 

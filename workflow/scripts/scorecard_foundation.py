@@ -3,8 +3,8 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-from uqdrive.montecarlo import kle_from_config
-from uqdrive.scorecard import foundation_rows, write_scorecard
+from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.studies.scorecard import foundation_rows, write_scorecard
 
 config = snakemake.params.config  # noqa: F821
 write_scorecard(foundation_rows(config, kle_from_config(config)), snakemake.output[0])  # noqa: F821

@@ -3,7 +3,7 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-from uqdrive.scorecard import read_scorecard, write_scorecard
+from uqdrive.studies.scorecard import read_scorecard, write_scorecard
 
 rows = [row for part in snakemake.input.parts for row in read_scorecard(part)]  # noqa: F821
 write_scorecard(rows, snakemake.output[0])  # noqa: F821

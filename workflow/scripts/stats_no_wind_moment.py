@@ -3,10 +3,10 @@ import sys
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
-from uqdrive.identification_study import experiment_config
+from uqdrive.studies.identification import experiment_config
 from uqdrive.io import write_dataset
-from uqdrive.montecarlo import simulate_ensemble
-from uqdrive.statistics import ensemble_statistics
+from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.vehicle.statistics import ensemble_statistics
 
 config = experiment_config(snakemake.params.config, "no_wind_moment")  # noqa: F821
 ds = simulate_ensemble(config, snakemake.wildcards.model, "normal")  # noqa: F821

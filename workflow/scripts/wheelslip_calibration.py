@@ -8,7 +8,7 @@ import xarray as xr
 
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
-from uqdrive.wheelslip_products import calibration_dataset
+from uqdrive.studies.wheelslip import calibration_dataset
 
 config, n = snakemake.params.config, int(snakemake.wildcards.n)  # noqa: F821
 gp = xr.load_dataset(snakemake.input.gp)  # noqa: F821

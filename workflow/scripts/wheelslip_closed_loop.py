@@ -7,7 +7,7 @@ import xarray as xr
 
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
-from uqdrive.wheelslip_products import closed_loop_dataset
+from uqdrive.studies.wheelslip import closed_loop_dataset
 
 config = snakemake.params.config  # noqa: F821
 gp = xr.load_dataset(snakemake.input.gp)  # noqa: F821

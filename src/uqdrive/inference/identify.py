@@ -1,0 +1,374 @@
+"""Identification of the parameter distributions from measured mean and std trajectories
+(thesis sec. 5.3): weighted cost (5.25) with the STD/INP/DST weights (5.26), (5.28) in a
+registry, quasi-Newton fits with analytic gradients, physical guards, multi-start, error bars.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+from scipy.optimize import OptimizeResult, least_squares, minimize
+
+from ..numerics.threads import single_blas_thread
+
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
+
+
+class MomentModel(Protocol):
+    """What the estimator needs of a model: parameter names and moments with gradients.
+
+    A model may also offer ``moments_vjp(theta) -> (moments, vjp)`` with
+    ``vjp(dJ_dmean, dJ_dvariance) -> dJ/dtheta``; the estimator then uses it for the gradient.
+    """
+
+    theta_names: tuple
+
+    def moments(self, theta, gradient: bool = False): ...
+
+
+@dataclass(frozen=True)
+class WeightContext:
+    """Data the weight schemes may use: steering on the grid (rad, (T,)) and D_KL (4, T)."""
+
+    delta: np.ndarray
+    kl_divergence: np.ndarray | None = None
+
+
+def _std(ctx: WeightContext, shape):
+    """STD weights [1 1 1 1] at every sample."""
+    return np.ones(shape)
+
+
+def _inp(ctx: WeightContext, shape):
+    """INP weights (5.26): exp(-|u(t_k)|) for every state."""
+    return np.broadcast_to(np.exp(-np.abs(ctx.delta)), shape).copy()
+
+
+def _dst(ctx: WeightContext, shape):
+    """DST weights (5.28): exp(-|D_KL|) of the LST and NLST outputs (corrected (5.27));
+    where D_KL is undefined (t = 0, zero variance) the weight is one."""
+    if ctx.kl_divergence is None:
+        raise ValueError("the DST cost needs the KL divergence between the LST and NLST outputs")
+    return np.where(np.isfinite(ctx.kl_divergence), np.exp(-np.abs(ctx.kl_divergence)), 1.0)
+
+
+#: Registry of weight schemes of the cost (5.25); config strings select them.
+COSTS: dict[str, Callable] = {"std": _std, "inp": _inp, "dst": _dst}
+
+
+def cost_weights(name: str, ctx: WeightContext, shape) -> np.ndarray:
+    try:
+        scheme = COSTS[name.lower()]
+    except KeyError:
+        raise ValueError(f"unknown cost '{name}'; choose one of {', '.join(COSTS)}") from None
+    return scheme(ctx, shape)
+
+
+def _no_scale(mean, std):
+    """Residuals in SI units, as the thesis prints (5.25): y (metres) dominates the cost."""
+    return np.ones(mean.shape[0])
+
+
+def _rms_mean(mean, std):
+    """Each state's residuals divided by the RMS of its measured mean trajectory."""
+    return np.sqrt(np.mean(mean**2, axis=1))
+
+
+def _rms_std(mean, std):
+    """Each state's residuals divided by the RMS of its measured standard deviation."""
+    return np.sqrt(np.mean(std**2, axis=1))
+
+
+#: Registry of per-state scales of the residuals of (5.25); config strings select them. Any
+#: scale other than "none" makes the cost independent of the states' units.
+STATE_SCALES: dict[str, Callable] = {"none": _no_scale, "rms_mean": _rms_mean, "rms_std": _rms_std}
+
+
+def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
+    """Per-state factors 1 / scale_i^2 (shape (n_states,)) that multiply the weights of (5.25).
+
+    Parameters
+    ----------
+    name : str
+        Key of :data:`STATE_SCALES`.
+    measured_mean, measured_std : ndarray, shape (n_states, T)
+    """
+    try:
+        scale = STATE_SCALES[name.lower()](np.asarray(measured_mean, float), np.asarray(measured_std, float))
+    except KeyError:
+        raise ValueError(f"unknown state scale '{name}'; choose one of {', '.join(STATE_SCALES)}") from None
+    if not np.all(np.isfinite(scale) & (scale > 0)):
+        raise ValueError(f"state scale '{name}' is zero or not finite for a state ({scale.tolist()}); use state_scale 'none'")
+    return 1.0 / scale**2
+
+
+def configured_state_scale(config, normalised: bool = False) -> str:
+    """The state scale the config selects: ``identification.state_scale`` (thesis-faithful
+    experiments; default "none") or ``normalised_state_scale`` (default "rms_mean")."""
+    ident = config["identification"]
+    return ident.get("normalised_state_scale", "rms_mean") if normalised else ident.get("state_scale", "none")
+
+
+def _lbfgsb(est: "DistributionEstimator", z0, box) -> OptimizeResult:
+    """Quasi-Newton (L-BFGS-B) on the scaled cost with the model's analytic gradient."""
+    return minimize(est._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": est.max_iter, "ftol": 1e-15, "gtol": 1e-10})
+
+
+def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
+    """Trust-region Gauss-Newton (scipy ``least_squares``, "trf", bounds) on the residuals of
+    (5.25), r = sqrt(w) [mean error, std error], with the Jacobian from the model's forward
+    sensitivities. (5.25) is a sum of squares, so J'J is a Hessian model for free: about a
+    third of the iterations of L-BFGS-B, each costing one sensitivity solve."""
+    lo, hi = np.array(box, float).T
+    n = 2 * est._mean.size
+    root_J0 = np.sqrt(est._J0)
+    cache = {}
+
+    def residuals(z):
+        try:  # the sensitivities come with the moments; the Jacobian reads them back below
+            res, jac = est._weighted_residuals(est.model.moments(z * est._scale, gradient=True), jacobian=True)
+        except (ValueError, np.linalg.LinAlgError):
+            res = jac = None
+        if res is None or not (np.all(np.isfinite(res)) and np.all(np.isfinite(jac))):
+            cache.clear()  # non-physical: a cost far above the start makes the step be rejected
+            return np.full(n, np.sqrt(est._penalty / n))
+        cache.update(z=z.copy(), jac=jac * (est._scale / root_J0))
+        return res / root_J0
+
+    def jacobian(z):
+        if "z" not in cache or not np.array_equal(cache["z"], z):
+            residuals(z)
+        return cache["jac"]
+
+    out = least_squares(residuals, np.clip(z0, lo, hi), jac=jacobian, bounds=(lo, hi), method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
+                        max_nfev=est.max_iter)
+    return OptimizeResult(x=out.x, fun=2.0 * out.cost, nit=out.njev, nfev=out.nfev, success=out.status > 0, message=out.message)
+
+
+#: Registry of local optimisers of the fit; config strings select them.
+OPTIMISERS: dict[str, Callable] = {"lbfgsb": _lbfgsb, "gauss_newton": _gauss_newton}
+
+
+def configured_optimiser(config) -> str:
+    """The local optimiser the config selects (``identification.optimiser``, default "lbfgsb")."""
+    return config["identification"].get("optimiser", "lbfgsb")
+
+
+def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
+    """Random initial guesses deviating from ``theta`` by between e_min and e_max, thesis (5.34)."""
+    theta = np.asarray(theta, float)
+    e = rng.uniform(e_min, e_max, theta.shape)
+    sign = rng.choice([-1.0, 1.0], theta.shape)
+    return theta * (1.0 + sign * e)
+
+
+def default_bounds(theta_names, wheelbase: float):
+    """Physical boxes: mu > 0, 0 < l_f < L, std > 0, mean wind within +- 5 kN."""
+    box = {"mu_mean": (0.05, 3.0), "mu_std": (1e-4, 1.5), "l_f_mean": (0.05, wheelbase - 0.05), "l_f_std": (1e-4, 1.5),
+           "m_load_mean": (-500.0, 2000.0), "m_load_std": (1e-2, 500.0), "F_w_mean_low": (-5000.0, 5000.0), "F_w_mean_high": (-5000.0, 5000.0)}
+    return [box[n] for n in theta_names]
+
+
+class DistributionEstimator:
+    """Fit distribution parameters so that model moments match measured mean and std, (5.25).
+
+    Parameters
+    ----------
+    model : MomentModel
+        E.g. :class:`uqdrive.pce_vehicle.LSTChaosModel`; may be any model with the protocol.
+    cost : {"std", "inp", "dst"}
+        Weight scheme, see :data:`COSTS`.
+    bounds : sequence of (low, high), optional
+        Box on each parameter (default: :func:`default_bounds` needs ``wheelbase``).
+    starts : int
+        Extra starting points of a global stage: Sobol-like random points in the box are ranked
+        by cost and the best ``starts`` are polished too (0: the thesis' single local fit).
+    rng : numpy.random.Generator, optional
+        Source of the global-stage points.
+    max_iter : int
+        L-BFGS-B iteration limit per start.
+    state_scale : {"none", "rms_mean", "rms_std"}
+        Per-state scale of the residuals, see :data:`STATE_SCALES` ("none": the thesis' SI units).
+    optimiser : {"lbfgsb", "gauss_newton"}
+        Local optimiser, see :data:`OPTIMISERS`: quasi-Newton with the adjoint gradient (the
+        thesis' method class) or trust-region Gauss-Newton with forward sensitivities.
+
+    Attributes
+    ----------
+    theta_ : ndarray
+        Estimate; standard deviations reported as |sigma|.
+    cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
+    theta_std_ : ndarray
+        Gauss-Newton standard errors (see :meth:`fit`).
+    """
+
+    def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
+                 state_scale: str = "none", optimiser: str = "lbfgsb"):
+        if cost.lower() not in COSTS:
+            raise ValueError(f"unknown cost '{cost}'; choose one of {', '.join(COSTS)}")
+        if state_scale.lower() not in STATE_SCALES:
+            raise ValueError(f"unknown state scale '{state_scale}'; choose one of {', '.join(STATE_SCALES)}")
+        if optimiser.lower() not in OPTIMISERS:
+            raise ValueError(f"unknown optimiser '{optimiser}'; choose one of {', '.join(OPTIMISERS)}")
+        self.state_scale = state_scale.lower()
+        self.optimiser = optimiser.lower()
+        self.model = model
+        self.cost = cost.lower()
+        self.bounds = bounds if bounds is not None else default_bounds(model.theta_names, wheelbase if wheelbase is not None else 2.85)
+        self.starts = int(starts)
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+        self.max_iter = int(max_iter)
+
+    # -- objective --------------------------------------------------------------------------
+    def _objective(self, theta, gradient=True):
+        # Models with ``moments_vjp`` give the gradient by one adjoint pass (cost independent of
+        # the number of parameters); others by their forward sensitivities.
+        adjoint = gradient and hasattr(self.model, "moments_vjp")
+        try:
+            if adjoint:
+                r, vjp = self.model.moments_vjp(theta)
+            else:
+                r = self.model.moments(theta, gradient=gradient)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        em, es = r.mean - self._mean, std - self._std
+        if not (np.all(np.isfinite(em)) and np.all(np.isfinite(es))):
+            return None
+        J = float(np.sum(self._w * (em**2 + es**2)))
+        if not gradient:
+            return J, None, r
+        if adjoint:
+            return J, vjp(2.0 * self._w * em, self._w * es / std), r
+        dstd = r.variance_gradient / (2.0 * std)
+        g = 2.0 * np.sum(self._w * (em * r.mean_gradient + es * dstd), axis=(1, 2))
+        return J, g, r
+
+    def cost_function(self, theta) -> float:
+        """The weighted cost (5.25) at ``theta`` after :meth:`fit` set the data (inf if not physical)."""
+        out = self._objective(np.asarray(theta, float), gradient=False)
+        return float("inf") if out is None else out[0]
+
+    def _scaled(self, z):
+        theta = z * self._scale
+        out = self._objective(theta)
+        if out is None:  # non-physical or diverging model: push the line search back
+            return self._penalty, np.zeros_like(z)
+        J, g, _ = out
+        return J / self._J0, g * self._scale / self._J0
+
+    def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
+        """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
+
+        See :meth:`_fit` for the error bars. The model's matrices are small (tens of states), where
+        BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
+        runs with one BLAS thread, as scikit-learn does with threadpoolctl.
+        """
+        with single_blas_thread():
+            return self._fit(measured_mean, measured_std, theta0, context)
+
+    def _fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
+        """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
+
+        Error bars: with residuals r (weighted mean and std errors) and their Jacobian J at the
+        estimate, cov = s^2 (J'J)^-1 with s^2 = sum r^2 / (n - p). Consecutive residuals are
+        strongly correlated, so these are lower bounds; the emcee posterior is the honest check.
+        """
+        self._mean = np.asarray(measured_mean, float)
+        self._std = np.asarray(measured_std, float)
+        if self._mean.shape != self._std.shape or self._mean.ndim != 2:
+            raise ValueError("measured mean and std must both have shape (n_states, n_time)")
+        ctx = context if context is not None else WeightContext(np.zeros(self._mean.shape[1]))
+        self._w = cost_weights(self.cost, ctx, self._mean.shape) * state_weights(self.state_scale, self._mean, self._std)[:, None]
+        theta0 = np.asarray(theta0, float)
+        first = self._objective(theta0, gradient=False)
+        if first is None:
+            raise ValueError(f"initial guess {theta0.tolist()} is not physical (model could not be evaluated)")
+        self._J0 = max(first[0], 1e-300)
+        self._penalty = 1e6
+        self._scale = np.where(np.abs(theta0) > 1e-8, np.abs(theta0), 1.0)
+        starts = [theta0] + self._global_candidates()
+        best, n_iter, n_eval = None, 0, 0
+        lo, hi = np.array(self.bounds, float).T
+        box = list(zip(lo / self._scale, hi / self._scale))
+
+        def local(z0):
+            return OPTIMISERS[self.optimiser](self, z0, box)
+
+        for start in starts:
+            res = local(np.clip(start, lo, hi) / self._scale)
+            n_iter += res.nit
+            n_eval += res.nfev
+            if best is None or res.fun < best.fun:
+                best = res
+        success, message = bool(best.success), str(best.message)
+        if not success and best.fun < self._penalty:
+            # L-BFGS-B also stops "ABNORMAL" when the line search cannot improve at machine
+            # precision. A restart from that point settles it: a true optimum stays put.
+            again = local(best.x)
+            n_iter, n_eval = n_iter + again.nit, n_eval + again.nfev
+            if again.success and again.fun <= best.fun:
+                success, message = True, f"{again.message} (after a restart from an abnormal stop)"
+            elif abs(again.fun - best.fun) <= 1e-9 * abs(best.fun):
+                success = True
+                message = f"{message}; a restart from there changed the cost by < 1e-9 (stationary to precision)"
+            if again.fun < best.fun:
+                best = again
+        theta = best.x * self._scale
+        final = self._objective(theta)
+        self.converged_ = bool(success and final is not None and best.fun < self._penalty)
+        self.message_ = message
+        if not self.converged_:
+            warnings.warn(f"identification did not converge: {self.message_}", RuntimeWarning, stacklevel=2)
+        for i, name in enumerate(self.model.theta_names):
+            if name.endswith("_std"):
+                theta[i] = abs(theta[i])  # the cost is even in sigma (FACTS)
+        self.theta_ = theta
+        self.cost_ = float(final[0]) if final is not None else float("nan")
+        self.n_iter_, self.n_eval_ = int(n_iter), int(n_eval)
+        self.moments_ = final[2] if final is not None else None
+        self.theta_std_ = self._gauss_newton_std(self.model.moments(theta, gradient=True)) if final is not None else np.full(theta.size, np.nan)
+        return self
+
+    def _global_candidates(self):
+        if self.starts <= 0:
+            return []
+        lo, hi = np.array(self.bounds, float).T
+        # Candidates within a factor of the box centre of mass: physical and not extreme.
+        n = 24 * self.starts
+        cand = lo + (hi - lo) * self.rng.random((n, lo.size))
+        scored = []
+        for c in cand:
+            if "F_w_mean_low" in self.model.theta_names:  # keep low < high
+                i, j = self.model.theta_names.index("F_w_mean_low"), self.model.theta_names.index("F_w_mean_high")
+                c[i], c[j] = min(c[i], c[j]), max(c[i], c[j])
+            out = self._objective(c, gradient=False)
+            if out is not None:
+                scored.append((out[0], c))
+        scored.sort(key=lambda s: s[0])
+        return [c for _, c in scored[: self.starts]]
+
+    def _weighted_residuals(self, r, jacobian: bool = False):
+        """Residuals of (5.25), sqrt(w) [mean error, std error] flattened (n,), and with
+        ``jacobian`` their derivative (n, p) from the model's sensitivities."""
+        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        sw = np.sqrt(self._w)
+        res = np.concatenate([(sw * (r.mean - self._mean)).ravel(), (sw * (std - self._std)).ravel()])
+        if not jacobian:
+            return res
+        Jm = (sw * r.mean_gradient).reshape(r.mean_gradient.shape[0], -1)
+        Js = (sw * r.variance_gradient / (2.0 * std)).reshape(r.variance_gradient.shape[0], -1)
+        return res, np.concatenate([Jm, Js], axis=1).T
+
+    def _gauss_newton_std(self, r) -> np.ndarray:
+        res, Jac = self._weighted_residuals(r, jacobian=True)
+        dof = max(res.size - Jac.shape[1], 1)
+        s2 = res @ res / dof
+        try:
+            cov = s2 * np.linalg.inv(Jac.T @ Jac)
+        except np.linalg.LinAlgError:
+            return np.full(Jac.shape[1], np.nan)
+        return np.sqrt(np.clip(np.diag(cov), 0.0, None))

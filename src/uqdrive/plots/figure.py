@@ -1,0 +1,46 @@
+"""The figure helpers every plot module shares: atomic PNG output and the 2 x 2 state layout.
+
+Figures are made from datasets on disk (never from another rule's memory).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..io import atomic_path  # noqa: E402
+from ..vehicle.single_track import STATE_NAMES, STATE_UNITS  # noqa: E402
+
+__all__ = ["save_figure", "state_axes", "time_axis", "label_state"]
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
+    """Save ``fig`` as PNG atomically and close it."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format="png")
+    plt.close(fig)
+
+
+def state_axes(nrows=2, ncols=2, title=""):
+    fig, axes = plt.subplots(nrows, ncols, figsize=(10, 6.5), sharex=True, constrained_layout=True)
+    if title:
+        fig.suptitle(title)
+    return fig, np.atleast_1d(axes).ravel()
+
+
+def time_axis(fig, axes):
+    """Label the time axis of the bottom row of a 2 x 2 state figure; return the figure."""
+    for ax in axes[-2:]:
+        ax.set_xlabel("time [s]")
+    return fig
+
+
+def label_state(ax, state):
+    ax.set_ylabel(f"{state} [{STATE_UNITS[state]}]")
+    ax.set_title(STATE_NAMES[state])
+    ax.grid(alpha=0.3)

@@ -1,0 +1,324 @@
+"""Monte Carlo ensembles of the stochastic single-track vehicle (thesis sec. 5.1): draws,
+vectorised simulation of the LST (exact discretisation) and NLST (RK4), spin detection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+import xarray as xr
+
+from .._version import __version__
+from ..config import config_hash
+from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
+from ..numerics.integrate import lti_foh_response, rk4_fixed_step
+from ..rng import rng_stream
+from .single_track import STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
+
+__all__ = [
+    "MODELS",
+    "STEERS",
+    "TimeGrid",
+    "kle_from_config",
+    "simulate_lst",
+    "simulate_nlst",
+    "spin_mask",
+    "simulate_ensemble",
+    "lst_response",
+    "monte_carlo_moments",
+]
+
+MODELS = ("lst", "nlst")
+STEERS = {"normal": 1.0, "inverted": -1.0}
+@dataclass(frozen=True)
+class TimeGrid:
+    """Output grid t_k = k dt on [0, t_end] and the fine integration step h = dt / substeps."""
+
+    t_end: float
+    dt: float
+    step: float
+
+    @classmethod
+    def from_config(cls, config: Mapping[str, Any]) -> "TimeGrid":
+        t = config["time"]
+        return cls(t["t_end"], t["dt"], t["step"])
+
+    @property
+    def n_out(self) -> int:
+        return int(round(self.t_end / self.dt))
+
+    @property
+    def substeps(self) -> int:
+        return int(round(self.dt / self.step))
+
+    @property
+    def output(self) -> np.ndarray:
+        return np.arange(self.n_out + 1) * self.dt
+
+    def fine(self, refine: int = 1) -> np.ndarray:
+        """Fine grid with step h / refine (refine=2 gives the RK4 half-step grid)."""
+        n = self.n_out * self.substeps * refine
+        return np.arange(n + 1) * (self.step / refine)
+
+
+def kle_from_config(config: Mapping[str, Any]) -> KarhunenLoeve:
+    """KLE of the unit side-wind process over [0, t_end] with the config's settings."""
+    w = config["wind"]
+    return kle_nystrom(0.0, config["time"]["t_end"], w["Tc"], w["kle_quadrature"], w["kle_truncation"])
+
+
+def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
+    """Coefficients c (n, n_c) with F_w(t) = F_w_mean + c @ f(t), from (5.1) and (5.21)."""
+    return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
+
+
+def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
+    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
+    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
+
+
+def gust_input_column(W, gust_yaw_moment: bool):
+    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
+    if gust_yaw_moment:
+        return W
+    W = np.array(W, copy=True)
+    W[..., 1] = 0.0
+    return W
+
+
+def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
+    """Ensemble response of the linear single-track model (5.4), exact for piecewise-linear inputs.
+
+    The inputs are written as shared signals g(t) = [delta(t), 1, f_1(t), ..., f_nc(t)] with a
+    per-realisation input matrix [B, W F_w_mean, W c_1, ..., W c_nc], so one exact
+    discretisation per realisation serves the whole horizon.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Per-realisation parameters, arrays of shape (n,).
+    delta : ndarray, shape (n_fine,)
+        Steering angle on the fine grid (rad).
+    wind_mean : ndarray, shape (n,)
+        Mean side wind per realisation (N).
+    wind_coeffs : ndarray, shape (n, n_c)
+        Wind mode coefficients (N), see (5.1), (5.21).
+    eigenfunctions : ndarray, shape (n_c, n_fine)
+        KLE eigenfunctions on the fine grid.
+    grid : TimeGrid
+    gust_yaw_moment : bool
+        Whether the time-variant wind also exerts the yaw moment M_c F_w.
+
+    Returns
+    -------
+    ndarray, shape (4, n, n_out + 1)
+    """
+    A, B, W = lst_matrices(p)
+    W_gust = gust_input_column(W, gust_yaw_moment)
+    n = A.shape[0]
+    E = np.concatenate(
+        [B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None], W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]],
+        axis=2,
+    )
+    g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
+    return lti_foh_response(A, E, g, grid.step, grid.substeps, np.zeros((n, 4)))
+
+
+def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
+    """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Per-realisation parameters, arrays of shape (n,).
+    delta_half : ndarray, shape (2 n_fine - 1,)
+        Steering angle on the half-step grid (rad).
+    wind_mean : ndarray, shape (n,)
+    wind_coeffs : ndarray, shape (n, n_c)
+    eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
+        KLE eigenfunctions on the half-step grid.
+    grid : TimeGrid
+    gust_yaw_moment : bool
+        Whether the time-variant wind also exerts the yaw moment M_c F_w.
+
+    Returns
+    -------
+    ndarray, shape (4, n, n_out + 1)
+    """
+    wind_mean = np.asarray(wind_mean, float)
+    coeffs = np.asarray(wind_coeffs, float)
+    f_half = np.ascontiguousarray(np.asarray(eigenfunctions_half, float).T)  # (n_half, n_c)
+    n = wind_mean.shape[0]
+    vehicle_rhs = make_nlst_rhs(p)
+
+    def rhs(x, j):
+        gust = coeffs @ f_half[j]
+        return vehicle_rhs(x, delta_half[j], wind_mean + gust, wind_yaw_moment(p.M_c, wind_mean, gust, gust_yaw_moment))
+
+    n_steps = grid.n_out * grid.substeps
+    out = rk4_fixed_step(rhs, np.zeros((4, n)), grid.step, n_steps, grid.substeps)
+    return np.ascontiguousarray(out.transpose(1, 2, 0))
+
+
+def spin_mask(beta, threshold: float):
+    """Realisations that lose control: |beta| exceeds ``threshold`` (rad) at any time.
+
+    Parameters
+    ----------
+    beta : ndarray, shape (n, n_time)
+    threshold : float
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    return np.any(np.abs(beta) > threshold, axis=-1)
+
+
+def simulate_ensemble(
+    config: Mapping[str, Any],
+    model: str,
+    steer: str = "normal",
+    samples: int | None = None,
+    seed: int | None = None,
+    kle: KarhunenLoeve | None = None,
+    chunk: int | None = None,
+) -> xr.Dataset:
+    """Simulate a Monte Carlo ensemble in the uqdrive data schema (see ``io.validate_ensemble``).
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration.
+    model : {"lst", "nlst"}
+    steer : {"normal", "inverted"}
+        Input (5.5) or (5.7).
+    samples, seed : int, optional
+        Override ``montecarlo.samples`` and ``seed``.
+    kle : KarhunenLoeve, optional
+        Precomputed KLE (else computed from the config).
+    chunk : int, optional
+        Index of an independent block of a larger ensemble: its draws come from their own
+        random streams, so blocks can be simulated one after another in bounded memory.
+
+    Returns
+    -------
+    xarray.Dataset
+        dims (sample, time); states, steering, per-sample draws, spin flags, provenance.
+    """
+    if model not in MODELS:
+        raise ValueError(f"unknown model '{model}'; choose one of {', '.join(MODELS)}")
+    if steer not in STEERS:
+        raise ValueError(f"unknown steering '{steer}'; choose one of {', '.join(STEERS)}")
+    n = int(config["montecarlo"]["samples"] if samples is None else samples)
+    seed = int(config["seed"] if seed is None else seed)
+    grid = TimeGrid.from_config(config)
+    kle = kle_from_config(config) if kle is None else kle
+
+    dist = ParameterDistribution.from_config(config)
+    keys = () if chunk is None else (int(chunk),)
+    germs = dist.sample_germs(rng_stream(seed, "parameters", *keys), n)
+    xi_wind = rng_stream(seed, "wind", *keys).standard_normal((n, kle.n_modes))
+    draws = dist.from_germs(germs)
+    p = VehicleParameters.from_config(config, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
+    coeffs = _wind_modes(kle, config["wind"]["sigma"], xi_wind)
+    st = config["steering"]
+    delta_max = np.deg2rad(st["delta_max_deg"])
+
+    refine = 1 if model == "lst" else 2
+    t_fine = grid.fine(refine)
+    delta_fine = steering_input(t_fine, delta_max, st["period"], STEERS[steer])
+    f_fine = kle.eigenfunctions(t_fine)
+    simulate = simulate_lst if model == "lst" else simulate_nlst
+    x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+
+    t = grid.output
+    threshold = config["montecarlo"]["spin_threshold"]
+    spun = spin_mask(x[2], threshold)
+    data_vars = {
+        name: (("sample", "time"), x[i], {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
+        for i, name in enumerate(STATES)
+    }
+    data_vars["delta"] = ("time", steering_input(t, delta_max, st["period"], STEERS[steer]), {"units": "rad", "long_name": "front steering angle"})
+    units = {"mu": "1", "m_load": "kg", "l_f": "m", "F_w_mean": "N"}
+    for name, value in draws.items():
+        data_vars[name] = ("sample", value, {"units": units[name], "long_name": f"drawn {name}"})
+    data_vars["xi_wind"] = (("sample", "kle_mode"), xi_wind, {"units": "1", "long_name": "standard normal KLE germs of the side wind"})
+    data_vars["spun"] = ("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad)"})
+    attrs = {
+        "title": f"uqdrive Monte Carlo ensemble ({model.upper()}, {steer} steering)",
+        "model": model,
+        "steer": steer,
+        "v_c": float(p.v_c),
+        "noise_A": 0.0,
+        "n_spun": int(spun.sum()),
+        "spin_threshold": float(threshold),
+        "wind_sigma": float(config["wind"]["sigma"]),
+        "gust_yaw_moment": int(config["wind"]["gust_yaw_moment"]),
+        "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4",
+        "integration_step": float(grid.step),
+        "seed": seed,
+        "config_hash": config_hash(config),
+        "uqdrive_version": __version__,
+    }
+    coords = {"sample": np.arange(n), "time": ("time", t, {"units": "s", "long_name": "time"}), "kle_mode": np.arange(kle.n_modes)}
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str = "normal") -> np.ndarray:
+    """LST responses for given parameter sets with the time-variant wind switched off.
+
+    For cross-checks of the PCE against non-intrusive methods (chaospy, SALib): any parameter
+    of ``mu``, ``m_load``, ``l_f``, ``F_w_mean`` missing from ``draws`` takes its config mean.
+
+    Parameters
+    ----------
+    draws : mapping of str to ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (4, n, n_out + 1)
+    """
+    unc = config["uncertainty"]
+    n = len(next(iter(draws.values())))
+    full = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
+            "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
+    full = {k: np.broadcast_to(np.asarray(draws.get(k, v), float), (n,)) for k, v in full.items()}
+    grid = TimeGrid.from_config(config)
+    st = config["steering"]
+    t_fine = grid.fine(1)
+    delta = steering_input(t_fine, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+    p = VehicleParameters.from_config(config, mu=full["mu"], m_load=full["m_load"], l_f=full["l_f"])
+    return simulate_lst(p, delta, full["F_w_mean"], np.zeros((n, 0)), np.zeros((0, t_fine.size)), grid)
+
+
+def monte_carlo_moments(config: Mapping[str, Any], model: str, samples: int, chunk: int, seed: int | None = None):
+    """Mean and std of every state over a large ensemble, simulated in independent chunks.
+
+    Chunk statistics are merged with Chan et al.'s pairwise update of (count, mean, M2), so a
+    10^5-run reference needs the memory of one chunk only.
+
+    Returns
+    -------
+    mean, std : ndarray, shape (4, n_time)
+    n : int
+        Realisations used (all of them: the spin policy is for the NLST data sets).
+    """
+    seed = int(config["seed"] if seed is None else seed)
+    kle = kle_from_config(config)
+    count, mean, m2 = 0, 0.0, 0.0
+    for c, start in enumerate(range(0, samples, chunk)):
+        m = min(chunk, samples - start)
+        ds = simulate_ensemble(config, model, samples=m, seed=seed, kle=kle, chunk=c)
+        x = np.stack([ds[s].values for s in STATES])  # (4, m, T)
+        mean_c, m2_c = x.mean(axis=1), ((x - x.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
+        delta = mean_c - mean
+        total = count + m
+        mean = mean + delta * m / total
+        m2 = m2 + m2_c + delta**2 * count * m / total
+        count = total
+    return mean, np.sqrt(m2 / (count - 1)), count

@@ -1,0 +1,100 @@
+"""The package's layering: imports point one way (edges -> studies -> algorithms -> models ->
+numerics -> foundation), with no cycle, and modules and folders stay small enough to read."""
+
+import pytest
+
+from uqdrive.dependencies import PACKAGE_ROOT, import_graph, module_closure
+
+# Layer of each top-level part of the package; a module may import its own layer or lower ones.
+LAYERS = {
+    "_version": 0, "config": 0, "rng": 0, "dependencies": 0,
+    "numerics": 1,
+    "vehicle": 2,
+    "io": 3, "inference": 3, "control": 3, "wheelslip": 3,
+    "studies": 4,
+    "plots": 5, "cli": 5, "": 5,
+}
+
+
+def layer(module: str) -> int:
+    return LAYERS[module.split(".")[0]]
+
+
+def test_every_module_has_a_layer():
+    unknown = sorted(m for m in import_graph() if m.split(".")[0] not in LAYERS)
+    assert not unknown, f"add these to LAYERS: {unknown}"
+
+
+def test_no_import_runs_back_up():
+    upward = [
+        f"uqdrive.{a} (layer {layer(a)}) imports uqdrive.{b} (layer {layer(b)})"
+        for a, targets in import_graph().items()
+        for b in targets
+        if layer(b) > layer(a)
+    ]
+    assert not upward, "\n".join(upward)
+
+
+def _cycle(graph):
+    """One cycle of ``graph`` as a list of nodes, or None (iterative DFS, three colours)."""
+    colour, parent = {n: 0 for n in graph}, {}
+    for root in graph:
+        if colour[root]:
+            continue
+        stack = [(root, iter(sorted(graph[root])))]
+        colour[root] = 1
+        while stack:
+            node, children = stack[-1]
+            child = next(children, None)
+            if child is None:
+                colour[node] = 2
+                stack.pop()
+            elif colour.get(child, 2) == 0:
+                colour[child], parent[child] = 1, node
+                stack.append((child, iter(sorted(graph[child]))))
+            elif colour.get(child) == 1:
+                cycle, n = [child], node
+                while n != child:
+                    cycle.append(n)
+                    n = parent[n]
+                return cycle[::-1]
+    return None
+
+
+def test_no_import_cycle_between_modules():
+    assert _cycle(import_graph()) is None
+
+
+def test_no_import_cycle_between_subpackages():
+    parts = {}
+    for a, targets in import_graph().items():
+        pa = a.split(".")[0]
+        parts.setdefault(pa, set()).update(b.split(".")[0] for b in targets if b.split(".")[0] != pa)
+    assert _cycle(parts) is None
+
+
+def test_cycle_finder_finds_a_planted_cycle():
+    """The checks above can fail: a three-module loop and an upward arrow are both caught."""
+    assert sorted(_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()})) == ["a", "b", "c"]
+    assert _cycle({"a": {"b"}, "b": set()}) is None
+    assert layer("numerics.galerkin") < layer("vehicle.chaos") < layer("studies.pce")
+
+
+@pytest.mark.parametrize("path", sorted(PACKAGE_ROOT.rglob("*.py")), ids=lambda p: str(p.relative_to(PACKAGE_ROOT)))
+def test_module_is_short(path):
+    assert len(path.read_text().splitlines()) <= 420, f"{path} has grown past ~400 lines: split it by concept"
+
+
+def test_folders_hold_at_most_twelve_modules():
+    for folder in [PACKAGE_ROOT, *(p for p in PACKAGE_ROOT.rglob("*") if p.is_dir() and p.name != "__pycache__")]:
+        modules = [p for p in folder.glob("*.py") if p.name != "__init__.py"]
+        assert len(modules) <= 12, f"{folder} holds {len(modules)} modules"
+
+
+def test_rule_dependencies_follow_imports():
+    """The workflow's code trigger of a study includes the numerical core it calls."""
+    files = {str(p.relative_to(PACKAGE_ROOT)) for p in module_closure("studies.identification")}
+    assert {"studies/identification.py", "inference/identify.py", "vehicle/chaos.py", "numerics/galerkin.py", "config.py"} <= files
+    assert "plots/data.py" not in files
+    with pytest.raises(KeyError):
+        module_closure("no_such_module")
