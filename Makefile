@@ -13,8 +13,18 @@ $(PYTHON):
 reproduce: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e .
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG)
-	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html
+	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html reported
 	@echo "report: results/report.html, scorecard: results/scorecard.csv"
+
+# make sweep SWEEP=config/sweeps/NAME.yaml: every point into results/sweeps/NAME/<point>/, then
+# results/sweeps/NAME/summary.{nc,csv,png}, then the report (README "Sweeping a config value").
+.PHONY: sweep
+sweep: $(PYTHON)
+	@test -f config/sweeps/$(basename $(notdir $(SWEEP))).yaml || { echo "usage: make sweep SWEEP=config/sweeps/NAME.yaml (one of: $(notdir $(wildcard config/sweeps/*.yaml)))"; exit 2; }
+	$(PYTHON) -m pip install --quiet -e .
+	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv
+	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html reported
+	@echo "summary: results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv, report: results/report.html"
 
 test: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e ".[test]"
@@ -25,6 +35,16 @@ bench: $(PYTHON)
 	$(PYTHON) benchmarks/bench_montecarlo.py
 	$(PYTHON) benchmarks/bench_pce.py
 	$(PYTHON) benchmarks/bench_identify.py
+	$(PYTHON) benchmarks/bench_discover.py
 
 clean:
 	rm -rf results .snakemake
+
+# Mutation testing of the core modules (issue 17): on demand, not in CI. tools/mutate.py mutates
+# a copy of the repository in a temporary directory, one mutant at a time, and runs the tests
+# that import each module; e.g. make mutation MUTATION_ARGS="--module gp --sample 40 --seed 2".
+MUTATION_ARGS ?= --sample 60 --seed 1
+.PHONY: mutation
+mutation: $(PYTHON)
+	$(PYTHON) -m pip install --quiet -e ".[test]"
+	$(PYTHON) tools/mutate.py $(MUTATION_ARGS)

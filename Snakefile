@@ -8,3 +8,11 @@ rule all:
         FIGURES,
         expand(f"{OUT}/data/stats_{{model}}_{{steer}}.nc", model=MODELS, steer=STEERS),
         f"{OUT}/scorecard.csv",
+
+
+rule reported:
+    # What `make reproduce` and `make sweep` put in results/report.html: the outputs of `all`
+    # that exist and every finished sweep (snakemake --report FILE reported).
+    input:
+        [f for f in [*FIGURES, *expand(f"{OUT}/data/stats_{{model}}_{{steer}}.nc", model=MODELS, steer=STEERS), f"{OUT}/scorecard.csv"] if Path(f).exists()],
+        finished_sweeps(),

@@ -56,7 +56,7 @@ def test_unknown_model_exits_nonzero_via_console_script(tmp_path):
     out = tmp_path / "x.nc"
     proc = subprocess.run([exe, "simulate", "--model", "bicycle", "--config", CONFIG, "--out", str(out)], capture_output=True, text=True)
     assert proc.returncode == 2
-    assert "invalid choice: 'bicycle'" in proc.stderr
+    assert "'bicycle'" in proc.stderr and "--model" in proc.stderr
     assert not out.exists()
 
 
@@ -77,16 +77,17 @@ def test_identify_writes_estimate_json(measured, tmp_path):
         assert key in est
     assert len(est["mu"]) == 2 and est["F_w_mean"][0] < est["F_w_mean"][1]
     assert (out / "fit.png").exists()
-    assert est["state_scale"] == "none"  # the config's default: the thesis' SI residuals
+    assert est["state_scale"] == "rms_mean"  # the CLI's default: unit-free residuals (issue 15.7)
+    assert est["converged"] is True and est["warnings"] == [] and est["n_spun"] == 0 and est["spun_indices"] == []
 
 
 def test_identify_state_scale_flag(measured, tmp_path):
     import json
 
     out = tmp_path / "est"
-    assert main(["identify", str(measured), "--config", CONFIG, "--out", str(out), "--state-scale", "rms_mean"]) == 0
+    assert main(["identify", str(measured), "--config", CONFIG, "--out", str(out), "--state-scale", "none"]) == 0
     est = json.loads((out / "estimate.json").read_text())
-    assert est["state_scale"] == "rms_mean" and est["mu"][0] == pytest.approx(1.0, abs=0.2)
+    assert est["state_scale"] == "none" and est["mu"][0] == pytest.approx(1.0, abs=0.2)  # the thesis' SI residuals
 
 
 def _corrupt(src, dst, how):
@@ -116,3 +117,106 @@ def test_identify_bad_input(measured, tmp_path, capsys, how, message):
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (out / "estimate.json").exists()
+
+
+# -- issue 15.7: outside data, default flags ----------------------------------------------------------
+def _identify_default(path, out, *extra):
+    """``uqdrive identify`` with default flags (packaged config, --state-scale rms_mean)."""
+    import json
+
+    assert main(["identify", str(path), "--out", str(out), *extra]) == 0
+    return json.loads((out / "estimate.json").read_text())
+
+
+def test_identify_default_flags_land_on_the_thesis_values(tmp_path):
+    """LST ensemble of the thesis' values, 2000 samples; identify with default flags.
+
+    Standard errors at n = 2000: mu mean 0.2 / sqrt(n) = 0.0045 (tolerance 0.02 = 4.4 SE), l_f
+    mean 0.0045 and std 0.2 / sqrt(2n) = 0.0032 (tolerance 0.03 = 7-9 SE), wind bounds about 7 N
+    (sample mean 5 N, sqrt(3) x std 4 N). The bounds also carry a bias of about +20 N outwards:
+    the identification model has no gusts (Table 5.4), so the gusts' variance (sigma = 100 N)
+    inflates the identified spread (seeds 1-6 measured: bounds 407-433 N); 40 N leaves ~2.5 SE.
+    """
+    from uqdrive.config import load_config
+    from uqdrive.io import write_dataset
+    from uqdrive.vehicle.montecarlo import simulate_ensemble
+
+    config = load_config(CONFIG)  # the thesis' distributions on a 0.02 s grid (the fit runs on the data's grid)
+    assert config["uncertainty"]["mu"] == {"mean": 1.0, "std": 0.2} and config["uncertainty"]["F_w_mean"] == {"low": -400.0, "high": 400.0}
+    assert config["uncertainty"]["l_f"] == {"mean": 1.55, "std": 0.2}
+    path = tmp_path / "lst.nc"
+    write_dataset(simulate_ensemble(config, "lst", samples=2000), path)
+    est = _identify_default(path, tmp_path / "est")
+    assert est["state_scale"] == "rms_mean" and est["converged"] is True
+    assert est["mu"][0] == pytest.approx(1.0, abs=0.02)
+    assert est["l_f"] == pytest.approx([1.55, 0.2], abs=0.03)
+    assert est["F_w_mean"] == pytest.approx([-400.0, 400.0], abs=40.0)
+
+
+def test_lost_control_is_found_from_the_data(tmp_path, monkeypatch):
+    """NLST ensemble (2000 samples, thesis values) with its ``spun`` variable removed: the
+    realisations that lost control are found from beta, reported, and excluded, so mu lands
+    where the flagged ensemble puts it; kept, they pull mu far off (the issue's 0.62)."""
+    import numpy as np
+    import xarray as xr
+    from uqdrive.config import load_config
+    from uqdrive.io import write_dataset
+    from uqdrive.vehicle.montecarlo import simulate_ensemble
+
+    monkeypatch.setattr("uqdrive.cli.identify._figure", lambda stats, moments, path: path.write_bytes(b"png"))
+    ds = simulate_ensemble(load_config(CONFIG), "nlst", samples=2000)
+    spun = np.flatnonzero(ds["spun"].values).tolist()
+    assert len(spun) == ds.attrs["n_spun"] >= 3
+    write_dataset(ds, tmp_path / "flagged.nc")
+    write_dataset(ds.drop_vars("spun"), tmp_path / "measured.nc")
+    flagged = _identify_default(tmp_path / "flagged.nc", tmp_path / "a")
+    measured = _identify_default(tmp_path / "measured.nc", tmp_path / "b")
+    assert measured["n_spun"] == len(spun) and measured["spun_indices"] == spun and "spun_in_file_indices" not in measured
+    assert flagged["spun_in_file_indices"] == flagged["spun_indices"] == spun and flagged["warnings"] == []
+    assert measured["samples_used"] == 2000 - len(spun)
+    assert measured["mu"][0] == pytest.approx(flagged["mu"][0], abs=1e-9)
+    keep = yaml.safe_load(Path(REPO / "config" / "config.yaml").read_text())
+    keep["montecarlo"]["spin_policy"] = "keep"
+    (tmp_path / "keep.yaml").write_text(yaml.safe_dump(keep))
+    kept = _identify_default(tmp_path / "measured.nc", tmp_path / "c", "--config", str(tmp_path / "keep.yaml"))
+    assert kept["samples_used"] == 2000 and kept["mu"][0] < measured["mu"][0] - 0.1
+    disagree = xr.load_dataset(tmp_path / "flagged.nc")
+    disagree["spun"][:3] = 1
+    write_dataset(disagree, tmp_path / "wrong_flags.nc")
+    wrong = _identify_default(tmp_path / "wrong_flags.nc", tmp_path / "d")
+    assert wrong["spun_indices"] == spun and wrong["mu"][0] == pytest.approx(flagged["mu"][0], abs=1e-9)
+    assert any("disagree with the data criterion" in w for w in wrong["warnings"])
+
+
+def test_cli_works_from_any_folder(tmp_path, monkeypatch, capsys):
+    """No config/ next to the user: the packaged default config is used; --dump writes it out."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--model", "lst", "--samples", "3", "--out", "x.nc"]) == 0
+    assert read_ensemble(tmp_path / "x.nc").sizes["time"] == 1001  # config.yaml's grid
+    assert main(["config", "--dump", "mine.yaml"]) == 0
+    assert (tmp_path / "mine.yaml").read_bytes() == (REPO / "config" / "config.yaml").read_bytes()
+    capsys.readouterr()
+    assert main(["config", "--dump", "mine.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--force" in err
+    assert main(["config", "--dump", "-"]) == 0
+    assert capsys.readouterr().out == (REPO / "config" / "config.yaml").read_text()
+
+
+def test_help_describes_every_option():
+    import argparse
+
+    from uqdrive.cli.main import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert set(sub.choices) >= {"simulate", "identify", "config"}
+    for name, command in sub.choices.items():
+        assert command.description, name
+        for action in command._actions:
+            assert action.help and len(action.help) > 10, (name, action.dest)
+        text = command.format_help()
+        for action in command._actions:
+            for flag in action.option_strings:
+                assert flag in text
+    assert "rms_mean" in sub.choices["identify"].format_help() and "thesis" in sub.choices["identify"].format_help()

@@ -1,4 +1,5 @@
 import copy
+import re
 
 import pytest
 import yaml
@@ -63,3 +64,61 @@ def test_config_hash_is_stable_and_sensitive(cfg):
     assert h == config_hash(yaml.safe_load(yaml.safe_dump(cfg)))
     cfg["seed"] += 1
     assert config_hash(cfg) != h
+
+
+def test_packaged_default_config_is_the_repository_config():
+    """The CLI's default (package data, so that it works from any folder and from a wheel) is a
+    byte-for-byte copy of the workflow's config/config.yaml."""
+    from importlib.resources import files
+
+    from uqdrive.config import DEFAULT_CONFIG_NAME, default_config_text
+
+    packaged = files("uqdrive").joinpath(DEFAULT_CONFIG_NAME).read_bytes()
+    assert packaged == (REPO / "config" / "config.yaml").read_bytes(), (
+        "config/config.yaml changed: run  cp config/config.yaml src/uqdrive/default_config.yaml")
+    assert default_config_text().encode() == packaged
+    assert load_config() == load_config(REPO / "config" / "config.yaml")
+
+
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda c: c["time"].update(dt=float("nan")), "config key 'time.dt' is nan; give a finite number"),
+        (lambda c: c["uncertainty"]["mu"].update(mean=float("inf")), "'uncertainty.mu.mean' is inf"),
+        (lambda c: c["uncertainty"]["l_f"].update(std=float("-inf")), "'uncertainty.l_f.std' is -inf"),
+        (lambda c: c["bayes"]["prior"].update(mu_mean=[0.05, float("nan")]), "'bayes.prior.mu_mean.1' is nan"),
+        (lambda c: c["uncertainty"]["m_load"].update(mean=-1784.0), "'uncertainty.m_load.mean' = -1784 is outside the physical range [0, 100000] kg"),
+        (lambda c: c["uncertainty"]["mu"].update(std=0.0), "'uncertainty.mu.std' = 0 is outside the physical range (0, 10]"),
+        (lambda c: c["vehicle"].update(m_base=1e300), "'vehicle.m_base' = 1e+300"),
+        (lambda c: c["vehicle"].update(speed_kmh=1e4), "'vehicle.speed_kmh'"),
+        (lambda c: c["vehicle"].update(speed_kmh=0.0), "'vehicle.speed_kmh'"),
+        (lambda c: c["time"].update(t_end=0.01), "'time.t_end' = 0.01 s must be at least 2 time.dt"),
+        (lambda c: c["time"].update(step=-0.005), "'time.step'"),
+        (lambda c: c["time"].update(dt=0.0), "'time.dt'"),
+        (lambda c: c.update(seed=2**64), "'seed'"),
+        (lambda c: c["montecarlo"].update(samples=1e300), "'montecarlo.samples'"),
+        (lambda c: c["vehicle"].update({1: 2}), "is not a name"),
+        (lambda c: c["time"].pop("dt"), "'time.dt' is missing; add it"),
+        (lambda c: c["montecarlo"].update(spin_policy="drop"), "choose one of keep, exclude"),
+    ],
+)
+def test_physical_ranges_and_finite_numbers(cfg, mutate, message):
+    mutate(cfg)
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        validate_config(cfg)
+
+
+def test_config_file_encoding_and_yaml_errors_are_one_line(tmp_path):
+    latin = tmp_path / "latin.yaml"
+    latin.write_bytes((REPO / "config" / "config.yaml").read_bytes() + "# Gr\xfc\xdfe\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match="is not UTF-8 text .*; save it as UTF-8"):
+        load_config(latin)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("a: [1,\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(bad)
+    assert "\n" not in str(err.value)
+    with pytest.raises(ConfigError, match="is not UTF-8|cannot read"):
+        load_config(tmp_path)
+    (tmp_path / "bom.yaml").write_bytes(b"\xef\xbb\xbf" + (REPO / "config" / "config.yaml").read_bytes())
+    assert load_config(tmp_path / "bom.yaml")["seed"] == 20230601

@@ -92,3 +92,165 @@ def test_noise_free_point_is_interpolated():
 def test_bad_data_is_rejected():
     with pytest.raises(ValueError, match="finite"):
         ArcsineGP().fit([0.0, 1.0], [0.0, np.nan])
+
+
+# -- estimator choices, each tested by a case where the wrong choice gives a wrong answer --------
+def _independent_nll(x, y, v1, g, v0, noisy=None):
+    """-log N(y; 0, K), K = v1 asin(z) + diag(v0 noisy + 1e-10), from scipy's multivariate normal
+    (Cholesky-free: an eigendecomposition), not from the GP's own linear algebra."""
+    from scipy.stats import multivariate_normal
+
+    noisy = np.ones(len(y)) if noisy is None else noisy
+    K = arcsine_kernel(x, x, v1, g) + np.diag(v0 * noisy + 1e-10)
+    return -multivariate_normal(np.zeros(len(y)), K).logpdf(y)
+
+
+def _multimodal_data():
+    """sin(6x) + 0.3 N(0, 1) at 10 points: a bimodal likelihood. From the zero start, L-BFGS-B
+    explains everything as noise (v1 -> e^-9, log ML -12.62); about half of the random starts
+    reach the interior signal mode (log theta ~ (0.62, 3.77, 5.54, -1.98), log ML -11.18)."""
+    x = np.linspace(0.0, 1.0, 10)
+    return x, np.sin(6 * x) + 0.3 * np.random.default_rng(4).normal(size=10)
+
+
+def test_fit_keeps_the_best_restart_of_a_multimodal_likelihood():
+    """The zero start alone lands in the worse (all-noise) mode; with 3 restarts (generator seeded
+    5: the second start reaches the signal mode, the last a third mode at -12.53) the fit must
+    keep the best, an interior stationary point 1.44 nats higher, not the first, last or worst. Checks: the log ML beats the zero-start
+    fit by > 1 nat (half the gap between the modes), equals an independent evaluation at the fitted
+    hyperparameters (rel 1e-9: both are exact linear algebra on a 10 x 10 matrix of condition
+    < 1e5), and the central-difference gradient of that independent NLL is < 1e-4 in every
+    log hyperparameter (L-BFGS-B stops at a projected gradient of 1e-5; difference error ~1e-9).
+    The optimum lies inside the box by > 1 in every log hyperparameter, so a box capped at 1 or
+    keeping the worst restart gives a wrong answer."""
+    x, y = _multimodal_data()
+    zero = ArcsineGP(restarts=1).fit(x, y)
+    gp = ArcsineGP(restarts=3, rng=np.random.default_rng(5)).fit(x, y)
+    assert gp.log_marginal_likelihood_ > zero.log_marginal_likelihood_ + 1.0
+    assert -gp.log_marginal_likelihood_ == pytest.approx(_independent_nll(x, y, gp.v1_, gp.g_, gp.v0_), rel=1e-9)
+    assert -zero.log_marginal_likelihood_ == pytest.approx(_independent_nll(x, y, zero.v1_, zero.g_, zero.v0_), rel=1e-9)
+    lt = gp.log_theta_
+    assert np.all(np.abs(lt) < 8.0) and lt[1:3].max() > 3.0  # interior, and above a box capped at 1
+
+    def nll(t):
+        return _independent_nll(x, y, np.exp(t[0]), np.exp(t[1:3]), np.exp(t[3]))
+
+    h = 1e-5
+    grad = np.array([(nll(lt + h * e) - nll(lt - h * e)) / (2 * h) for e in np.eye(4)])
+    assert np.max(np.abs(grad)) < 1e-4
+
+
+def test_single_start_is_the_zero_start_and_draws_nothing():
+    """restarts=1 is the deterministic zero start: the generator is not advanced and the result
+    does not depend on it; the default is 5 restarts from a generator seeded 0 (reproducible)."""
+    x, y = _multimodal_data()
+    rng = np.random.default_rng(11)
+    state = rng.bit_generator.state
+    a = ArcsineGP(restarts=1, rng=rng).fit(x, y)
+    assert rng.bit_generator.state == state
+    b = ArcsineGP(restarts=1, rng=np.random.default_rng(12)).fit(x, y)
+    assert np.array_equal(a.log_theta_, b.log_theta_)
+    default = ArcsineGP()
+    assert default.restarts == 5 and default.bounds == (-9.0, 9.0)
+    assert default.rng.bit_generator.state == np.random.default_rng(0).bit_generator.state
+
+
+def test_marginal_likelihood_and_gradient_with_exact_points_in_two_inputs():
+    """Two inputs and two noise-free points: the NLL equals the independent Gaussian log density
+    (rel 1e-10) and its analytic gradient, including the exact-point branch of d/d log v0 (only
+    noisy points carry v0), equals central differences (h = 1e-6: truncation ~h^2 |f'''| ~ 1e-11,
+    rounding ~1e-16 |f| / h ~ 1e-10; tolerance 1e-6 relative, 1e-8 absolute on components of
+    order 1)."""
+    rng = np.random.default_rng(3)
+    X = rng.uniform(-1, 1, (9, 2))
+    y = np.tanh(2 * X[:, 0]) - 0.5 * X[:, 1] + 0.1 * rng.normal(size=9)
+    exact = np.zeros(9, bool)
+    exact[[0, 4]] = True
+    gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0, 1.0], "v0": 1.0}).fit(X, y, noise_free=exact)
+    theta = np.array([0.3, -0.5, 1.2, 0.4, -2.5])
+    nll, grad = gp._nll_and_grad(theta)
+    v1, g, v0 = np.exp(theta[0]), np.exp(theta[1:4]), np.exp(theta[4])
+    assert nll == pytest.approx(_independent_nll(X, y, v1, g, v0, (~exact).astype(float)), rel=1e-10)
+    fd = np.array([(gp._nll_and_grad(theta + 1e-6 * e)[0] - gp._nll_and_grad(theta - 1e-6 * e)[0]) / 2e-6 for e in np.eye(5)])
+    assert grad == pytest.approx(fd, rel=1e-6, abs=1e-8)
+    assert abs(grad[4]) > 1e-3  # the v0 component is not trivially zero
+
+
+def test_non_positive_definite_covariance_is_a_dominating_penalty():
+    """All points exact, v1 = e^9 and g0 = e^-9: K is numerically singular, the Cholesky factor
+    fails and the NLL is a penalty above any attainable value (>= 1e20) with a zero gradient,
+    so L-BFGS-B backs away from there."""
+    x = np.linspace(0.5, 1.0, 12)
+    gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0], "v0": 1.0}).fit(x, np.tanh(6 * x), noise_free=np.ones(12, bool))
+    nll, grad = gp._nll_and_grad(np.array([9.0, -9.0, 9.0, -9.0]))
+    assert nll >= 1e20 and np.all(grad == 0.0)
+
+
+def test_predictions_equal_the_gaussian_conditioning_formulas():
+    """predict, predict_slope and predict_joint at 4 new points (not the 7 data points, so no shape
+    can hide a transposition) equal k* K^-1 y and k** - k* K^-1 k*' from np.linalg.solve, with
+    v0 on the noisy points only (rel 1e-9, abs 1e-12 on variances of order 1e-2..1: a 7 x 7
+    solve of condition < 1e4)."""
+    x = np.array([0.0, 0.1, 0.25, 0.4, 0.55, 0.7, 0.9])
+    y = np.array([0.0, 0.45, 0.8, 0.9, 1.02, 0.97, 1.0])
+    exact = np.array([True, False, False, False, False, False, False])
+    hyper = {"v1": 1.3, "g": [0.4, 9.0], "v0": 0.02}
+    gp = ArcsineGP(hyperparameters=hyper).fit(x, y, noise_free=exact)
+    assert (gp.v1_, gp.v0_) == pytest.approx((1.3, 0.02), rel=1e-12) and gp.g_ == pytest.approx([0.4, 9.0], rel=1e-12)
+    xs = np.array([0.05, 0.3, 0.62, 1.1])
+    K = arcsine_kernel(x, x, 1.3, hyper["g"]) + np.diag(0.02 * ~exact + 1e-10)
+    ks = arcsine_kernel(xs, x, 1.3, hyper["g"])
+    mean = ks @ np.linalg.solve(K, y)
+    cov = arcsine_kernel(xs, xs, 1.3, hyper["g"]) - ks @ np.linalg.solve(K, ks.T)
+    m, v = gp.predict(xs)
+    assert m == pytest.approx(mean, rel=1e-9) and v == pytest.approx(np.diag(cov), rel=1e-9, abs=1e-12)
+    mj, cj = gp.predict_joint(xs)
+    assert mj == pytest.approx(mean, rel=1e-9) and cj == pytest.approx(cov, rel=1e-9, abs=1e-12)
+    assert cj.shape == (4, 4) and np.abs(cj - np.diag(np.diag(cj))).max() > 1e-3  # off-diagonal terms checked too
+    kd = arcsine_kernel_grad_x(xs, x, 1.3, hyper["g"])
+    sm, sv = gp.predict_slope(xs)
+    assert sm == pytest.approx(kd @ np.linalg.solve(K, y), rel=1e-9)
+    s_cov = arcsine_kernel_grad_xx(xs, xs, 1.3, hyper["g"]) - kd @ np.linalg.solve(K, kd.T)
+    assert sv == pytest.approx(np.diag(s_cov), rel=1e-8, abs=1e-10)
+    assert gp.log_marginal_likelihood_ == pytest.approx(-_independent_nll(x, y, 1.3, hyper["g"], 0.02, (~exact).astype(float)), rel=1e-10)
+
+
+def test_two_input_fit_unpacks_the_hyperparameters():
+    """D = 2: log theta = [log v1, log g0, log g1, log g2, log v0]; the fitted (v1_, g_, v0_) must
+    be exactly that split (the log ML equals the independent density at them, rel 1e-9)."""
+    rng = np.random.default_rng(5)
+    X = rng.uniform(-1, 1, (12, 2))
+    y = np.tanh(2 * X[:, 0]) + 0.5 * X[:, 1] + 0.05 * rng.normal(size=12)
+    gp = ArcsineGP(restarts=1).fit(X, y)
+    assert gp.g_.shape == (3,)
+    assert gp.log_theta_ == pytest.approx(np.log(np.r_[gp.v1_, gp.g_, gp.v0_]), rel=1e-12, abs=1e-12)
+    assert -gp.log_marginal_likelihood_ == pytest.approx(_independent_nll(X, y, gp.v1_, gp.g_, gp.v0_), rel=1e-9)
+    m, _ = gp.predict(X)
+    assert np.sqrt(np.mean((m - y) ** 2)) < 0.1  # 2 noise standard deviations
+
+
+@pytest.mark.parametrize("X, y", [([0.0, np.inf], [0.0, 1.0]), ([0.0, 1.0, 2.0], [0.0, 1.0]), ([[0.0], [1.0]], [[0.0], [1.0]])])
+def test_bad_shapes_and_inputs_are_rejected(X, y):
+    with pytest.raises(ValueError, match="finite"):
+        ArcsineGP().fit(X, y)
+
+
+def test_restarts_are_the_zero_start_then_distinct_random_points(monkeypatch):
+    """``restarts`` local searches: the first from zero (log hyperparameters 0), the others from
+    distinct random points spread over both signs, inside the box; the fit keeps the best."""
+    import uqdrive.wheelslip.gp as gp_module
+
+    starts, real = [], gp_module.minimize
+
+    def recording(fun, x0, **kwargs):
+        starts.append(np.array(x0, float))
+        return real(fun, x0, **kwargs)
+
+    monkeypatch.setattr(gp_module, "minimize", recording)
+    x = np.linspace(0.0, 1.0, 5)
+    gp = ArcsineGP(restarts=5, rng=np.random.default_rng(2)).fit(x, np.tanh(3 * x))
+    assert len(starts) == 5 and np.all(starts[0] == 0.0)
+    random = np.array(starts[1:])
+    assert len(np.unique(random, axis=0)) == 4 and (random < -0.5).any() and (random > 0.5).any() and np.all(np.abs(random) < 9.0)
+    nlls = [gp._nll_and_grad(real(gp._nll_and_grad, s, jac=True, method="L-BFGS-B", bounds=[(-9.0, 9.0)] * 4).x)[0] for s in starts]
+    assert -gp.log_marginal_likelihood_ == pytest.approx(min(nlls), rel=1e-9, abs=1e-9)

@@ -66,3 +66,43 @@ def test_read_missing_or_garbage(tmp_path):
     junk.write_text("not netcdf")
     with pytest.raises(DataError, match="not a readable netCDF"):
         read_ensemble(junk)
+
+
+@pytest.mark.parametrize(
+    "corrupt, message",
+    [
+        (lambda d: d.assign(y=d["y"].where(d["time"] < 5, np.inf)), "'y' holds .* infinite values"),
+        (lambda d: d.assign(beta=d["beta"] * 1e6), "'beta' reaches .* beyond the physical"),
+        (lambda d: d.assign(psi=d["psi"].astype("int32")), r"'psi' has dtype int32; store it as floating point"),
+        (lambda d: d.assign_attrs(v_c=-1.0), "'v_c' = -1 m/s is outside the physical range 0.5-100 m/s"),
+        (lambda d: d.assign_attrs(v_c=float("nan")), "'v_c' = nan m/s"),
+        (lambda d: d.assign_attrs(v_c="70 km/h"), "'v_c' is '70 km/h'; give one number"),
+        (lambda d: d.assign_attrs(v_c=np.array([1.0, 2.0])), "'v_c' is array"),
+        (lambda d: d.assign_attrs(v_c=True), "'v_c' is True"),
+        (lambda d: d.isel(time=[0, 1]), "at least 3"),
+        (lambda d: d.assign(psi_dot=d["psi_dot"] * 0), "'psi_dot' is zero everywhere"),
+        (lambda d: d.assign(y=d["y"].isel(sample=0).broadcast_like(d["y"]).copy()), "'y' is identical in every realisation"),
+        (lambda d: d.assign_coords(time=d["time"].astype("timedelta64[s]")), "coordinate 'time' has dtype"),
+        (lambda d: d.assign(spun=("sample", np.full(d.sizes["sample"], 2))), "'spun' must be one 0/1 flag"),
+    ],
+)
+def test_validation_refuses_non_physical_values(ensemble, corrupt, message):
+    with pytest.raises(DataError, match=message):
+        validate_ensemble(corrupt(ensemble.copy(deep=True)))
+
+
+def test_valid_float32_and_integer_v_c_pass(ensemble):
+    ds = ensemble.copy(deep=True).assign(psi=ensemble["psi"].astype("float32")).assign_attrs(v_c=20)
+    validate_ensemble(ds)
+
+
+def test_atomic_path_without_overwrite_refuses_an_existing_file(tmp_path):
+    path = tmp_path / "x.txt"
+    path.write_text("old")
+    with pytest.raises(OutputError, match="exists; pass --force"):
+        with atomic_path(path, overwrite=False) as tmp:
+            tmp.write_text("new")
+    assert path.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["x.txt"]
+    with atomic_path(path) as tmp:
+        tmp.write_text("new")
+    assert path.read_text() == "new"

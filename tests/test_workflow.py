@@ -44,13 +44,14 @@ def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
             ds.close()
     with open(results / "scorecard.csv") as fh:
         rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == ["quantity", "source", "published", "reproduced", "tolerance", "status"]
+    assert list(rows[0])[:8] == ["quantity", "source", "published", "reproduced", "tolerance", "status", "reason", "evidence"]
     # Published constants and formulas must pass; coverage and identification rows are statistics
     # of the tiny CI config (48 samples, few draws), so only their presence is checked here.
-    statistical = ("coverage", "Table 6.", "(6.2)", "posterior")
+    statistical = ("coverage", "Table 6.", "(6.2)", "posterior", "shifts the other way", "Gamma", "discrepancy")
     assert rows and all(r["status"] == "pass" for r in rows if not any(k in r["quantity"] + r["source"] for k in statistical))
     assert any("coverage" in r["quantity"] for r in rows) and any("zeta" in r["quantity"] for r in rows)
     assert any("Table 6.2" in r["source"] for r in rows)
+    assert any(r["quantity"].startswith("discrepancy:") for r in rows)
 
 
 @pytest.mark.workflow

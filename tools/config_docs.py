@@ -7,6 +7,7 @@ tests/test_config_docs.py fails while the committed file differs from what this 
 
 from __future__ import annotations
 
+import ast
 import re
 import sys
 from pathlib import Path
@@ -72,29 +73,125 @@ def schema_constraint(schema: dict, dotted: str) -> str:
     return " ".join(bits)
 
 
+def _value(node: ast.AST, names: dict):
+    """Value of a constant expression of the rules: strings, tuples and lists of them (with
+    ``*`` and ``+``), dicts, and names assigned before; None for anything else."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.Name):
+        return names.get(node.id)
+    if isinstance(node, (ast.Tuple, ast.List)):
+        out: list = []
+        for elt in node.elts:
+            value = _value(elt.value if isinstance(elt, ast.Starred) else elt, names)
+            if isinstance(elt, ast.Starred):
+                out += list(value or ())
+            else:
+                out.append(value)
+        return tuple(out)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        left, right = _value(node.left, names), _value(node.right, names)
+        return tuple(left or ()) + tuple(right or ()) if isinstance(left, tuple) or isinstance(right, tuple) else None
+    if isinstance(node, ast.Dict):
+        return {_value(k, names): _value(v, names) for k, v in zip(node.keys, node.values) if k is not None}
+    return None
+
+
+def _statements(text: str):
+    """Top-level assignments (``NAME = ...``, ``A, B = ...``) of a rules file, parsed, each
+    over as many lines as it takes."""
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        if not re.match(r"^[A-Za-z_][\w, ]*=[^=]", line):
+            continue
+        for j in range(i + 1, min(i + 40, len(lines)) + 1):
+            try:
+                tree = ast.parse("\n".join(lines[i:j]))
+            except SyntaxError:
+                continue
+            if tree.body and isinstance(tree.body[0], ast.Assign):
+                yield tree.body[0]
+            break
+
+
+def _assign(stmt: ast.Assign, names: dict) -> None:
+    for target in stmt.targets:
+        if isinstance(target, ast.Name):
+            names[target.id] = _value(stmt.value, names)
+        elif isinstance(target, ast.Tuple) and isinstance(stmt.value, ast.Tuple):
+            for t, v in zip(target.elts, stmt.value.elts):
+                if isinstance(t, ast.Name):
+                    names[t.id] = _value(v, names)
+
+
+def _call_args(body: str, function: str):
+    """The argument lists of every call ``function(...)`` in ``body``, each parsed as a call."""
+    for m in re.finditer(rf"(?<![\w.]){function}\(", body):
+        depth, k = 0, m.end() - 1
+        for k in range(m.end() - 1, len(body)):
+            depth += {"(": 1, ")": -1}.get(body[k], 0)
+            if depth == 0:
+                break
+        try:
+            yield ast.parse(" ".join(body[m.start():k + 1].split()), mode="eval").body
+        except SyntaxError:
+            continue
+
+
+def _flat(value) -> list[str]:
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, (tuple, list)):
+        return [k for v in value for k in _flat(v)]
+    if isinstance(value, dict):
+        return [k for v in value.values() for k in _flat(v)]
+    return []
+
+
+def _call_keys(call: ast.Call, names: dict) -> list[str]:
+    """Config keys a ``reads(...)`` or ``cfg(...)`` call names: its positional keys (``*ALIAS``
+    expanded), the keys of ``per_job=(wildcard, {value: keys})`` and each ``name="key"``."""
+    keys = []
+    for arg in call.args:
+        keys += _flat(_value(arg.value, names) if isinstance(arg, ast.Starred) else _value(arg, names))
+    for kw in call.keywords:
+        value = _value(kw.value, names)
+        keys += _flat(value[1] if kw.arg == "per_job" and isinstance(value, tuple) and len(value) == 2 else value)
+    return keys
+
+
 def rule_readers(rules_dir: Path = RULES) -> dict[str, set[str]]:
-    """Config key or section (dotted) -> the rules whose params read it."""
+    """Config key or section (dotted) -> the rules whose params read it.
+
+    Read from the rules' ``params``: ``**reads(...)`` (and ``cfg(...)``) with their key aliases
+    (top-level ``NAME = (...)`` assignments of the Snakefile and the rules files), hand-written
+    triggers ``{"dotted.key": ...}`` and direct ``config["a"]["b"]`` reads."""
     readers: dict[str, set[str]] = {}
-    aliases: dict[str, list[str]] = {}
-    text = "\n".join(p.read_text() for p in sorted(rules_dir.glob("*.smk")))
-    text = (ROOT / "workflow" / "Snakefile").read_text() + "\n" + text
-    for name, body in re.findall(r"^(\w+_KEYS) = (.*)$", text, flags=re.M):
-        keys = re.findall(r'"([\w.]+)"', body)
-        for ref in re.findall(r"(\w+_KEYS)", body.split("=")[-1]):
-            keys += aliases.get(ref, [])
-        aliases[name] = keys
-    for block in re.split(r"^rule ", text, flags=re.M)[1:]:
-        rule = block.split(":", 1)[0].strip()
-        body = block.split("\nrule ", 1)[0]
-        keys = []
-        for args in re.findall(r"cfg\(([^)]*)\)", body):
-            keys += re.findall(r'"([\w.]+)"', args)
-            for ref in re.findall(r"\*(\w+_KEYS)", args):
-                keys += aliases.get(ref, [])
-        keys += [".".join(re.findall(r'\["(\w+)"\]', m)) for m in re.findall(r'config((?:\["\w+"\])+)', body)]
-        for k in keys:
-            readers.setdefault(k, set()).add(rule)
+    names: dict = {}
+    texts = [(ROOT / "workflow" / "Snakefile").read_text()] + [p.read_text() for p in sorted(rules_dir.glob("*.smk"))]
+    for text in texts:
+        for stmt in _statements(text):
+            _assign(stmt, names)
+    for text in texts:
+        for m in re.finditer(r"^rule (\w+):\n((?:[ \t]+.*\n|[ \t]*\n)*)", text + "\n", flags=re.M):
+            rule, body = m.group(1), m.group(2)
+            keys = []
+            for function in ("reads", "cfg"):
+                for call in _call_args(body, function):
+                    keys += _call_keys(call, names)
+            keys += re.findall(r'\{"([A-Za-z_][\w]*(?:\.[\w]+)+)":', body)
+            keys += [".".join(re.findall(r'\["(\w+)"\]', c)) for c in re.findall(r'config((?:\["\w+"\])+)', body)]
+            for k in keys:
+                readers.setdefault(k, set()).add(rule)
     return readers
+
+
+def dag_keys(rules_dir: Path = RULES) -> set[str]:
+    """Config keys the workflow reads outside the rules' bodies: they decide which jobs exist
+    (``outdir``, the models and steerings, the noise levels, the GP training sizes)."""
+    texts = [(ROOT / "workflow" / "Snakefile").read_text()] + [p.read_text() for p in sorted(rules_dir.glob("*.smk"))]
+    outside = "\n".join(re.sub(r"^rule \w+:\n(?:[ \t]+.*\n|[ \t]*\n)*", "", t + "\n", flags=re.M) for t in texts)
+    return {".".join(re.findall(r'\["(\w+)"\]', c)) for c in re.findall(r'config((?:\["\w+"\])+)', outside)}
 
 
 def readers_of(dotted: str, readers: dict[str, set[str]]) -> list[str]:
@@ -108,6 +205,7 @@ def readers_of(dotted: str, readers: dict[str, set[str]]) -> list[str]:
 def render() -> str:
     schema = yaml.safe_load(SCHEMA.read_text())
     readers = rule_readers()
+    dag = {k: {"workflow"} for k in dag_keys()}
     lines = [
         "# Configuration keys",
         "",
@@ -125,7 +223,7 @@ def render() -> str:
         if section and section not in meaning:
             meaning = f"{meaning} ({section})" if meaning else section
         shown = yaml.safe_dump(value, default_flow_style=True, width=1000).strip().removesuffix("...").strip()
-        rules = ", ".join(readers_of(key, readers)) or "CLI only"
+        rules = ", ".join(readers_of(key, readers) + (["(which jobs exist)"] if readers_of(key, dag) else [])) or "CLI only"
         lines.append(f"| `{key}` | `{shown}` | {schema_constraint(schema, key)} | {meaning.replace('|', '/')} | {rules} |")
     return "\n".join(lines) + "\n"
 

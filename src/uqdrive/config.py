@@ -1,11 +1,15 @@
 """Load and validate the uqdrive configuration (one JSON schema for workflow and CLI).
 
-Errors name the offending key and say how to fix it; a config hash goes into provenance.
+Errors name the offending key (dotted) and say how to fix it; a config hash goes into provenance.
+Beyond the schema: every number finite, physical ranges of what the models read
+(:data:`PHYSICAL_RANGES`) and cross-field checks. The default configuration ships inside the
+package (``default_config.yaml``, a byte-for-byte copy of the repository's ``config/config.yaml``).
 """
 
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import json
 import math
@@ -17,20 +21,122 @@ import yaml
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
-__all__ = ["ConfigError", "load_config", "validate_config", "config_hash", "load_schema"]
+__all__ = ["ConfigError", "load_config", "validate_config", "config_hash", "load_schema", "default_config_text",
+           "PHYSICAL_RANGES", "DEFAULT_CONFIG_NAME", "config_value", "restrict_config", "merge_config", "override_config",
+           "parse_overrides", "provenance"]
+
+#: Name of the packaged default configuration (a copy of config/config.yaml).
+DEFAULT_CONFIG_NAME = "default_config.yaml"
+_MAX = 2**63 - 1  # largest seed netCDF attributes and numpy seed sequences share
+
+#: Physical range of each value the models read: key -> (low, high, low inclusive, high
+#: inclusive, unit). Wider than any vehicle, so that only unit slips and typos land outside.
+PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
+    "seed": (0, _MAX, True, True, ""),
+    "vehicle.m_base": (0.0, 1e5, False, True, "kg"),
+    "vehicle.J0": (0.0, 100.0, False, True, "m^2"),
+    "vehicle.wheelbase": (0.0, 20.0, False, True, "m"),
+    "vehicle.c_Sf": (0.0, 1e3, False, True, ""),
+    "vehicle.c_Sr": (0.0, 1e3, False, True, ""),
+    "vehicle.speed_kmh": (1.8, 360.0, True, True, "km/h"),
+    "vehicle.M_c": (-100.0, 100.0, True, True, "m"),
+    "vehicle.g": (0.0, 100.0, False, True, "m/s^2"),
+    "tyre.C": (0.0, 10.0, False, True, ""),
+    "tyre.E": (-100.0, 1.0, True, True, ""),
+    "uncertainty.mu.mean": (0.0, 10.0, False, True, ""),
+    "uncertainty.mu.std": (0.0, 10.0, False, True, ""),
+    "uncertainty.m_load.mean": (0.0, 1e5, True, True, "kg"),
+    "uncertainty.m_load.std": (0.0, 1e5, False, True, "kg"),
+    "uncertainty.l_f.std": (0.0, 20.0, False, True, "m"),
+    "uncertainty.F_w_mean.low": (-1e5, 1e5, True, True, "N"),
+    "uncertainty.F_w_mean.high": (-1e5, 1e5, True, True, "N"),
+    "wind.sigma": (0.0, 1e5, True, True, "N"),
+    "wind.Tc": (0.0, 1e4, False, True, "s"),
+    "steering.period": (0.0, 1e4, False, True, "s"),
+    "time.t_end": (0.0, 1e5, False, True, "s"),
+    "time.dt": (0.0, 1e3, False, True, "s"),
+    "time.step": (0.0, 1e3, False, True, "s"),
+    "montecarlo.samples": (2, 10**7, True, True, ""),
+    "montecarlo.spin_threshold": (0.0, 1e4, False, True, "rad"),
+    "identification.max_iter": (1, 10**5, True, True, ""),
+}
+_MAX_TIME_POINTS = 10**6  # t_end / step: beyond it one trajectory does not fit in memory
 
 
 class ConfigError(ValueError):
     """A configuration value is missing, misspelt, of the wrong type or out of range."""
 
 
+_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml: the same result, 20x faster
+
+
+def _yaml(text: str):
+    return yaml.load(text, Loader=_Loader)
+
+
 def load_schema() -> dict:
     """Return the JSON schema shipped with the package (``config_schema.yaml``)."""
-    return yaml.safe_load(files("uqdrive").joinpath("config_schema.yaml").read_text())
+    return copy.deepcopy(_schema())
+
+
+@functools.lru_cache(maxsize=1)
+def _schema() -> dict:
+    return _yaml(files("uqdrive").joinpath("config_schema.yaml").read_text())
+
+
+@functools.lru_cache(maxsize=1)
+def _validator() -> Draft202012Validator:
+    return Draft202012Validator(_schema())
+
+
+def default_config_text() -> str:
+    """The packaged default configuration as text (with its comments), for editing."""
+    return files("uqdrive").joinpath(DEFAULT_CONFIG_NAME).read_text(encoding="utf-8")
 
 
 def _key(path) -> str:
     return ".".join(str(p) for p in path) or "<top level>"
+
+
+def _check_leaves(node, path=()) -> None:
+    """Mapping keys are names and every number is finite (YAML .nan and .inf parse as floats)."""
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            if not isinstance(k, str):
+                raise ConfigError(f"config key '{_key(path + (k,))}' is not a name; write keys as text")
+            _check_leaves(v, path + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            _check_leaves(v, path + (i,))
+    elif isinstance(node, float) and not math.isfinite(node):
+        raise ConfigError(f"config key '{_key(path)}' is {node}; give a finite number")
+
+
+_FIXES = {
+    "minimum": lambda e: f"give a value >= {e.validator_value}",
+    "exclusiveMinimum": lambda e: f"give a value > {e.validator_value}",
+    "maximum": lambda e: f"give a value <= {e.validator_value}",
+    "exclusiveMaximum": lambda e: f"give a value < {e.validator_value}",
+    "type": lambda e: f"give a value of type {e.validator_value}",
+    "enum": lambda e: "choose one of " + ", ".join(map(str, e.validator_value)),
+    "minItems": lambda e: f"give at least {e.validator_value} item(s)",
+    "maxItems": lambda e: f"give at most {e.validator_value} item(s)",
+    "uniqueItems": lambda e: "remove the repeated items",
+    "minLength": lambda e: "give a non-empty value",
+}
+
+
+def _schema_error(error) -> ConfigError:
+    path = list(error.absolute_path)
+    if error.validator == "additionalProperties":
+        extra = sorted(map(str, set(error.instance) - set(error.schema.get("properties", {}))))
+        allowed = ", ".join(sorted(error.schema.get("properties", {})))
+        return ConfigError(f"config key '{_key(path + extra[:1])}' is not known; allowed keys under '{_key(path)}' are: {allowed}")
+    if error.validator == "required":
+        missing = [k for k in error.validator_value if isinstance(error.instance, Mapping) and k not in error.instance][:1]
+        return ConfigError(f"config key '{_key(path + missing)}' is missing; add it (the default: uqdrive config --dump -)")
+    fix = _FIXES.get(error.validator)
+    return ConfigError(f"config key '{_key(path)}': {error.message}" + (f"; {fix(error)}" if fix else ""))
 
 
 def validate_config(config: Mapping[str, Any]) -> dict:
@@ -39,33 +145,45 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     Raises
     ------
     ConfigError
-        Naming the first offending key (dotted path) and the expected value.
+        Naming the first offending key (dotted path), the value and the fix.
     """
+    if not isinstance(config, Mapping):
+        raise ConfigError("the configuration must be a mapping of keys")
     cfg = copy.deepcopy(dict(config))
-    validator = Draft202012Validator(load_schema())
-    error = best_match(validator.iter_errors(cfg))
+    _check_leaves(cfg)
+    error = best_match(_validator().iter_errors(cfg))
     if error is not None:
-        path = list(error.absolute_path)
-        if error.validator == "additionalProperties":
-            extra = sorted(set(error.instance) - set(error.schema.get("properties", {})))
-            allowed = ", ".join(sorted(error.schema.get("properties", {})))
-            raise ConfigError(
-                f"config key '{_key(path + extra[:1])}' is not known; "
-                f"allowed keys under '{_key(path)}' are: {allowed}"
-            )
-        raise ConfigError(f"config key '{_key(path)}': {error.message}")
+        raise _schema_error(error)
+    _check_ranges(cfg)
     _check_semantics(cfg)
     return cfg
+
+
+def _get(cfg: Mapping, key: str):
+    node = cfg
+    for part in key.split("."):
+        node = node[part]
+    return node
+
+
+def _check_ranges(cfg: dict) -> None:
+    for key, (lo, hi, lo_in, hi_in, unit) in PHYSICAL_RANGES.items():
+        value = _get(cfg, key)
+        ok = (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
+        if not ok:
+            span = f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
+            raise ConfigError(f"config key '{key}' = {value:g} is outside the physical range {span}{' ' + unit if unit else ''}; "
+                              "give a value in that range")
 
 
 def _check_semantics(cfg: dict) -> None:
     """Cross-field checks a JSON schema cannot express."""
     unc, veh, tim = cfg["uncertainty"], cfg["vehicle"], cfg["time"]
     if not unc["F_w_mean"]["low"] <= unc["F_w_mean"]["high"]:
-        raise ConfigError("config key 'uncertainty.F_w_mean.low' must not exceed 'high'")
+        raise ConfigError("config key 'uncertainty.F_w_mean.low' must not exceed 'high'; swap them")
     if not 0.0 < unc["l_f"]["mean"] < veh["wheelbase"]:
         raise ConfigError(
-            "config key 'uncertainty.l_f.mean' must lie inside (0, vehicle.wheelbase)"
+            f"config key 'uncertainty.l_f.mean' = {unc['l_f']['mean']:g} must lie inside (0, vehicle.wheelbase = {veh['wheelbase']:g}) m"
         )
     for name, outer, inner in (("time.dt", tim["t_end"], tim["dt"]), ("time.step", tim["dt"], tim["step"])):
         ratio = outer / inner
@@ -73,33 +191,158 @@ def _check_semantics(cfg: dict) -> None:
             raise ConfigError(
                 f"config key '{name}' = {inner} must divide {outer} into a whole number of steps"
             )
+    if tim["t_end"] < 2 * tim["dt"] * (1 - 1e-9):
+        raise ConfigError(f"config key 'time.t_end' = {tim['t_end']:g} s must be at least 2 time.dt = {2 * tim['dt']:g} s "
+                          "(3 time points); raise t_end or lower dt")
+    if tim["t_end"] / tim["step"] > _MAX_TIME_POINTS:
+        raise ConfigError(f"config key 'time.step' = {tim['step']:g} s makes {tim['t_end'] / tim['step']:.3g} steps "
+                          f"(more than {_MAX_TIME_POINTS:.0e}); raise time.step or lower time.t_end")
     if math.isclose(cfg["wind"]["kle_truncation"], 0.0):
         raise ConfigError("config key 'wind.kle_truncation' must be positive")
 
 
-def load_config(path: str | Path) -> dict:
-    """Read a YAML configuration file and validate it.
+def load_config(path: str | Path | None = None) -> dict:
+    """Read a YAML configuration file (None: the packaged default) and validate it.
 
     Raises
     ------
     ConfigError
-        If the file is missing, is not YAML, or fails validation.
+        If the file is missing, is not UTF-8 YAML, or fails validation.
     """
-    path = Path(path)
+    if path is None:
+        name, text = f"<packaged {DEFAULT_CONFIG_NAME}>", default_config_text()
+    else:
+        name = path = Path(path)
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise ConfigError(f"cannot read config file '{path}': {exc.strerror or exc}") from exc
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"config file '{path}' is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
+                              "save it as UTF-8") from None
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ConfigError(f"cannot read config file '{path}': {exc.strerror}") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"config file '{path}' is not valid YAML: {exc}") from exc
+        data = _yaml(text)
+    except (yaml.YAMLError, RecursionError) as exc:
+        reason = " ".join(str(exc).split())
+        raise ConfigError(f"config file '{name}' is not valid YAML: {reason}") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"config file '{path}' must hold a mapping of keys")
+        raise ConfigError(f"config file '{name}' must hold a mapping of keys (start from: uqdrive config --dump FILE)")
     return validate_config(data)
 
 
-def config_hash(config: Mapping[str, Any]) -> str:
-    """Return a short SHA-256 of the canonical JSON form of ``config`` (provenance)."""
-    canonical = json.dumps(config, sort_keys=True, separators=(",", ":"), default=str)
+def config_value(config: Mapping[str, Any], key: str) -> Any:
+    """The value of the dotted ``key`` (e.g. ``"montecarlo.samples"``) in ``config``.
+
+    Raises
+    ------
+    KeyError
+        Naming the key and the first part of it that ``config`` lacks.
+    """
+    node: Any = config
+    parts = key.split(".")
+    for i, part in enumerate(parts):
+        if not isinstance(node, Mapping) or part not in node:
+            raise KeyError(f"config key '{key}' does not exist (no '{'.'.join(parts[: i + 1])}')")
+        node = node[part]
+    return node
+
+
+def restrict_config(config: Mapping[str, Any], keys) -> dict:
+    """The part of ``config`` under ``keys`` (sections or dotted keys), nested as in ``config``.
+
+    ``restrict_config(cfg, ["seed", "montecarlo.samples"])`` is ``{"seed": ..., "montecarlo":
+    {"samples": ...}}``; values are deep copies. A key ``config`` lacks raises :class:`KeyError`.
+    """
+    out: dict = {}
+    for key in keys:
+        value = copy.deepcopy(config_value(config, key))
+        parts = key.split(".")
+        node = out
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+        node[parts[-1]] = value
+    return out
+
+
+def merge_config(base: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict:
+    """A deep copy of ``base`` with ``overrides`` merged in: mappings key by key (recursively),
+    any other value replaced (as Snakemake merges ``--configfile`` and ``--config``)."""
+    out = copy.deepcopy(dict(base))
+    for key, value in overrides.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = merge_config(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def override_config(config: Mapping[str, Any], settings: Mapping[str, Any]) -> dict:
+    """A deep copy of ``config`` with each dotted key of ``settings`` set to its value; every key
+    must exist in ``config`` already (a misspelt key is an error, not a new key)."""
+    out = copy.deepcopy(dict(config))
+    for key, value in settings.items():
+        config_value(out, key)
+        *parents, leaf = key.split(".")
+        node = out
+        for part in parents:
+            node = node[part]
+        node[leaf] = copy.deepcopy(value)
+    return out
+
+
+def parse_overrides(entries) -> dict:
+    """Nested overrides from ``key=value`` entries (Snakemake's ``--config`` arguments), each value
+    read as YAML: ``control={"R": 50}`` gives ``{"control": {"R": 50}}`` with R a number, where
+    Snakemake itself would keep the nested 50 a string. Dotted keys nest too (``control.R=50``).
+
+    Raises
+    ------
+    ConfigError
+        If an entry has no ``=`` or its value is not YAML.
+    """
+    out: dict = {}
+    for entry in entries or ():
+        key, sep, text = str(entry).partition("=")
+        if not sep or not key:
+            raise ConfigError(f"config override '{entry}' must read key=value")
+        try:
+            value = yaml.safe_load(text) if text else None
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"config override '{key}': the value is not YAML: {exc}") from exc
+        for part in reversed(key.split(".")):
+            value = {part: value}
+        out = merge_config(out, value)
+    return out
+
+
+def _canonical(value: Any) -> Any:
+    """Settings as plain JSON values; an integral float equals its int (2.0 and 2 hash alike)."""
+    if isinstance(value, Mapping):
+        return {str(k): _canonical(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def config_hash(config: Mapping[str, Any], keys=None) -> str:
+    """Return a short SHA-256 of the canonical JSON form of the settings (provenance).
+
+    The settings are ``config`` restricted to the dotted ``keys`` if given, else all of it but
+    ``outdir`` (where results go is not a setting). The one hash of uqdrive: the CLI, the
+    workflow's datasets and the scorecard all call it, so equal settings give equal hashes.
+    """
+    settings = restrict_config(config, keys) if keys is not None else {k: v for k, v in config.items() if k != "outdir"}
+    canonical = json.dumps(_canonical(settings), sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
+def provenance(config: Mapping[str, Any], source: str) -> dict:
+    """What a product traces to: the config's ``source`` (path, with any overrides), its
+    :func:`config_hash`, the root seed and the uqdrive version."""
+    from ._version import __version__
+
+    return {"config": str(source), "config_hash": config_hash(config), "seed": int(config["seed"]), "uqdrive_version": __version__}

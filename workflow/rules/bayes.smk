@@ -1,6 +1,13 @@
 # emcee cross-check of the identified distributions (LST-LST, NLST-LST, noisy LST).
 
 BAYES_CASES = ["lst", "nlst", "lst_noise"]
+#: What both posterior rules read: the data's spin policy, the PCE model, the optimiser's settings
+#: (estimates with SI and unit-free residuals), the sampler's settings (uqdrive.studies.bayes).
+BAYES_KEYS = ("seed",) + MODEL_KEYS + ("montecarlo.spin_policy", "identification.order", "identification.quadrature_points",
+                                      "identification.max_iter", "identification.state_scale", "identification.normalised_state_scale",
+                                      "identification.optimiser", "bayes.likelihood_dt", "bayes.model_dt", "bayes.model_error",
+                                      "bayes.walkers", "bayes.check_every", "bayes.tau_factor", "bayes.burn_in", "bayes.moves",
+                                      "bayes.model_gusts", "bayes.prior")
 BAYES_SRC = ("inference.bayes", "studies.bayes", "inference.identify", "vehicle.chaos", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "vehicle.noise", "rng")
 
 
@@ -13,9 +20,10 @@ rule posterior:
     wildcard_constraints:
         case="|".join(BAYES_CASES),
     params:
-        config=cfg(*SIM_KEYS, "identification", "bayes"),
+        **reads(*BAYES_KEYS, "bayes.ensembles", "bayes.dispersion", "bayes.max_steps", per_job=("case", {"lst_noise": ("bayes.noise_level",)})),
     log:
         f"{OUT}/logs/posterior_{{case}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -28,9 +36,10 @@ rule posterior_coverage:
     output:
         f"{OUT}/data/posterior_coverage.nc",
     params:
-        config=cfg(*SIM_KEYS, "identification", "bayes"),
+        **reads(*BAYES_KEYS, "montecarlo.samples", "montecarlo.spin_threshold", "bayes.calibration_sets", "bayes.calibration_steps"),
     log:
         f"{OUT}/logs/posterior_coverage.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:

@@ -1,6 +1,8 @@
 # LQR and stochastic LQR on the PCE model: the lane-keeping test case (thesis sec. 5.4, 6.3).
 
-CONTROL_KEYS = SIM_KEYS + ("control",)
+#: What every controller design reads: the vehicle's distributions and the wind's KLE on [0, t_end],
+#: the time step of the lane-keeping case, its initial conditions, the seed of the provenance.
+CONTROL_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time.t_end", "time.dt", "control.y0", "control.psi0_deg")
 CONTROL_SRC = ("control.lqr", "studies.control", "control.slqr", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "vehicle.single_track", "vehicle.uncertainty", "vehicle.montecarlo", "rng")
 
 
@@ -11,9 +13,10 @@ rule control_gains:
     output:
         f"{OUT}/data/control_gains.nc",
     params:
-        config=cfg(*CONTROL_KEYS),
+        **reads(*CONTROL_KEYS, "control.Q_diag", "control.R", "control.order", "control.gamma", "control.horizon", "control.simulation_time"),
     log:
         f"{OUT}/logs/control_gains.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -29,9 +32,10 @@ rule control_monte_carlo:
     wildcard_constraints:
         model="lst|nlst",
     params:
-        config=cfg(*CONTROL_KEYS),
+        **reads(*CONTROL_KEYS, "time.step", "control.samples", "control.simulation_time"),
     log:
         f"{OUT}/logs/control_mc_{{model}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -44,9 +48,10 @@ rule control_gamma_sweep:
     output:
         f"{OUT}/data/control_gamma_sweep.nc",
     params:
-        config=cfg(*CONTROL_KEYS),
+        **reads(*CONTROL_KEYS, "control.Q_diag", "control.R", "control.order", "control.gamma_sweep", "control.horizon"),
     log:
         f"{OUT}/logs/control_gamma_sweep.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -68,7 +73,7 @@ rule fig_control:
         table=report(f"{OUT}/tables/control_gains.csv", caption="../report/control_gains.rst", category="Control"),
         scorecard=f"{OUT}/scorecard/control.csv",
     params:
-        band_sigmas=config["figures"]["band_sigmas"],
+        **reads(band_sigmas="figures.band_sigmas"),
     log:
         f"{OUT}/logs/fig_control.log",
     conda:

@@ -7,9 +7,10 @@ rule kle:
     output:
         f"{OUT}/data/kle.nc",
     params:
-        config=cfg("seed", "wind", "time", "figures"),
+        **reads("seed", "time", "wind.Tc", "wind.kle_quadrature", "wind.kle_truncation", "figures.kle_realisations"),
     log:
         f"{OUT}/logs/kle.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -22,12 +23,13 @@ rule ensemble:
     output:
         f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
     params:
-        config=cfg(*SIM_KEYS),
+        **reads(*ENSEMBLE_KEYS),
     wildcard_constraints:
         model="lst|nlst",
         steer="normal|inverted",
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -40,10 +42,13 @@ rule statistics:
         ensemble=f"{OUT}/data/ensemble_{{model}}_{{steer}}.nc",
     output:
         f"{OUT}/data/stats_{{model}}_{{steer}}.nc",
+    wildcard_constraints:
+        model="lst|nlst",
     params:
-        spin_policy=config["montecarlo"]["spin_policy"],
+        **reads(spin_policy="montecarlo.spin_policy"),
     log:
         f"{OUT}/logs/stats_{{model}}_{{steer}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -57,11 +62,10 @@ rule noise_statistics:
     output:
         f"{OUT}/data/noise_stats_{{model}}.nc",
     params:
-        levels=NOISE_LEVELS,
-        seed=config["seed"],
-        spin_policy=config["montecarlo"]["spin_policy"],
+        **reads(levels="noise.levels", seed="seed", spin_policy="montecarlo.spin_policy"),
     log:
         f"{OUT}/logs/noise_stats_{{model}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:

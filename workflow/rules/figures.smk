@@ -6,7 +6,7 @@ rule fig_tyre_curves:
     output:
         report(f"{FIG}/fig_2_3.png", caption="../report/fig_2_3.rst", category="Vehicle model"),
     params:
-        surfaces=config["figures"]["tyre_surfaces"],
+        **reads(surfaces="figures.tyre_surfaces"),
     log:
         f"{OUT}/logs/fig_2_3.log",
     conda:
@@ -39,7 +39,7 @@ rule fig_data_band:
     wildcard_constraints:
         number="1|2",
     params:
-        band_sigmas=config["figures"]["band_sigmas"],
+        **reads(band_sigmas="figures.band_sigmas"),
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
     conda:
@@ -74,7 +74,7 @@ rule fig_lst_vs_nlst:
         comparison=report(f"{FIG}/fig_6_5.png", caption="../report/fig_6_5.rst", category="Measured data"),
         kl=report(f"{FIG}/fig_6_6.png", caption="../report/fig_6_6.rst", category="Measured data"),
     params:
-        band_sigmas=config["figures"]["band_sigmas"],
+        **reads(band_sigmas="figures.band_sigmas"),
     log:
         f"{OUT}/logs/fig_6_5_6.log",
     conda:
@@ -94,7 +94,7 @@ rule fig_appendix_a:
     params:
         index=lambda w: (int(w.n) - 1) % N_LEVELS,
         model=lambda w: appendix_a_model(w.n),
-        band_sigmas=config["figures"]["band_sigmas"],
+        **reads(band_sigmas="figures.band_sigmas"),
     log:
         f"{OUT}/logs/fig_A{{n}}.log",
     conda:

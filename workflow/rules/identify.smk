@@ -1,4 +1,5 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
+from uqdrive.studies.identification import experiment_config
 
 ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted"]
 ID_STATS = {
@@ -11,38 +12,66 @@ ID_STATS = {
     "lst_normal_no_wind_moment": f"{OUT}/data/stats_lst_normal_no_wind_moment.nc",
     "nlst_normal_no_wind_moment": f"{OUT}/data/stats_nlst_normal_no_wind_moment.nc",
 }
+# The statistics each experiment fits (uqdrive.studies.identification.experiment_plan), both
+# steerings' LST and NLST where its DST cost needs D_KL(NLST || LST); every experiment records
+# the spun NLST runs of "nlst_normal".
+_NORMAL, _INVERTED = ["lst_normal", "nlst_normal"], ["lst_inverted", "nlst_inverted", "nlst_normal"]
+ID_INPUTS = {
+    "basic": _NORMAL, "inverted": _INVERTED, "initial_guess": _NORMAL, "noise": _NORMAL + ["noise_lst", "noise_nlst"],
+    "robust": _NORMAL, "no_wind_moment": ["lst_normal_no_wind_moment", "nlst_normal_no_wind_moment", "nlst_normal"],
+    "normalised": _NORMAL, "normalised_inverted": _INVERTED,
+}
+#: The ensembles of the Table 6.2 variant without the wind's yaw moment: M_c = 0 (set by
+#: uqdrive.studies.identification.experiment_config, so vehicle.M_c is not read), the rest as
+#: any ensemble; their statistics come from the rule statistics.
+NO_WIND_MOMENT_KEYS = ("seed", "vehicle.m_base", "vehicle.J0", "vehicle.wheelbase", "vehicle.c_Sf", "vehicle.c_Sr", "vehicle.speed_kmh",
+                       "vehicle.g", "tyre", "uncertainty", "wind", "steering", "time", "montecarlo.samples", "montecarlo.spin_threshold")
+#: What every identification reads: the model, the estimator's settings, the seed of its guesses.
+ID_KEYS = ("seed",) + MODEL_KEYS + ("identification.order", "identification.quadrature_points", "identification.max_iter",
+                                    "identification.optimiser", "identification.runs")
+_SI, _UNIT_FREE = ("identification.basic_deviation", "identification.state_scale"), ("identification.basic_deviation", "identification.normalised_state_scale")
+#: What only some experiments read (experiment_plan; the residual scale of their tasks).
+ID_EXPERIMENT_KEYS = {
+    "basic": _SI, "inverted": _SI, "no_wind_moment": _SI, "normalised": _UNIT_FREE, "normalised_inverted": _UNIT_FREE,
+    "initial_guess": ("identification.initial_guess_deviations", "identification.fixed_deviation", "identification.state_scale"),
+    "noise": ("noise.levels", "identification.fixed_deviation", "identification.state_scale"),
+    "robust": ("identification.robust_deviations", "identification.robust_starts", "identification.fixed_deviation", "identification.state_scale"),
+}
 
 
-rule stats_no_wind_moment:
+rule ensemble_no_wind_moment:
     input:
-        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "vehicle.statistics", "studies.identification"),
+        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "io", "studies.identification"),
     output:
-        f"{OUT}/data/stats_{{model}}_normal_no_wind_moment.nc",
+        f"{OUT}/data/ensemble_{{model}}_{{steer}}_no_wind_moment.nc",
     wildcard_constraints:
         model="lst|nlst",
+        steer="normal",
     params:
-        config=cfg(*SIM_KEYS),
+        **reads(*NO_WIND_MOMENT_KEYS, adjust=lambda c: experiment_config(c, "no_wind_moment")),
     log:
-        f"{OUT}/logs/stats_{{model}}_normal_no_wind_moment.log",
+        f"{OUT}/logs/ensemble_{{model}}_{{steer}}_no_wind_moment.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
-        "../scripts/stats_no_wind_moment.py"
+        "../scripts/ensemble.py"
 
 
 rule identification:
     input:
         src("inference.identify", "studies.identification", "vehicle.chaos", "numerics.galerkin", "numerics.pce", "numerics.polynomials", "numerics.integrate", "numerics.metrics", "rng"),
-        **ID_STATS,
+        unpack(lambda w: {key: ID_STATS[key] for key in ID_INPUTS[w.experiment]}),
     output:
         f"{OUT}/data/identification_{{experiment}}.nc",
     wildcard_constraints:
         experiment="|".join(ID_EXPERIMENTS),
     params:
-        config=cfg(*SIM_KEYS, "identification", "noise"),
-        stats_keys=list(ID_STATS),
+        **reads(*ID_KEYS, per_job=("experiment", ID_EXPERIMENT_KEYS)),
+        stats_keys=lambda w: ID_INPUTS[w.experiment],
     log:
         f"{OUT}/logs/identification_{{experiment}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -55,9 +84,11 @@ rule identifiability:
     output:
         f"{OUT}/data/identifiability.csv",
     params:
-        config=cfg("vehicle", "tyre", "uncertainty", "steering"),
+        **reads("vehicle", "tyre.C", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "uncertainty.F_w_mean",
+                "steering.delta_max_deg"),
     log:
         f"{OUT}/logs/identifiability.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -81,7 +112,7 @@ rule fig_identification:
         identifiability=report(f"{OUT}/tables/identifiability.csv", caption="../report/identifiability.rst", category="Identification"),
         scorecard=f"{OUT}/scorecard/identification.csv",
     params:
-        config=cfg(*SIM_KEYS, "identification", "noise"),
+        **reads("vehicle", "tyre", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "noise.levels"),
         experiments=ID_EXPERIMENTS,
     log:
         f"{OUT}/logs/fig_identification.log",

@@ -1,6 +1,8 @@
 # Polynomial chaos of the LST (thesis ch. 4, sec. 5.2): moments, Sobol indices, convergence.
 
-PCE_KEYS = SIM_KEYS + ("pce",)
+#: What the PCE model of the LST reads (uqdrive.vehicle.chaos.LSTChaosModel), with the seed of
+#: the datasets' provenance.
+PCE_KEYS = ("seed",) + MODEL_KEYS
 
 
 rule pce_moments:
@@ -9,9 +11,10 @@ rule pce_moments:
     output:
         f"{OUT}/data/pce_lst.nc",
     params:
-        config=cfg(*PCE_KEYS),
+        **reads(*PCE_KEYS, "pce.order", "pce.quadrature_points"),
     log:
         f"{OUT}/logs/pce_lst.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -24,9 +27,10 @@ rule mc_reference:
     output:
         f"{OUT}/data/mc_reference_lst.nc",
     params:
-        config=cfg(*PCE_KEYS),
+        **reads(*PCE_KEYS, "montecarlo.spin_threshold", "pce.convergence.reference_samples", "pce.convergence.chunk"),
     log:
         f"{OUT}/logs/mc_reference_lst.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -40,9 +44,10 @@ rule pce_convergence:
     output:
         f"{OUT}/data/pce_convergence.nc",
     params:
-        config=cfg(*PCE_KEYS),
+        **reads(*PCE_KEYS, "pce.convergence.orders", "pce.convergence.quadrature_points"),
     log:
         f"{OUT}/logs/pce_convergence.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -60,7 +65,7 @@ rule fig_pce:
         sobol=report(f"{FIG}/fig_5_4.png", caption="../report/fig_5_4.rst", category="Polynomial chaos"),
         convergence=report(f"{FIG}/fig_pce_convergence.png", caption="../report/fig_pce_convergence.rst", category="Polynomial chaos"),
     params:
-        band_sigmas=config["figures"]["band_sigmas"],
+        **reads(band_sigmas="figures.band_sigmas"),
     log:
         f"{OUT}/logs/fig_pce.log",
     conda:

@@ -7,7 +7,8 @@ rule scorecard_foundation:
     output:
         f"{OUT}/scorecard/foundation.csv",
     params:
-        config=cfg("vehicle", "tyre", "uncertainty", "wind", "time", "control"),
+        **reads("vehicle", "tyre", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "control.Q_diag", "control.R",
+                "wind.Tc", "wind.kle_quadrature", "wind.kle_truncation", "time.t_end"),
     log:
         f"{OUT}/logs/scorecard_foundation.log",
     conda:
@@ -21,10 +22,26 @@ rule scorecard:
         src("studies.scorecard"),
         parts=expand(f"{OUT}/scorecard/{{part}}.csv", part=SCORECARD_PARTS),
     output:
-        report(f"{OUT}/scorecard.csv", caption="../report/scorecard.rst", category="Scorecard"),
+        f"{OUT}/scorecard/merged.csv",
     log:
         f"{OUT}/logs/scorecard.log",
     conda:
         "../envs/uqdrive.yaml"
     script:
         "../scripts/scorecard_merge.py"
+
+
+rule scorecard_provenance:
+    input:
+        src("io"),
+        merged=f"{OUT}/scorecard/merged.csv",
+    output:
+        report(f"{OUT}/scorecard.csv", caption="../report/scorecard.rst", category="Scorecard"),
+    params:
+        provenance=PROVENANCE,
+    log:
+        f"{OUT}/logs/scorecard_provenance.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/scorecard_provenance.py"

@@ -1,7 +1,13 @@
 # The GP wheel-slip paper: GP of the friction curve, PID tuning, calibration, closed loop.
 
 WS_SIZES = config["wheelslip"]["gp"]["training_sizes"]
-WS_KEYS = ("seed", "wheelslip")
+#: The quarter car and the design constants (uqdrive.wheelslip.quarter_car.QuarterCar.from_config).
+WS_CAR_KEYS = ("wheelslip.r", "wheelslip.F_z", "wheelslip.mass", "wheelslip.J", "wheelslip.T_a", "wheelslip.k", "wheelslip.mu_H",
+               "wheelslip.lambda_star", "wheelslip.zeta_d", "wheelslip.omega_0d")
+#: How the GP is fitted to noisy friction measurements (uqdrive.wheelslip.calibration.fit_friction_gp).
+WS_GP_KEYS = ("wheelslip.gp.training_slip", "wheelslip.gp.noise_std", "wheelslip.gp.restarts")
+
+
 WS_SRC = ("wheelslip.gp", "wheelslip.quarter_car", "wheelslip.calibration", "studies.wheelslip", "rng")
 
 
@@ -13,9 +19,10 @@ rule wheelslip_gp:
     wildcard_constraints:
         n=r"\d+",
     params:
-        config=cfg(*WS_KEYS),
+        **reads("seed", *WS_CAR_KEYS, *WS_GP_KEYS, "wheelslip.speed"),
     log:
         f"{OUT}/logs/wheelslip_gp_{{n}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -31,10 +38,13 @@ rule wheelslip_calibration:
     wildcard_constraints:
         n=r"\d+",
     params:
-        config=cfg(*WS_KEYS),
-        mcmc_sets=lambda w: dict(zip(WS_SIZES, config["wheelslip"]["calibration"]["mcmc_sets"])).get(int(w.n), 0),
+        **reads("seed", *WS_CAR_KEYS, *WS_GP_KEYS, "wheelslip.calibration.sets", "wheelslip.calibration.prior_sets",
+                "wheelslip.calibration.walkers", "wheelslip.calibration.steps", "wheelslip.calibration.burn"),
+        mcmc_sets=lambda wildcards, input: ws_mcmc_sets(wildcards.n),
+        mcmc_trigger=lambda w: {"wheelslip.calibration.mcmc_sets": ws_mcmc_sets(w.n)},  # this size's entry
     log:
         f"{OUT}/logs/wheelslip_calibration_{{n}}.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -48,9 +58,10 @@ rule wheelslip_closed_loop:
     output:
         f"{OUT}/data/wheelslip_closed_loop.nc",
     params:
-        config=cfg(*WS_KEYS),
+        **reads("seed", *WS_CAR_KEYS, "wheelslip.speed", "wheelslip.closed_loop"),
     log:
         f"{OUT}/logs/wheelslip_closed_loop.log",
+    cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -72,7 +83,7 @@ rule fig_wheelslip:
         calibration=report(f"{FIG}/paper_calibration.png", caption="../report/paper_calibration.rst", category="GP wheel slip"),
         closed_loop=report(f"{FIG}/paper_closed_loop.png", caption="../report/paper_closed_loop.rst", category="GP wheel slip"),
     params:
-        config=cfg(*WS_KEYS),
+        **reads(*WS_CAR_KEYS, "wheelslip.curves_mu_H", "wheelslip.paper_slope.mean", "wheelslip.speed_range"),
     log:
         f"{OUT}/logs/fig_wheelslip.log",
     conda:
@@ -88,7 +99,7 @@ rule scorecard_wheelslip:
     output:
         f"{OUT}/scorecard/wheelslip.csv",
     params:
-        config=cfg(*WS_KEYS),
+        **reads(*WS_CAR_KEYS, "wheelslip.paper_slope", "wheelslip.speed", "wheelslip.gp.training_slip"),
     log:
         f"{OUT}/logs/scorecard_wheelslip.log",
     conda:

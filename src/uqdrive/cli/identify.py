@@ -1,32 +1,43 @@
 """``uqdrive identify``: fit the Table 5.4 model to any ensemble in the uqdrive schema and write
 ``estimate.json`` and a fitted-vs-measured figure; every input problem is a clear error.
+
+Realisations that lost control are found from the data (|beta| above the config's
+``montecarlo.spin_threshold`` at any time, the criterion of simulated ensembles), whether or not
+the file carries a ``spun`` flag, and the config's spin policy applies to them. A fit that ends
+at a bound of its box or returns its starting point is reported as not converged, with warnings.
+Outputs appear only once the fit is done: the output folder is created then, and anything this
+run created is removed again on a failure or an interruption.
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import math
+import warnings
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
-from ..io import DataError, atomic_path, read_ensemble
-from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale
+from ..io import DataError, atomic_path, check_spread, read_ensemble
+from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
 from ..vehicle.chaos import LSTChaosModel
-from ..vehicle.statistics import ensemble_statistics, kl_divergence_series
+from ..vehicle.montecarlo import spin_mask
+from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
-__all__ = ["identify_file"]
+__all__ = ["identify_file", "fit_warnings"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 
 
-def _model_config(config: Mapping[str, Any], ds) -> dict:
+def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
     """The config with the measured grid and speed (the model runs on the data's time grid)."""
-    t = ds["time"].values
+    t = ds["time"].values.astype(float)
     if abs(t[0]) > 1e-9:
-        raise DataError(f"time must start at 0 s (the model starts at rest); it starts at {t[0]} s")
+        raise DataError(f"{source}: 'time' starts at {t[0]:g} s; the model starts from straight driving at t = 0: "
+                        "subtract the start time from the time coordinate")
     cfg = copy.deepcopy(dict(config))
     dt = float(t[1] - t[0])
     cfg["time"] = {"t_end": float(t[-1]), "dt": dt, "step": dt}
@@ -48,51 +59,142 @@ def _dst_divergence(cfg, delta):
                     "the measured delta is neither (5.5) nor (5.7) of the config: use --cost std or inp")
 
 
+def _lost_control(ds, cfg, source: str):
+    """Spin flags from the data, the file's own flags (or None) and the dataset carrying the former."""
+    threshold = float(cfg["montecarlo"]["spin_threshold"])
+    spun = spin_mask(ds["beta"].values, threshold)
+    in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
+    ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad), from the data"}))
+    mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+    if mask.sum() < 2:
+        raise DataError(f"{source}: only {int(mask.sum())} of {mask.size} realisations kept control (|beta| <= {threshold:g} rad); "
+                        "mean and std need at least 2: give more realisations or set montecarlo.spin_policy: keep in the config")
+    check_spread(ds, source, mask)
+    return ds, spun, in_file
+
+
+def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) -> list[str]:
+    """Why a fit is not to be trusted: the optimiser's own verdict, an estimate on a bound of the
+    box, or the starting point returned unchanged (the cost does not respond to the parameters)."""
+    out = [] if converged else [f"the optimiser stopped without converging: {message}"]
+    theta, theta0 = np.asarray(theta, float), np.asarray(theta0, float)
+    if not np.all(np.isfinite(theta)):
+        return out + ["the estimate is not finite"]
+    lo, hi = np.array(bounds, float).T
+    tol = 1e-6 * (hi - lo)
+    for name, value, a, b, eps in zip(names, theta, lo, hi, tol):
+        if value <= a + eps or value >= b - eps:
+            out.append(f"{name} = {value:.6g} ended at the bound {a if value <= a + eps else b:g} of its search box: the data lie "
+                       "outside what the model reaches (check units, v_c and --m-load)")
+    if np.all(np.abs(theta - theta0) <= 1e-10 * np.maximum(np.abs(theta0), 1.0)):
+        out.append("the fit returned its starting point unchanged: the cost does not respond to the parameters (check the data)")
+    return out
+
+
+def _finite(x):
+    """JSON-safe number: non-finite values become null."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
 def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: float | None, starts: int, out: Path,
-                  state_scale: str | None = None) -> dict:
+                  state_scale: str | None = None, overwrite: bool = True) -> dict:
     """Identify from the ensemble file ``measured``; write ``out/estimate.json`` and ``out/fit.png``.
 
     ``state_scale`` (None: the config's ``identification.state_scale``) selects the per-state
-    residual scale of (5.25), see :data:`uqdrive.identify.STATE_SCALES`.
+    residual scale of (5.25), see :data:`uqdrive.inference.identify.STATE_SCALES`. ``out`` is
+    created only after the fit; with ``overwrite=False`` existing outputs are refused.
+    The summary reports ``n_spun`` and ``spun_indices`` (0-based positions along ``sample``)
+    of the realisations that lost control according to the data, and ``spun_in_file_indices``
+    when the file carries its own ``spun`` flag.
     """
+    source = str(measured)
     ds = read_ensemble(measured)
-    if ds.sizes["sample"] < 2:
-        raise DataError(f"{measured}: {ds.sizes['sample']} sample(s); mean and std need at least 2")
-    cfg = _model_config(config, ds)
+    cfg = _model_config(config, ds, source)
     policy = cfg["montecarlo"]["spin_policy"]
+    ds, spun, in_file = _lost_control(ds, cfg, source)
     stats = ensemble_statistics(ds, policy)
+    scale = state_scale or configured_state_scale(cfg)
+    try:
+        state_weights(scale, stats["mean"].values, stats["std"].values)
+    except ValueError:
+        raise DataError(f"{source}: a state's measured {'mean' if scale == 'rms_mean' else 'std'} is zero throughout, so "
+                        f"--state-scale {scale} cannot scale it; use --state-scale none") from None
     delta = ds["delta"].values
     m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
     model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    scale = state_scale or configured_state_scale(cfg)
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
                                 wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale,
                                 optimiser=configured_optimiser(cfg))
-    est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
+        except ValueError as exc:  # the model cannot be evaluated at the config's start for these data
+            raise DataError(f"{source}: the model cannot follow these data from the config's starting values ({exc}); "
+                            "check v_c, the units of the states and the config's uncertainty means") from None
     th, err = est.theta_, est.theta_std_
+    notes = fit_warnings(th, theta0, est.bounds, model.theta_names, est.converged_, est.message_)
+    converged = bool(est.converged_) and not notes
+    notes += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
+    if flagged is not None and flagged != np.flatnonzero(spun).tolist():
+        notes.append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
+                     f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
     summary = {
-        "mu": [float(th[0]), float(th[1])],
-        "l_f": [float(th[2]), float(th[3])],
-        "F_w_mean": [float(th[4]), float(th[5])],
-        "cost": est.cost_,
-        "converged": bool(est.converged_),
+        "mu": [_finite(th[0]), _finite(th[1])],
+        "l_f": [_finite(th[2]), _finite(th[3])],
+        "F_w_mean": [_finite(th[4]), _finite(th[5])],
+        "cost": _finite(est.cost_),
+        "converged": converged,
+        "warnings": notes,
         "iterations": int(est.n_iter_),
         "cost_function": cost,
         "state_scale": scale,
         "m_load": m_load,
-        "standard_errors": {"mu": [float(err[0]), float(err[1])], "l_f": [float(err[2]), float(err[3])], "F_w_mean": [float(err[4]), float(err[5])]},
+        "standard_errors": {k: [_finite(err[2 * i]), _finite(err[2 * i + 1])] for i, k in enumerate(UNCERTAIN)},
+        "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
+        "spin_threshold": float(cfg["montecarlo"]["spin_threshold"]),
+        "n_spun": int(spun.sum()),
+        "spun_indices": np.flatnonzero(spun).tolist(),
         "message": est.message_,
-        "measured": str(measured),
+        "measured": source,
     }
-    _figure(stats, est.moments_, out / "fit.png")
-    with atomic_path(out / "estimate.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    if flagged is not None:
+        summary["spun_in_file_indices"] = flagged
+    _write_outputs(Path(out), stats, est.moments_, summary, overwrite)
     return summary
+
+
+def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) -> None:
+    """Create ``out`` (and missing parents) and write fit.png, then estimate.json; on any failure
+    or interruption remove what this call created."""
+    created = []
+    try:
+        for folder in [*reversed(out.parents), out]:
+            if not folder.exists():
+                folder.mkdir()
+                created.append(folder)
+        with atomic_path(out / "fit.png", overwrite) as tmp:
+            _figure(stats, moments, tmp)
+        created.append(out / "fit.png")
+        with atomic_path(out / "estimate.json", overwrite) as tmp:
+            tmp.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    except BaseException:
+        for path in reversed(created):
+            if path.is_dir():
+                try:
+                    path.rmdir()
+                except OSError:
+                    pass  # someone else put files there meanwhile: leave it
+            else:
+                path.unlink(missing_ok=True)
+        raise
 
 
 def _figure(stats, moments, path):

@@ -1,104 +1,261 @@
 """Command line of uqdrive: ``simulate`` writes an ensemble in the data schema, ``identify`` fits
-the parameter distributions to one.
+the parameter distributions to one, ``discover`` finds and names what the model misses in one,
+``config`` writes out or checks a configuration.
 
-Errors print one line naming the problem and exit non-zero; no partial output file is left.
+Every refusal is one line on stderr naming the field and the fix, exit code 2, and nothing is
+written; SIGINT/SIGTERM end a run cleanly (temporaries removed, exit 128 + signal number).
+Adding a subcommand: one ``_add_<name>`` that builds its parser and one ``_<name>(args)``.
 """
 
 from __future__ import annotations
 
-import argparse
+import signal
 import sys
+import threading
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
-from ..config import ConfigError, load_config
-from ..io import DataError, OutputError, check_writable, write_dataset
+from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
+from ..io import DataError, OutputError, atomic_path, check_writable
+from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, stderr_line
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "Interrupted"]
 
-DEFAULT_CONFIG = Path("config") / "config.yaml"
-
-
-def _nonneg_float(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"noise intensity A must lie in [0, 1], got {text}")
-    return value
+CONFIG_HELP = (f"YAML config (default: the packaged {DEFAULT_CONFIG_NAME}, identical to the repository's "
+               "config/config.yaml; write it out to edit with 'uqdrive config --dump FILE')")
+FORCE_HELP = "replace an existing output (atomically); without it an existing output is refused"
+IDENTIFY_OUTPUTS = ("estimate.json", "fit.png")
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"need at least 2 samples, got {text}")
-    return value
+class Interrupted(BaseException):
+    """SIGINT/SIGTERM/SIGHUP turned into an exception, so that cleanup runs (like KeyboardInterrupt)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="uqdrive", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    sim = sub.add_parser("simulate", help="simulate a Monte Carlo ensemble (thesis sec. 5.1) into a netCDF file")
-    sim.add_argument("--model", required=True, choices=("lst", "nlst"), help="linear (5.4) or non-linear (5.3) single-track model")
-    sim.add_argument("--steer", default="normal", choices=("normal", "inverted"), help="steering input (5.5) or (5.7)")
-    sim.add_argument("--noise", type=_nonneg_float, default=0.0, metavar="A", help="noise intensity A of (5.6), default 0")
-    sim.add_argument("--samples", type=_positive_int, default=None, metavar="N", help="realisations (default: config montecarlo.samples)")
-    sim.add_argument("--seed", type=int, default=None, metavar="S", help="root seed (default: config seed)")
-    sim.add_argument("--config", type=Path, default=DEFAULT_CONFIG, metavar="FILE", help=f"YAML config (default {DEFAULT_CONFIG})")
-    sim.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file")
-
-    ident = sub.add_parser("identify", help="identify the distributions of mu, l_f and the mean wind from an ensemble (thesis sec. 5.3)")
-    ident.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (simulated or measured)")
-    ident.add_argument("--cost", default="std", choices=("std", "inp", "dst"), help="weights of the cost (5.25): STD, INP (5.26) or DST (5.28)")
-    ident.add_argument("--m-load", type=float, default=None, metavar="KG", help="assumed load mass (default: config mean)")
-    ident.add_argument("--starts", type=int, default=0, metavar="N", help="extra starting points of a global stage (default 0)")
-    ident.add_argument("--state-scale", default=None, choices=("none", "rms_mean", "rms_std"),
-                       help="per-state residual scale of (5.25): none (SI units, the thesis) or unit-free (default: config identification.state_scale)")
-    ident.add_argument("--config", type=Path, default=DEFAULT_CONFIG, metavar="FILE", help=f"YAML config (default {DEFAULT_CONFIG})")
-    ident.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder for estimate.json and fit.png")
-    return parser
+# -- subcommands --------------------------------------------------------------------------------
+def _add_simulate(sub) -> None:
+    p = sub.add_parser("simulate", help="simulate a Monte Carlo ensemble (thesis sec. 5.1) into a netCDF file",
+                       description="Simulate a Monte Carlo ensemble of the single-track model (thesis sec. 5.1) with the "
+                                   "config's distributions and write it in the uqdrive data schema.")
+    p.add_argument("--model", required=True, type=_model_choice, metavar="{lst,nlst,MODEL.yaml}",
+                   help="linear (5.4) or non-linear (5.3) single-track model, or the augmented model.yaml that "
+                        "'uqdrive discover' wrote (the LST plus the named effect with its fitted parameters)")
+    p.add_argument("--steer", default="normal", choices=("normal", "inverted"), help="steering input (5.5) or (5.7) (default normal)")
+    p.add_argument("--noise", type=finite_float("--noise", 0.0, 1.0), default=0.0, metavar="A",
+                   help="noise intensity A of (5.6), a finite number in [0, 1] (default 0: clean)")
+    p.add_argument("--samples", type=bounded_int("--samples", 2, 10**7, "realisations"), default=None, metavar="N",
+                   help="realisations, 2..10^7 (default: config montecarlo.samples)")
+    p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
+                   help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
+    p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file (its folder must exist)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.set_defaults(run=_simulate)
 
 
 def _simulate(args) -> None:
-    from ..vehicle.montecarlo import simulate_ensemble
+    import numpy as np
+
+    from ..io import write_dataset
     from ..rng import rng_stream
+    from ..vehicle.montecarlo import simulate_ensemble
     from ..vehicle.noise import noisy_ensemble
+    from ..vehicle.single_track import STATES
 
     config = load_config(args.config)
-    check_writable(args.out)
-    if args.seed is not None and args.seed < 0:
-        raise ConfigError("--seed must be a non-negative integer")
-    ds = simulate_ensemble(config, args.model, args.steer, samples=args.samples, seed=args.seed)
+    check_writable(args.out, overwrite=args.force)
+    if args.model not in ("lst", "nlst"):
+        from .model import simulate_model
+
+        samples = int(config["montecarlo"]["samples"] if args.samples is None else args.samples)
+        ds = simulate_model(config, Path(args.model), args.steer, samples, int(config["seed"] if args.seed is None else args.seed))
+    else:
+        ds = simulate_ensemble(config, args.model, args.steer, samples=args.samples, seed=args.seed)
+    bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]
+    if bad:
+        raise ConfigError(f"the simulation diverged ('{bad[0]}' not finite) with this config: vehicle.* and uncertainty.* "
+                          "lie outside the model's stable range; give physical values")
     if args.noise > 0:
-        seed = ds.attrs["seed"]
-        ds = noisy_ensemble(ds, args.noise, rng_stream(seed, "noise", round(args.noise * 1e6)))
-    write_dataset(ds, args.out)
+        ds = noisy_ensemble(ds, args.noise, rng_stream(ds.attrs["seed"], "noise", round(args.noise * 1e6)))
+    write_dataset(ds, args.out, overwrite=args.force)
     print(f"wrote {args.out}: {args.model.upper()}, {args.steer} steering, {ds.sizes['sample']} samples, "
           f"{ds.attrs['n_spun']} spun, noise A = {args.noise:g}")
 
 
+def _add_identify(sub) -> None:
+    p = sub.add_parser("identify", help="identify the distributions of mu, l_f and the mean wind from an ensemble (thesis sec. 5.3)",
+                       description="Fit N(mu), N(l_f) and U(F_w_mean) of the LST chaos model (Table 5.4) to the mean and std of "
+                                   "an ensemble in the uqdrive data schema; write estimate.json and fit.png. Realisations that lost "
+                                   "control (|beta| > config montecarlo.spin_threshold) are found from the data and handled by "
+                                   "montecarlo.spin_policy.")
+    p.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (simulated or measured)")
+    p.add_argument("--cost", default="std", choices=("std", "inp", "dst"), help="weights of the cost (5.25): STD, INP (5.26) or DST (5.28) (default std)")
+    p.add_argument("--m-load", type=finite_float("--m-load", 0.0, 1e5, "kg"), default=None, metavar="KG",
+                   help="assumed load mass in kg, finite, 0..1e5 (default: config uncertainty.m_load.mean)")
+    p.add_argument("--starts", type=bounded_int("--starts", 0, 1000), default=0, metavar="N",
+                   help="extra starting points of a global stage, 0..1000 (default 0: one local fit from the config's values)")
+    p.add_argument("--state-scale", default="rms_mean", choices=("none", "rms_mean", "rms_std"),
+                   help="per-state residual scale of (5.25). Default rms_mean: each state's residuals divided by the RMS of its "
+                        "measured mean, unit-free and accurate on outside data; none: SI units as the thesis prints (5.25), the "
+                        "thesis-faithful setting the workflow's experiments use (config identification.state_scale); rms_std: by "
+                        "the RMS of the measured std")
+    p.add_argument("--model", type=Path, default=None, metavar="MODEL.yaml",
+                   help="identify with the augmented model that 'uqdrive discover' wrote (its effects held at their fitted "
+                        "values, distributions fitted on common random numbers) instead of the Table 5.4 chaos model")
+    p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder for estimate.json and fit.png (created only once the input is accepted)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.set_defaults(run=_identify)
+
+
 def _identify(args) -> None:
+    from ..io import check_output_folder
     from .identify import identify_file
 
     config = load_config(args.config)
+    check_output_folder(args.out, IDENTIFY_OUTPUTS, overwrite=args.force)
+    if args.model is not None:
+        from .model import identify_with_model
+
+        s = identify_with_model(config, args.measured, args.model, args.out)
+        print(f"wrote {Path(args.out) / 'estimate.json'}: mu N({s['mu'][0]:.4f}, {s['mu'][1]:.4f}), l_f N({s['l_f'][0]:.4f}, "
+              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}")
+        return
+    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, args.out,
+                            state_scale=args.state_scale, overwrite=args.force)
+    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see warnings in estimate.json"
+    fmt = lambda v, n: tuple(None if x is None else round(x, n) for x in v)  # noqa: E731
+    print(f"wrote {Path(args.out) / 'estimate.json'}: mu N{fmt(summary['mu'], 4)}, l_f N{fmt(summary['l_f'], 4)}, "
+          f"F_w_mean U{fmt(summary['F_w_mean'], 1)} ({state}, {summary['iterations']} iterations, {summary['n_spun']} lost control)")
+
+
+def _add_config(sub) -> None:
+    p = sub.add_parser("config", help="write out the default config for editing, or check a config file",
+                       description="Write the packaged default configuration (with its comments) to a file or stdout, "
+                                   "or validate a configuration file.")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--dump", metavar="FILE", help="write the default config to FILE ('-': stdout)")
+    what.add_argument("--check", type=Path, metavar="FILE", help="validate FILE; print 'ok' or the first problem")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP + " (with --dump)")
+    p.set_defaults(run=_config)
+
+
+def _config(args) -> None:
+    if args.check is not None:
+        load_config(args.check)
+        print(f"{args.check}: ok")
+    elif args.dump == "-":
+        sys.stdout.write(default_config_text())
+    else:
+        with atomic_path(args.dump, overwrite=args.force) as tmp:
+            tmp.write_text(default_config_text(), encoding="utf-8")
+        print(f"wrote {args.dump}: the default config; edit it and pass it with --config")
+
+
+def _model_choice(value: str) -> str:
+    if value in ("lst", "nlst") or value.endswith((".yaml", ".yml")):
+        return value
+    raise ValueError(value)
+
+
+_model_choice.__name__ = "model (lst, nlst or a model.yaml)"
+
+
+def _add_discover(sub) -> None:
+    p = sub.add_parser("discover", help="find what the model misses in an ensemble, name the effect, add it, show the gap shrink",
+                       description="Fit the complete stochastic LST to an ensemble in the uqdrive data schema, calibrate a null "
+                                   "band by parametric bootstrap, localise where the data leave it, name the missing physical "
+                                   "effect among the candidates (or 'none' / 'unrecognised'), re-identify with it and write "
+                                   "verdict.json, model.yaml, bands.png and localisation.png into --out.")
+    p.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (>= 50 samples)")
+    p.add_argument("--candidates", default=None, metavar="a,b,...",
+                   help="comma-separated candidate effects or families (default: config discrepancy.candidates): "
+                        "tyre_saturation, actuator_lag, actuator_delay, road_bank, wind_gust, lateral_kinematics, "
+                        "sensor_bias, sensor_scale (or one channel, e.g. sensor_bias_psi_dot)")
+    p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (written whole, only once the run succeeded)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.set_defaults(run=_discover)
+
+
+def _discover(args) -> None:
+    from .discover import discover_file
+
+    config = load_config(args.config)
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"--out '{out}' exists and is not a folder")
-    out.mkdir(parents=True, exist_ok=True)
-    check_writable(out / "estimate.json")
-    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, out, state_scale=args.state_scale)
-    state = "converged" if summary["converged"] else "DID NOT CONVERGE"
-    print(f"wrote {out / 'estimate.json'}: mu N{tuple(round(v, 4) for v in summary['mu'])}, l_f N{tuple(round(v, 4) for v in summary['l_f'])}, "
-          f"F_w_mean U{tuple(round(v, 1) for v in summary['F_w_mean'])} ({state}, {summary['iterations']} iterations)")
+    if out.exists() and not args.force:
+        raise OutputError(f"output folder '{out}' exists; pass --force to replace it or choose another --out")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"output folder's parent '{parent}' does not exist; create it first")
+    candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
+    v = discover_file(config, args.measured, candidates, out)
+    print(f"wrote {out / 'verdict.json'}: effect {v['effect']}" + (f" (ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
+          + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
+
+
+SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config)
+
+
+# -- parser and shared error handling -------------------------------------------------------------
+def build_parser() -> OneLineParser:
+    parser = OneLineParser(prog="uqdrive", description="uqdrive: simulate single-track vehicle ensembles and identify the "
+                                                        "distributions of their uncertain parameters from simulated or measured ones.",
+                           epilog="Exit codes: 0 done, 2 refused input (one line on stderr: the field and the fix), "
+                                  "128 + N interrupted by signal N. '%(prog)s COMMAND --help' describes each command.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in SUBCOMMANDS:
+        add(sub)
+    return parser
+
+
+@contextmanager
+def _signals_exit_cleanly():
+    """Turn SIGINT/SIGTERM/SIGHUP into :class:`Interrupted` (later ones are ignored during cleanup)."""
+    names = [s for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s)]
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        for name in names:
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+        raise Interrupted(signum)
+
+    old = {name: signal.signal(getattr(signal, name), handler) for name in names}
+    try:
+        yield
+    finally:
+        for name, previous in old.items():
+            signal.signal(getattr(signal, name), previous)
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
     try:
-        if args.command == "simulate":
-            _simulate(args)
-        elif args.command == "identify":
-            _identify(args)
-    except (ConfigError, DataError, OutputError) as exc:
-        print(f"uqdrive: error: {exc}", file=sys.stderr)
-        return 2
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a refused flag (2, one line already printed)
+        return exc.code if isinstance(exc.code, int) else 2
+    with _signals_exit_cleanly(), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        try:
+            args.run(args)
+            for message in dict.fromkeys(str(w.message) for w in caught):
+                stderr_line(f"uqdrive: warning: {message}")
+        except (ConfigError, DataError, OutputError) as exc:
+            stderr_line(f"uqdrive: error: {exc}")
+            return 2
+        except MemoryError:
+            stderr_line("uqdrive: error: out of memory; lower --samples or the config's time grid (time.t_end, time.dt)")
+            return 2
+        except (Interrupted, KeyboardInterrupt) as exc:
+            signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+            stderr_line(f"uqdrive: interrupted by {signal.Signals(signum).name}; partial outputs and temporary files removed")
+            return 128 + int(signum)
     return 0
 
 

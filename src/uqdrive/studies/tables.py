@@ -9,9 +9,9 @@ from typing import Mapping
 import numpy as np
 import xarray as xr
 
-from .scorecard import ScoreRow, compare
+from .scorecard import UQDRIVE_CHECK, ScoreRow, compare
 
-__all__ = ["THESIS_TABLE_6_2", "THESIS_TABLE_6_3", "THESIS_TABLES", "table_rows", "thesis_table_rows", "table_scorecard_rows"]
+__all__ = ["THESIS_TABLE_6_2", "THESIS_TABLE_6_3", "THESIS_TABLES", "table_rows", "thesis_table_rows", "table_scorecard_rows", "TABLE_TOLERANCE", "NLST_WIND_EXCESS"]
 
 #: (mu mean, mu std, l_f mean, l_f std, wind low, wind high) per estimate, thesis Tables 6.2/6.3.
 THESIS_TABLE_6_2 = {
@@ -96,49 +96,82 @@ def thesis_table_rows(datasets: Mapping[str, xr.Dataset], which: str) -> list[di
     return rows
 
 
+#: Tolerances of the Table 6.2/6.3 rows (issue 4): mu mean 0.02 (LST) and 0.03 (NLST), l_f mean
+#: 0.02 m, wind bounds 30 N; a registered wider NLST wind interval may exceed the thesis' by at
+#: most NLST_WIND_EXCESS (README: 35-65 N), on the wide side only.
+TABLE_TOLERANCE = {"LST mu": 0.02, "NLST mu": 0.03, "l_f": 0.02, "wind": 30.0}
+NLST_WIND_EXCESS = 100.0
+#: theta index and label of the scorecard's quantities.
+_PARAMETERS = ((0, "mu mean"), (2, "l_f mean"), (4, "wind lower bound"), (5, "wind upper bound"))
+
+
+def _case_values(ds: xr.Dataset, est: str) -> np.ndarray:
+    return np.nanmean(ds["theta"].sel(estimate=est).values, axis=0)
+
+
 def table_scorecard_rows(basic: xr.Dataset, inverted: xr.Dataset, no_wind_moment: xr.Dataset | None = None,
                          normalised: xr.Dataset | None = None, normalised_inverted: xr.Dataset | None = None) -> list[ScoreRow]:
     """Scorecard rows of Tables 6.2/6.3: run-averaged means against the published ones.
 
-    Tolerances from the issue: 0.02 (mu, LST), 0.03 (mu, NLST), 0.02 m (l_f), 30 N (wind).
-    The variants (no wind yaw moment; unit-free residuals) get their own rows beside the
-    thesis-faithful ones.
+    Tolerances: :data:`TABLE_TOLERANCE`. Every row's ``source`` is the thesis table whose number
+    it holds; the variants (no wind yaw moment; unit-free residuals) are named in the quantity.
+    Registered deviations (:data:`~uqdrive.studies.scorecard.KNOWN_DEVIATIONS`), decided in this
+    order:
+
+    * ``table_6_3_mirror`` (NLST wind bounds of Table 6.3): the bound lies nearer the mirror image
+      of the thesis' Table 6.2 interval than the Table 6.3 value;
+    * ``nlst_wind_wider`` (NLST wind bounds of Table 6.2, unit-free residuals): wider than the
+      thesis' on that side, by at most :data:`NLST_WIND_EXCESS`;
+    * ``si_residuals`` (every other row with SI residuals, thesis-faithful or M_c = 0): the same
+      quantity with unit-free residuals is not ``fail``.
+
+    The rows of the midpoint shift under inverted steering (internal, ``uqdrive check``) follow.
     """
-    out = []
-    cases = [(basic, THESIS_TABLE_6_2, "thesis Table 6.2"), (inverted, THESIS_TABLE_6_3, "thesis Table 6.3")]
-    if no_wind_moment is not None:
-        cases.append((no_wind_moment, THESIS_TABLE_6_2, "thesis Table 6.2, without the wind yaw moment"))
-    if normalised is not None:
-        cases.append((normalised, THESIS_TABLE_6_2, "thesis Table 6.2, unit-free residuals"))
-    if normalised_inverted is not None:
-        cases.append((normalised_inverted, THESIS_TABLE_6_3, "thesis Table 6.3, unit-free residuals"))
-    for ds, table, src in cases:
+    plan = [(basic, "6.2", ""), (inverted, "6.3", ""), (no_wind_moment, "6.2", ", without the wind yaw moment"),
+            (normalised, "6.2", ", unit-free residuals"), (normalised_inverted, "6.3", ", unit-free residuals")]
+    tables = {"6.2": THESIS_TABLE_6_2, "6.3": THESIS_TABLE_6_3}
+    unit_free, si = {}, []
+    order = []
+    for ds, which, variant in plan:
+        if ds is None:
+            continue
         for est in ("LST-STD", "NLST-STD"):
-            if est not in ds["estimate"].values or est not in table:
+            if est not in ds["estimate"].values or est not in tables[which]:
                 continue
-            th = np.nanmean(ds["theta"].sel(estimate=est).values, axis=0)
-            ref = table[est]
-            tol_mu = 0.02 if est.startswith("LST") else 0.03
-            out += [
-                compare(f"{est} mu mean ({src})", src, ref[0], th[0], tol_mu),
-                compare(f"{est} l_f mean ({src})", src, ref[2], th[2], 0.02),
-                compare(f"{est} wind lower bound ({src})", src, ref[4], th[4], 30.0),
-                compare(f"{est} wind upper bound ({src})", src, ref[5], th[5], 30.0),
-            ]
-    out += [_inverted_shift_row(basic, inverted, "")]
+            th, ref = _case_values(ds, est), tables[which][est]
+            for i, label in _PARAMETERS:
+                quantity = f"{est} {label} (thesis Table {which}{variant})"
+                tol = TABLE_TOLERANCE[est.split("-")[0] + " mu"] if i == 0 else TABLE_TOLERANCE["l_f" if i == 2 else "wind"]
+                args = (quantity, f"thesis Table {which}", ref[i], th[i], tol)
+                order.append(quantity)
+                if est == "NLST-STD" and i in (4, 5) and which == "6.3":
+                    mirror = -THESIS_TABLE_6_2[est][9 - i]  # (-high, -low) of Table 6.2
+                    unit_free[quantity] = compare(*args, deviation="table_6_3_mirror", holds=abs(th[i] - mirror) < abs(th[i] - ref[i]))
+                elif variant == ", unit-free residuals":
+                    wider = (th[i] - ref[i]) * (1 if i == 5 else -1)
+                    rule = {"deviation": "nlst_wind_wider", "holds": 0 < wider <= NLST_WIND_EXCESS} if est == "NLST-STD" and i in (4, 5) else {}
+                    unit_free[quantity] = compare(*args, **rule)
+                else:
+                    si.append((args, f"{est} {label} (thesis Table {which}, unit-free residuals)"))
+    rows = dict(unit_free)
+    for args, counterpart in si:
+        rows[args[0]] = compare(*args, deviation="si_residuals", holds=counterpart in unit_free and unit_free[counterpart].status != "fail")
+    out = [rows[q] for q in order]
+    out.append(_inverted_shift_row(basic, inverted, ""))
     if normalised is not None and normalised_inverted is not None:
         out.append(_inverted_shift_row(normalised, normalised_inverted, ", unit-free residuals"))
     return out
 
 
 def _inverted_shift_row(basic: xr.Dataset, inverted: xr.Dataset, label: str) -> ScoreRow:
-    """Sec. 6.2.1.1: with inverted steering the wind estimate shifts the other way. By the odd
-    symmetry of (5.3) the shift of the interval's midpoint from the truth flips sign; reproduced
-    is 1 when it does (the thesis' own Table 6.3 midpoints, +110 and +114 N, do not flip)."""
+    """Sec. 6.2.1.1 says the wind estimate shifts the other way with inverted steering; by the odd
+    symmetry of (5.3) the shift of the interval's midpoint from the truth must flip sign. An
+    internal target (the thesis' own Table 6.3 midpoints, +110 and +114 N, do not flip):
+    reproduced is 1 when it flips."""
     def shift(ds):
-        th = np.nanmean(ds["theta"].sel(estimate="NLST-STD").values, axis=0)
+        th = _case_values(ds, "NLST-STD")
         truth = ds["truth"].values
         return 0.5 * (th[4] + th[5]) - 0.5 * (truth[4] + truth[5])
 
     flipped = float(np.sign(shift(basic)) == -np.sign(shift(inverted)) != 0)
-    return compare(f"NLST-STD wind estimate shifts the other way with inverted steering{label}", "thesis sec. 6.2.1.1 (text)", 1.0, flipped, 0.0)
+    return compare(f"NLST-STD wind estimate shifts the other way with inverted steering{label}", UQDRIVE_CHECK, 1.0, flipped, 0.0)

@@ -11,7 +11,7 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..config import config_hash
+from ..config import config_hash, restrict_config
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
@@ -26,6 +26,8 @@ __all__ = [
     "simulate_nlst",
     "spin_mask",
     "simulate_ensemble",
+    "ENSEMBLE_SETTINGS",
+    "ensemble_hash",
     "lst_response",
     "monte_carlo_moments",
 ]
@@ -179,6 +181,20 @@ def spin_mask(beta, threshold: float):
     return np.any(np.abs(beta) > threshold, axis=-1)
 
 
+#: The settings an ensemble depends on besides its size and seed (the keys simulate_ensemble reads).
+ENSEMBLE_SETTINGS = ("vehicle", "tyre", "uncertainty", "wind", "steering", "time", "montecarlo.spin_threshold")
+
+
+def ensemble_hash(config: Mapping[str, Any], samples: int, seed: int, chunk: int | None = None) -> str:
+    """:func:`uqdrive.config.config_hash` of what an ensemble depends on: the settings it reads
+    and its effective size, seed and chunk (an override of ``samples`` or ``seed`` counts), so the
+    CLI and the workflow write the same hash for the same ensemble, whatever else their configs hold."""
+    settings = {"settings": restrict_config(config, ENSEMBLE_SETTINGS), "samples": int(samples), "seed": int(seed)}
+    if chunk is not None:
+        settings["chunk"] = int(chunk)
+    return config_hash(settings)
+
+
 def simulate_ensemble(
     config: Mapping[str, Any],
     model: str,
@@ -262,7 +278,7 @@ def simulate_ensemble(
         "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4",
         "integration_step": float(grid.step),
         "seed": seed,
-        "config_hash": config_hash(config),
+        "config_hash": ensemble_hash(config, n, seed, chunk),
         "uqdrive_version": __version__,
     }
     coords = {"sample": np.arange(n), "time": ("time", t, {"units": "s", "long_name": "time"}), "kle_mode": np.arange(kle.n_modes)}

@@ -1,0 +1,79 @@
+"""``uqdrive discover``: run the discrepancy workflow on any ensemble in the uqdrive schema and
+write ``verdict.json``, ``model.yaml`` (the augmented model) and the figures.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import yaml
+
+from ..inference.discrepancy import DiscrepancyFinder
+from ..io import DataError, read_ensemble
+from ..vehicle.effects import expand_names
+
+__all__ = ["MIN_SAMPLES", "discover_file", "write_outputs"]
+
+#: Fewer realisations give moment statistics too noisy for a calibrated verdict.
+MIN_SAMPLES = 50
+
+
+def _checked_candidates(candidates: Sequence[str] | None):
+    if candidates is None:
+        return None
+    try:
+        return expand_names(candidates)
+    except KeyError as err:
+        raise DataError(str(err).strip("'\"")) from None
+
+
+def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path) -> dict:
+    """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
+
+    The whole folder is written beside ``out`` and renamed onto it only when everything
+    succeeded, so a failure leaves no verdict behind.
+    """
+    names = _checked_candidates(candidates)
+    ds = read_ensemble(measured)
+    n = ds.sizes["sample"]
+    if n < MIN_SAMPLES:
+        raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
+    if abs(float(ds["time"].values[0])) > 1e-9:
+        raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
+    finder = DiscrepancyFinder(config, candidates=names)
+    if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
+        raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
+    finder.fit(ds)
+    verdict = dict(finder.verdict_, measured=str(measured))
+    write_outputs(finder, verdict, out)
+    return verdict
+
+
+def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
+    """verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing)."""
+    from ..plots.discrepancy import bands_before_after, localisation_map
+    from ..plots.figure import save_figure
+
+    out = Path(out)
+    parent = out.parent if str(out.parent) else Path(".")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    try:
+        (tmp / "verdict.json").write_text(json.dumps(verdict, indent=2) + "\n")
+        (tmp / "model.yaml").write_text(yaml.safe_dump(finder.model_document(), sort_keys=False))
+        save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"]), tmp / "bands.png")
+        save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold), tmp / "localisation.png")
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
+            out.rename(old / out.name)
+            tmp.rename(out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            tmp.rename(out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)

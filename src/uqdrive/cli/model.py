@@ -1,0 +1,109 @@
+"""``--model DIR/model.yaml``: the augmented model written by ``uqdrive discover`` (the baseline
+LST plus named effects with fitted parameters), for ``uqdrive simulate`` and ``uqdrive identify``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import xarray as xr
+import yaml
+
+from .._version import __version__
+from ..config import config_hash
+from ..inference.discrepancy.band import moment_statistics, statistic_scale
+from ..inference.discrepancy.fit import StructureFit
+from ..io import DataError, atomic_path, read_ensemble
+from ..rng import rng_stream
+from ..vehicle.augmented import AugmentedSimulator
+from ..vehicle.effects import ModelStructure, structure_from_effects
+from ..vehicle.montecarlo import STEERS, spin_mask
+from ..vehicle.noise import estimate_noise_variance
+from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, steering_input
+
+__all__ = ["is_model_file", "load_model", "simulate_model", "identify_with_model"]
+
+
+def is_model_file(value: str) -> bool:
+    return value.endswith((".yaml", ".yml"))
+
+
+def load_model(path: str | Path) -> tuple[ModelStructure, dict]:
+    """The structure and the distributions of a ``model.yaml``; a clear DataError otherwise."""
+    path = Path(path)
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise DataError(f"cannot read model file '{path}': {exc}") from None
+    if not isinstance(doc, dict) or doc.get("baseline") != "lst" or "distributions" not in doc:
+        raise DataError(f"'{path}' is not a uqdrive model file (needs baseline: lst, effects, distributions); write one with `uqdrive discover`")
+    try:
+        structure = structure_from_effects(doc.get("effects") or {})
+    except (KeyError, ValueError) as exc:
+        raise DataError(f"'{path}': {str(exc).strip(chr(34) + chr(39))}") from None
+    return structure, doc["distributions"]
+
+
+def _theta(d: Mapping[str, Any]):
+    return [d["mu"]["mean"], d["mu"]["std"], d["l_f"]["mean"], d["l_f"]["std"], d["F_w_mean"]["low"], d["F_w_mean"]["high"]]
+
+
+def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: int, seed: int) -> xr.Dataset:
+    """An ensemble of the augmented model in the data schema (the thesis' input (5.5)/(5.7))."""
+    structure, dist = load_model(path)
+    cfg = dict(config)
+    if "m_load" in dist:
+        cfg["uncertainty"] = dict(cfg["uncertainty"], m_load=dict(dist["m_load"]))
+    t_end, dt = config["time"]["t_end"], config["time"]["dt"]
+    t = np.arange(int(round(t_end / dt)) + 1) * dt
+    st = config["steering"]
+    delta = steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+    v_c = config["vehicle"]["speed_kmh"] / 3.6
+    sim = AugmentedSimulator.drawn(cfg, t, delta, v_c, samples, rng_stream(seed, "parameters"))
+    x = sim.simulate(_theta(dist), structure)
+    spun = spin_mask(x[2], config["montecarlo"]["spin_threshold"])
+    data = {s: (("sample", "time"), x[i], {"units": STATE_UNITS[s], "long_name": STATE_NAMES[s]}) for i, s in enumerate(STATES)}
+    data["delta"] = ("time", delta, {"units": "rad", "long_name": "front steering angle (commanded)"})
+    data["spun"] = ("sample", spun.astype(np.int8), {"units": "1", "long_name": "lost control"})
+    attrs = {"title": f"uqdrive ensemble of the augmented model {path}", "model": "augmented", "effects": json.dumps(dict(structure.effects)),
+             "steer": steer, "v_c": float(v_c), "noise_A": 0.0, "n_spun": int(spun.sum()), "seed": int(seed),
+             "config_hash": config_hash(config), "uqdrive_version": __version__}
+    coords = {"sample": np.arange(samples), "time": ("time", t, {"units": "s", "long_name": "time"})}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, out: Path, model_samples: int = 1000) -> dict:
+    """Identify mu, l_f and the mean wind with the augmented model (its effects held at their
+    fitted values) on common random numbers; write ``out/estimate.json``."""
+    structure, dist = load_model(path)
+    ds = read_ensemble(measured)
+    x = np.stack([np.asarray(ds[s].values, float) for s in STATES])
+    thr = config["montecarlo"]["spin_threshold"]
+    spun = spin_mask(x[2], thr)
+    keep = ~spun if config["montecarlo"]["spin_policy"] == "exclude" else np.ones_like(spun)
+    if keep.sum() < 2:
+        raise DataError(f"{measured}: fewer than 2 realisations kept control; nothing to identify")
+    x = x[:, keep]
+    t = ds["time"].values
+    noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(4)])
+    stride = max(1, int(np.ceil((t.size - 1) / 150)))
+    sim = AugmentedSimulator.drawn(config, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride)
+    x = x[:, :, : sim.time.size : stride]
+    index = np.arange(1, x.shape[-1])
+    measured_stats = moment_statistics(x, index)
+    scale = statistic_scale(x, index, model_ratio=x.shape[1] / model_samples)
+    fit = StructureFit(sim, index, noise, thr if config["montecarlo"]["spin_policy"] == "exclude" else None, base=structure)
+    fit.fit(measured_stats, scale, _theta(dist))
+    th = fit.theta_
+    summary = {"mu": [float(th[0]), float(th[1])], "l_f": [float(th[2]), float(th[3])], "F_w_mean": [float(th[4]), float(th[5])],
+               "cost": fit.chi2_, "converged": bool(fit.success_), "iterations": int(fit.nfev_), "model": str(path),
+               "effects": {name: dict(p) for name, p in structure.effects}, "samples_used": int(keep.sum()),
+               "n_spun": int(spun.sum()), "spun_indices": [int(i) for i in np.flatnonzero(spun)], "message": fit.message_,
+               "measured": str(measured)}
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / "estimate.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    return summary

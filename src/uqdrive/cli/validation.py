@@ -1,0 +1,63 @@
+"""Checks of the command-line flags, shared by every subcommand: each bad value is refused by
+argparse with one line naming the flag, the value and the fix (exit code 2)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+__all__ = ["OneLineParser", "finite_float", "bounded_int", "stderr_line", "SEED_MAX"]
+
+#: Largest root seed: netCDF stores it as a signed 64-bit attribute.
+SEED_MAX = 2**63 - 1
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line on stderr (no usage block), exit code 2.
+
+    Subparsers inherit the class, so every subcommand reports the same way.
+    """
+
+    def error(self, message: str):  # noqa: D102 (argparse API)
+        message = " ".join(str(message).split())
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def finite_float(flag: str, low: float, high: float, unit: str = ""):
+    """argparse type: a finite float in [low, high]."""
+    unit = f" {unit}" if unit else ""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{flag} '{text}' is not a number; give one in [{low:g}, {high:g}]{unit}") from None
+        if not (math.isfinite(value) and low <= value <= high):
+            raise argparse.ArgumentTypeError(f"{flag} {text} is outside [{low:g}, {high:g}]{unit}; give a finite value in that range")
+        return value
+
+    parse.__name__ = flag  # argparse names the type in some messages
+    return parse
+
+
+def bounded_int(flag: str, low: int, high: int, what: str = ""):
+    """argparse type: an integer (written in decimal) in [low, high]."""
+    what = f" ({what})" if what else ""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text, 10)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{flag} '{text}' is not an integer; give one in {low}..{high}{what}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{flag} {text} is outside {low}..{high}{what}; give an integer in that range")
+        return value
+
+    parse.__name__ = flag
+    return parse
+
+
+def stderr_line(text: str) -> None:
+    """Print ``text`` as exactly one line on stderr."""
+    print(" ".join(str(text).split()), file=sys.stderr)

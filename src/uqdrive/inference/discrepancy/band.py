@@ -1,0 +1,204 @@
+"""The null band: how far the measured mean and std trajectories may stray from a model that
+misses nothing, and a scan statistic over signal x statistic x time window whose family-wise
+false-alarm rate is calibrated by a parametric bootstrap (the maximum over all cells).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["STATISTICS", "moment_statistics", "statistic_scale", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
+
+#: The statistics compared, in the order of axis 0 of every statistic array.
+STATISTICS = ("mean", "std")
+
+
+def moment_statistics(x, index):
+    """Mean and standard deviation (ddof 1) over realisations at the selected times.
+
+    Parameters
+    ----------
+    x : ndarray, shape (4, n, T)
+        Realisations of the four states.
+    index : ndarray of int, shape (K,)
+        Selected time indices.
+
+    Returns
+    -------
+    ndarray, shape (2, 4, K)
+        [mean, std] per state and time.
+    """
+    xs = x[:, :, index]
+    return np.stack([xs.mean(axis=1), xs.std(axis=1, ddof=1)])
+
+
+def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):
+    """Sampling standard deviation of :func:`moment_statistics`, from the data themselves.
+
+    The mean's is s / sqrt(n); the std's follows from the delta method with the fourth central
+    moment m4, Var(s) ~ (m4 - s^4) / (4 s^2 n), which holds for non-Gaussian states (s^2 / (2n)
+    for Gaussian ones). A model whose moments are themselves estimated from M realisations adds
+    its own error: both variances are multiplied by (1 + model_ratio), model_ratio = n / M.
+
+    Parameters
+    ----------
+    x : ndarray, shape (4, n, T)
+    index : ndarray of int, shape (K,)
+    model_ratio : float
+    floor : float
+        Relative floor per statistic and state (fraction of its largest scale), so that times
+        where nothing varies yet (t = 0 of noise-free data) do not divide by zero.
+
+    Returns
+    -------
+    ndarray, shape (2, 4, K)
+    """
+    xs = x[:, :, index]
+    n = xs.shape[1]
+    s = xs.std(axis=1, ddof=1)
+    c = xs - xs.mean(axis=1, keepdims=True)
+    m4 = np.mean(c**4, axis=1)
+    var_s = np.maximum(m4 - s**4, 0.0) / (4.0 * np.maximum(s, 1e-300) ** 2 * n)
+    scale = np.stack([s / np.sqrt(n), np.sqrt(var_s)]) * np.sqrt(1.0 + model_ratio)
+    top = scale.max(axis=-1, keepdims=True)
+    return np.maximum(scale, floor * np.where(top > 0, top, 1.0))
+
+
+def standardised_gap(measured, model, scale):
+    """z = (measured - model) / scale, all of shape (2, 4, K): the gap in units of the null band."""
+    return (np.asarray(measured) - np.asarray(model)) / np.asarray(scale)
+
+
+def refit_projection(z, jacobian):
+    """z after a linearised refit: its component in the span of the fit's Jacobian removed.
+
+    A fitted model absorbs the part of the sampling error that its parameters can mimic (the
+    sample means of the draws move the mean trajectories like the distribution parameters do),
+    so residuals of a fit are smaller than those of the true model. One Gauss-Newton step of a
+    refit of a replicate is z - J (J'J)^+ J' z; applying it to every bootstrap replicate
+    calibrates the band for fitted residuals.
+
+    Parameters
+    ----------
+    z : ndarray, shape (B, 2, 4, K)
+    jacobian : ndarray, shape (2 * 4 * K, p)
+
+    Returns
+    -------
+    ndarray, shape (B, 2, 4, K)
+    """
+    z = np.asarray(z, float)
+    flat = z.reshape(z.shape[0], -1)
+    J = np.asarray(jacobian, float)
+    if J.size == 0:
+        return z
+    Q, _ = np.linalg.qr(J)
+    return (flat - (flat @ Q) @ Q.T).reshape(z.shape)
+
+
+def scan_windows(K: int, lengths=(1, 4, 16, 64)):
+    """Windows (start, stop) over K time points: each length (capped at K) with half-overlap,
+    plus the whole horizon. Returns an int array of shape (n_windows, 2)."""
+    out = []
+    for L in sorted({min(int(L), K) for L in lengths} | {K}):
+        step = max(1, L // 2)
+        starts = list(range(0, K - L + 1, step))
+        if starts[-1] != K - L:
+            starts.append(K - L)
+        out += [(s, s + L) for s in starts]
+    return np.array(sorted(set(out)), int)
+
+
+def scan(z, windows):
+    """Window sums of z over time divided by sqrt(length), for every statistic and state.
+
+    Parameters
+    ----------
+    z : ndarray, shape (..., 2, 4, K)
+    windows : ndarray of int, shape (n_w, 2)
+
+    Returns
+    -------
+    ndarray, shape (..., 2, 4, n_w)
+    """
+    c = np.concatenate([np.zeros(z.shape[:-1] + (1,)), np.cumsum(z, axis=-1)], axis=-1)
+    lengths = windows[:, 1] - windows[:, 0]
+    return (c[..., windows[:, 1]] - c[..., windows[:, 0]]) / np.sqrt(lengths)
+
+
+@dataclass(frozen=True)
+class NullBand:
+    """Calibration of the scan statistic from bootstrap replicates of a model missing nothing.
+
+    Attributes
+    ----------
+    windows : ndarray, shape (n_w, 2)
+    cell_scale : ndarray, shape (2, 4, n_w)
+        Bootstrap standard deviation of each scan cell (the cells are divided by it).
+    max_null : ndarray, shape (B,)
+        The maximum |standardised cell| of every replicate.
+    mean_square_null : float
+        Mean over replicates of mean(z^2): the misfit level of a model that misses nothing.
+    chi2_null_sd : float
+        Standard deviation over replicates of sum(z^2).
+    inflation : float
+        Var(sum z) / sum Var(z) over the replicates, averaged over statistics and states: how
+        much correlation in time inflates the error of fitted parameters (1 for independent z).
+    level : float
+        Family-wise false-alarm rate of :attr:`threshold`.
+    """
+
+    windows: np.ndarray
+    cell_scale: np.ndarray
+    max_null: np.ndarray
+    mean_square_null: float
+    chi2_null_sd: float
+    inflation: float
+    level: float = 0.05
+
+    @classmethod
+    def from_replicates(cls, z_null, windows, level: float = 0.05) -> "NullBand":
+        """Calibrate from z of B replicates, shape (B, 2, 4, K)."""
+        cells = scan(z_null, windows)
+        scale = cells.std(axis=0, ddof=1)
+        scale = np.where(scale > 0, scale, 1.0)
+        maxima = np.abs(cells / scale).reshape(cells.shape[0], -1).max(axis=1)
+        chi2 = np.sum(z_null**2, axis=(1, 2, 3))
+        var_sum = np.var(z_null.sum(axis=-1), axis=0, ddof=1)
+        sum_var = np.var(z_null, axis=0, ddof=1).sum(axis=-1)
+        inflation = float(np.mean(var_sum / np.maximum(sum_var, 1e-300)))
+        return cls(np.asarray(windows), scale, maxima, float(np.mean(z_null**2)), float(np.std(chi2, ddof=1)), max(inflation, 1.0), level)
+
+    @property
+    def _gumbel(self):
+        """Location and scale of a Gumbel law fitted to the maxima by moments: the maximum of
+        many (correlated) Gaussian cells is Gumbel-like, so a high quantile comes from the whole
+        sample of replicates, not from its two or three largest members."""
+        scale = float(np.std(self.max_null, ddof=1)) * np.sqrt(6.0) / np.pi
+        return float(np.mean(self.max_null)) - 0.5772156649015329 * scale, max(scale, 1e-12)
+
+    @property
+    def threshold(self) -> float:
+        """(1 - level) quantile of the replicates' maxima (Gumbel fit, see ``_gumbel``)."""
+        loc, scale = self._gumbel
+        return float(loc - scale * np.log(-np.log(1.0 - self.level)))
+
+    def cells(self, z):
+        """Standardised scan cells of z (2, 4, K): shape (2, 4, n_w)."""
+        return scan(z, self.windows) / self.cell_scale
+
+    def max_statistic(self, z) -> float:
+        return float(np.abs(self.cells(z)).max())
+
+    def p_value(self, z) -> float:
+        """Probability under the null that the maximum reaches that of z (Gumbel fit)."""
+        loc, scale = self._gumbel
+        return float(-np.expm1(-np.exp(-(self.max_statistic(z) - loc) / scale)))
+
+
+def excess_rms(z, band: NullBand) -> float:
+    """Gap metric: sqrt(max(mean(z^2) - null level, 0)), the misfit beyond what sampling alone
+    gives, in units of the null band (0 for a model that misses nothing)."""
+    return float(np.sqrt(max(float(np.mean(np.asarray(z) ** 2)) - band.mean_square_null, 0.0)))

@@ -1,0 +1,198 @@
+"""Fit the distributions of mu, l_f and the mean wind, and the parameters of an added effect, to
+measured mean and std trajectories with the augmented model on common random numbers.
+
+The residuals are the gaps in units of the null band (:mod:`.band`), so the cost is a chi-square
+that is comparable across candidate effects; trust-region least squares with bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
+from ...vehicle.effects import Effect, ModelStructure
+from .band import moment_statistics
+
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
+
+#: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
+THETA_BOUNDS = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
+#: Typical magnitudes, so that the optimiser steps every parameter alike.
+THETA_SCALE = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)
+
+
+class StructureFit:
+    """Least-squares fit of an augmented single-track model to measured moment statistics.
+
+    Parameters
+    ----------
+    simulator : AugmentedSimulator
+        Model realisations on fixed germs (common random numbers) on the data's grid.
+    index : ndarray of int, shape (K,)
+        Time indices compared.
+    noise_variance : ndarray, shape (4,)
+        Measurement-noise variance per state (added to the model's variance).
+    spin_threshold : float or None
+        |beta| (rad) beyond which a model realisation lost control and is excluded, as the data's.
+    effect : Effect, optional
+        The effect added to ``base`` whose parameters are fitted with theta; None fits theta only.
+    base : ModelStructure
+    fit_theta : bool
+        False keeps theta at its start (screening of an effect at the baseline's estimate).
+    max_nfev : int
+        Budget of model evaluations.
+
+    Attributes
+    ----------
+    theta_ : ndarray, shape (6,)
+        Fitted distribution parameters in :data:`THETA_NAMES` order (|std|, wind bounds sorted).
+    effect_values_ : ndarray, shape (n_effect,)
+    structure_ : ModelStructure
+    statistics_ : ndarray, shape (2, 4, K)
+        Model [mean, std] at the estimate.
+    z_ : ndarray, shape (2, 4, K)
+        Standardised gap at the estimate.
+    chi2_ : float
+        sum(z_^2).
+    jacobian_ : ndarray, shape (2 * 4 * K, p)
+        d z / d parameters at the estimate (the null band projects it out of bootstrap replicates).
+    parameter_cov_ : ndarray, shape (p, p)
+        Gauss-Newton covariance (J'J)^-1 of all fitted parameters (theta first) in z units.
+    nfev_ : int
+    success_ : bool
+    message_ : str
+    """
+
+    def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
+                 base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200):
+        self.simulator = simulator
+        self.index = np.asarray(index, int)
+        self.noise_variance = np.asarray(noise_variance, float)
+        self.spin_threshold = spin_threshold
+        self.effect = effect
+        self.base = base
+        self.fit_theta = fit_theta
+        self.max_nfev = int(max_nfev)
+        self._cache: dict = {}
+
+    @property
+    def parameter_names(self) -> tuple:
+        names = THETA_NAMES if self.fit_theta else ()
+        return names + (self.effect.parameters if self.effect is not None else ())
+
+    def structure(self, effect_values=()) -> ModelStructure:
+        if self.effect is None:
+            return self.base
+        return self.effect.augment(self.base, effect_values)
+
+    @staticmethod
+    def _dynamic(structure: ModelStructure) -> ModelStructure:
+        """The structure without its output map (the part that needs a simulation)."""
+        return ModelStructure(**{**structure.__dict__, "output_offset": (0.0,) * 4, "output_gain": (1.0,) * 4, "effects": ()})
+
+    def _simulate(self, pairs):
+        """Simulations of (theta, structure) pairs, cached by their dynamic part, batched."""
+        keys = [(np.asarray(th, float).tobytes(), self._dynamic(s)) for th, s in pairs]
+        todo = [i for i, k in enumerate(keys) if k not in self._cache]
+        if len(self._cache) + len(todo) > 64:
+            self._cache.clear()
+            todo = list(range(len(keys)))
+        if todo:
+            sims = self.simulator.simulate_many([pairs[i][0] for i in todo], [keys[i][1] for i in todo])
+            for i, x in zip(todo, sims):
+                self._cache[keys[i]] = x
+        return [self._cache[k] for k in keys]
+
+    def statistics(self, theta, structure: ModelStructure):
+        """Model [mean, std] (2, 4, K) with the noise variance added to the model's variance."""
+        x = self._simulate([(theta, structure)])[0]
+        keep = np.ones(x.shape[1], bool)
+        if self.spin_threshold is not None:
+            keep = ~np.any(np.abs(x[2]) > self.spin_threshold, axis=-1)
+            if keep.sum() < 2:
+                keep[:] = True
+        gain = np.asarray(structure.output_gain, float)[:, None]
+        stats = moment_statistics(x[:, keep], self.index)
+        mean = stats[0] * gain + np.asarray(structure.output_offset, float)[:, None]
+        std = np.sqrt((stats[1] * gain) ** 2 + self.noise_variance[:, None])
+        return np.stack([mean, std])
+
+    def _split(self, params, theta0):
+        params = np.asarray(params, float)
+        if self.fit_theta:
+            return params[:6], params[6:]
+        return np.asarray(theta0, float), params
+
+    def fit(self, measured, scale, theta0, effect_start=None) -> "StructureFit":
+        """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, 4, K)."""
+        measured, scale = np.asarray(measured, float), np.asarray(scale, float)
+        theta0 = np.clip(np.asarray(theta0, float), [b[0] for b in THETA_BOUNDS], [b[1] for b in THETA_BOUNDS])
+        eff = self.effect
+        e_start = np.asarray(eff.start if effect_start is None else effect_start, float) if eff is not None else np.zeros(0)
+        lo, hi, typical = [], [], []
+        if self.fit_theta:
+            lo += [b[0] for b in THETA_BOUNDS]
+            hi += [b[1] for b in THETA_BOUNDS]
+            typical += list(THETA_SCALE)
+        if eff is not None:
+            lo += [b[0] for b in eff.bounds]
+            hi += [b[1] for b in eff.bounds]
+            typical += [max(abs(s), (b[1] - b[0]) / 20.0) for s, b in zip(eff.start, eff.bounds)]
+        x0 = np.concatenate([theta0 if self.fit_theta else np.zeros(0), e_start])
+        lo, hi = np.array(lo, float), np.array(hi, float)
+        x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+
+        def residuals(params):
+            theta, ev = self._split(params, theta0)
+            return ((self.statistics(theta, self.structure(ev)) - measured) / scale).ravel()
+
+        typical = np.array(typical, float)
+
+        def jacobian(params):
+            """Forward differences, all perturbed models simulated in one batch."""
+            h = 1e-4 * np.maximum(np.abs(params), typical)
+            h = np.where(params + h > hi, -h, h)
+            points = [params] + [params + h[i] * np.eye(params.size)[i] for i in range(params.size)]
+            split = [self._split(pt, theta0) for pt in points]
+            self._simulate([(th, self.structure(ev)) for th, ev in split])
+            f = [residuals(pt) for pt in points]
+            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h)])
+
+        if x0.size:
+            res = least_squares(residuals, x0, jac=jacobian, bounds=(lo, hi), x_scale=typical, method="trf",
+                                max_nfev=self.max_nfev, xtol=1e-8, ftol=1e-8)
+            x, jac, nfev, success, message = res.x, res.jac, res.nfev, bool(res.status > 0), str(res.message)
+        else:
+            x, jac, nfev, success, message = x0, np.zeros((residuals(x0).size, 0)), 1, True, "nothing to fit"
+        theta, ev = self._split(x, theta0)
+        theta = theta.copy()
+        theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)
+        theta[4:6] = np.sort(theta[4:6])
+        self.theta_ = theta
+        self.effect_values_ = np.asarray(ev, float)
+        self.structure_ = self.structure(self.effect_values_)
+        self.statistics_ = self.statistics(theta, self.structure_)
+        self.z_ = (self.statistics_ - measured) / scale
+        self.chi2_ = float(np.sum(self.z_**2))
+        self.jacobian_ = np.asarray(jac, float)
+        try:
+            self.parameter_cov_ = np.linalg.pinv(jac.T @ jac) if jac.size else np.zeros((0, 0))
+        except np.linalg.LinAlgError:
+            self.parameter_cov_ = np.full((x.size, x.size), np.nan)
+        self.nfev_, self.success_, self.message_ = int(nfev), success, message
+        return self
+
+    def effect_intervals(self, inflation: float = 1.0, level_z: float = 1.959963984540054):
+        """{parameter: [estimate, lo95, hi95]} of the effect's parameters; the Gauss-Newton
+        covariance is multiplied by ``inflation`` (correlation of the residuals in time)."""
+        if self.effect is None:
+            return {}
+        offset = 6 if self.fit_theta else 0
+        out = {}
+        for i, name in enumerate(self.effect.parameters):
+            var = self.parameter_cov_[offset + i, offset + i] * inflation if self.parameter_cov_.size else np.nan
+            half = level_z * float(np.sqrt(max(var, 0.0))) if np.isfinite(var) else float("nan")
+            v = float(self.effect_values_[i])
+            out[name] = [v, v - half, v + half]
+        return out

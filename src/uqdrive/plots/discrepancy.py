@@ -1,0 +1,95 @@
+"""Figures of the discrepancy workflow: measured vs model bands before and after the named effect
+is added, and the localisation map (signal x statistic x time, in units of the null band).
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ..vehicle.single_track import STATE_UNITS, STATES
+from .figure import label_state, state_axes, time_axis
+
+__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude"]
+
+
+def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0):
+    """Measured mean +- k std against the baseline and the augmented model, per state.
+
+    Parameters
+    ----------
+    time : ndarray, shape (K,)
+    measured, before, after : ndarray, shape (2, 4, K)
+        [mean, std] of the data, the baseline model and the augmented model.
+    """
+    fig, axes = state_axes(title=f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'")
+    for i, (ax, state) in enumerate(zip(axes, STATES)):
+        m, s = measured[0, i], measured[1, i]
+        ax.fill_between(time, m - band_sigmas * s, m + band_sigmas * s, color="0.75", label="measured")
+        ax.plot(time, m, color="k", lw=1.0)
+        for stats, colour, name in ((before, "C3", "baseline"), (after, "C0", f"with {effect}")):
+            ax.plot(time, stats[0, i], color=colour, lw=1.0, label=name)
+            ax.plot(time, stats[0, i] + band_sigmas * stats[1, i], color=colour, lw=0.6, ls="--")
+            ax.plot(time, stats[0, i] - band_sigmas * stats[1, i], color=colour, lw=0.6, ls="--")
+        label_state(ax, state)
+    axes[0].legend(fontsize=7)
+    return time_axis(fig, axes)
+
+
+def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap"):
+    """|z| of the baseline per signal and statistic over time, with the scan threshold.
+
+    Parameters
+    ----------
+    time : ndarray, shape (K,)
+    z : ndarray, shape (2, 4, K)
+        Standardised gap (units of the null band).
+    threshold : float
+        Family-wise threshold of the scan statistic (same units).
+    """
+    rows = [f"{s} {stat}" for stat in ("mean", "std") for s in STATES]
+    values = np.abs(np.asarray(z)).reshape(8, -1)
+    fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
+    top = max(float(values.max()), threshold * 1.5)
+    mesh = ax.pcolormesh(time, np.arange(8), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
+    ax.contour(time, np.arange(8), values, levels=[threshold], colors="c", linewidths=0.8)
+    ax.set_yticks(np.arange(8), [f"{r} [{STATE_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
+    ax.set_xlabel("time [s]")
+    cb = fig.colorbar(mesh, ax=ax)
+    cb.set_label("|z| [units of the null band]")
+    ax.set_title(f"{title} (cyan: family-wise threshold {threshold:.2f})")
+    return fig
+
+
+def confusion_matrix(ds):
+    """Benchmark cases by true effect (rows) and named effect (columns)."""
+    m = ds["confusion"].values
+    fig, ax = plt.subplots(figsize=(1.0 + 0.7 * m.shape[1], 1.0 + 0.5 * m.shape[0]), constrained_layout=True)
+    ax.imshow(m, cmap="Blues")
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            if m[i, j]:
+                ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=9)
+    ax.set_xticks(range(m.shape[1]), [str(v) for v in ds["named_effect"].values], rotation=45, ha="right", fontsize=8)
+    ax.set_yticks(range(m.shape[0]), [str(v) for v in ds["true_effect"].values], fontsize=8)
+    ax.set_xlabel("named by uqdrive discover")
+    ax.set_ylabel("hidden in the data")
+    ax.set_title(f"accuracy {ds.attrs['accuracy']:.2f}, false alarms {ds.attrs['false_alarm_rate']:.2f}")
+    return fig
+
+
+def detection_vs_magnitude(ds):
+    """Per hidden effect: named correctly (1) or not (0) against its magnitude."""
+    effects = [e for e in sorted(set(ds["truth"].values.tolist())) if e != "none"]
+    fig, axes = plt.subplots(1, max(len(effects), 1), figsize=(2.2 * max(len(effects), 1), 2.6), constrained_layout=True, squeeze=False)
+    for ax, e in zip(axes[0], effects):
+        sel = ds["truth"].values == e
+        mag = ds["magnitude"].values[sel]
+        ok = ds["correct"].values[sel].astype(float)
+        ax.plot(mag, ok, "o", color="C0")
+        ax.set_ylim(-0.2, 1.2)
+        ax.set_yticks([0, 1], ["missed", "named"])
+        ax.set_title(e, fontsize=8)
+        ax.set_xlabel("magnitude", fontsize=8)
+        ax.grid(alpha=0.3)
+    return fig

@@ -1,0 +1,394 @@
+"""Generator of "measured" single-track ensembles with a hidden physical effect, the ground truth
+of a benchmark for discrepancy detection.
+
+The "reality" is integrated here by its own vectorised fixed-step RK4 (over realisations, no
+per-sample loop), independently of the LST/NLST code of :mod:`uqdrive.vehicle`: the stochastic
+linear single-track model (linear tyres c_f alpha_f, c_r alpha_r, y_dot = v psi) with uncertain
+mu, m_load, l_f and mean wind, KLE gusts (yaw moment M_c F_w as in the Monte Carlo ensembles)
+and white measurement noise, plus at most one switchable effect with a magnitude:
+
+=====================  ==========================================================================
+effect                 magnitude
+=====================  ==========================================================================
+none                   0 (the model itself: the null case)
+tyre_saturation        steering amplitude (deg); NLST of the thesis: Magic-Formula tyres
+actuator_lag           time constant T (s) of a first-order steering lag
+actuator_delay         pure steering delay tau (s)
+road_bank              bank angle phi (deg): lateral force m g sin(phi), no yaw moment
+wind_gust              factor on the config's gust std wind.sigma
+lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi
+sensor_bias            offset added to the measured ``channel`` (its SI unit)
+sensor_scale           gain on the measured ``channel``
+=====================  ==========================================================================
+
+A generated dataset follows the uqdrive data schema and carries no label, no draws and no spin
+flag; :func:`case_label` gives the label for a separate file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from ..rng import rng_stream
+from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formula
+from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
+from .manoeuvres import MANOEUVRES, steering_command
+
+__all__ = ["EFFECTS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
+           "simulate_states", "wind_kle"]
+
+EFFECTS = (
+    "none", "tyre_saturation", "actuator_lag", "actuator_delay", "road_bank",
+    "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale",
+)
+AMPLITUDE_EFFECTS = ("tyre_saturation", "lateral_kinematics")  # magnitude = steering amplitude (deg)
+SENSOR_EFFECTS = ("sensor_bias", "sensor_scale")
+PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
+MAX_STEP = 0.005  # s, largest internal RK4 step
+
+
+def _pairs(mapping) -> tuple:
+    """Hashable, sorted ((key, value), ...) form of a mapping (or of such pairs)."""
+    items = mapping.items() if isinstance(mapping, Mapping) else (mapping or ())
+    return tuple(sorted((str(k), tuple(v) if isinstance(v, (list, tuple)) else v) for k, v in items))
+
+
+@dataclass(frozen=True)
+class HiddenEffectCase:
+    """One benchmark case: a reality, a manoeuvre and the size of its ensemble.
+
+    Attributes
+    ----------
+    name : str
+        Case identifier (a label: keep it out of the measured file's name if the benchmark is blind).
+    effect : str
+        One of :data:`EFFECTS`.
+    magnitude : float
+        Size of the effect, in the unit of the table in the module docstring (0 for ``none``).
+    manoeuvre : str
+        One of :data:`uqdrive.studies.manoeuvres.MANOEUVRES`.
+    manoeuvre_params : mapping
+        Keyword arguments of the manoeuvre function (amplitude in ``amplitude_deg``); for
+        tyre_saturation and lateral_kinematics the amplitude is the magnitude.
+    samples, seed : int
+        Number of realisations and root seed of the case's random streams.
+    channel : str, optional
+        Measured state hit by sensor_bias / sensor_scale (psi, psi_dot, beta or y).
+    shift : mapping
+        Parameter distributions replacing the config's: {"mu" | "m_load" | "l_f": (mean, std),
+        "F_w_mean": (low, high)}, e.g. {"mu": (0.9, 0.15)}.
+    noise : float
+        Measurement-noise std of each channel as a fraction of its typical RMS (the median over
+        realisations of the RMS over time of the clean signal).
+    """
+
+    name: str
+    effect: str
+    magnitude: float
+    manoeuvre: str
+    manoeuvre_params: Any = ()
+    samples: int = 1000
+    seed: int = 0
+    channel: str | None = None
+    shift: Any = ()
+    noise: float = 0.01
+
+    def __post_init__(self):
+        if self.effect not in EFFECTS:
+            raise ValueError(f"unknown effect '{self.effect}'; choose one of {', '.join(EFFECTS)}")
+        if self.manoeuvre not in MANOEUVRES:
+            raise ValueError(f"unknown manoeuvre '{self.manoeuvre}'; choose one of {', '.join(MANOEUVRES)}")
+        params = dict(_pairs(self.manoeuvre_params))
+        if self.effect in AMPLITUDE_EFFECTS and params.setdefault("amplitude_deg", float(self.magnitude)) != self.magnitude:
+            raise ValueError(f"{self.name}: the magnitude of {self.effect} is the steering amplitude; drop amplitude_deg")
+        object.__setattr__(self, "manoeuvre_params", _pairs(params))
+        object.__setattr__(self, "shift", _pairs(self.shift))
+        unknown = set(dict(self.shift)) - set(PARAMETERS)
+        if unknown:
+            raise ValueError(f"{self.name}: shift of unknown parameters {sorted(unknown)}; known: {', '.join(PARAMETERS)}")
+        if (self.channel is not None) != (self.effect in SENSOR_EFFECTS) or self.channel not in (None, *STATES):
+            raise ValueError(f"{self.name}: a channel ({', '.join(STATES)}) is given for sensor effects, and only for them")
+        if self.effect == "none" and self.magnitude != 0:
+            raise ValueError(f"{self.name}: effect 'none' has magnitude 0")
+        if self.effect in ("actuator_lag", "wind_gust", "sensor_scale") and self.magnitude <= 0:
+            raise ValueError(f"{self.name}: {self.effect} needs a magnitude > 0")
+        if self.effect == "actuator_delay" and self.magnitude < 0:
+            raise ValueError(f"{self.name}: actuator_delay needs a magnitude >= 0")
+        if self.samples < 1 or self.noise < 0:
+            raise ValueError(f"{self.name}: samples >= 1 and noise >= 0 required")
+
+
+@lru_cache(maxsize=8)
+def _kle_cached(t_end: float, Tc: float, n_quadrature: int, truncation: float) -> KarhunenLoeve:
+    return kle_nystrom(0.0, t_end, Tc, n_quadrature, truncation)
+
+
+def wind_kle(config: Mapping[str, Any]) -> KarhunenLoeve:
+    """KLE of the unit side wind on [0, t_end] (cached: one eigenproblem per setting)."""
+    w = config["wind"]
+    return _kle_cached(float(config["time"]["t_end"]), float(w["Tc"]), int(w["kle_quadrature"]), float(w["kle_truncation"]))
+
+
+def _distributions(config: Mapping[str, Any], case: HiddenEffectCase) -> dict[str, tuple[float, float]]:
+    u = config["uncertainty"]
+    dist = {name: (u[name]["mean"], u[name]["std"]) for name in ("mu", "m_load", "l_f")}
+    dist["F_w_mean"] = (u["F_w_mean"]["low"], u["F_w_mean"]["high"])
+    dist.update({k: tuple(map(float, v)) for k, v in case.shift})
+    return dist
+
+
+def draw_realisations(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoeve | None = None) -> dict[str, np.ndarray]:
+    """Per-realisation draws of a case: mu, m_load, l_f (normal), F_w_mean (uniform), all of
+    shape (samples,), and ``xi_wind`` (samples, n_modes), the standard normal KLE germs.
+
+    Streams "hidden_parameters" and "hidden_wind" of ``case.seed``.
+    """
+    n, kle = int(case.samples), wind_kle(config) if kle is None else kle
+    dist = _distributions(config, case)
+    rng = rng_stream(case.seed, "hidden_parameters")
+    z = rng.standard_normal((3, n))
+    draws = {name: dist[name][0] + dist[name][1] * z[i] for i, name in enumerate(("mu", "m_load", "l_f"))}
+    draws["F_w_mean"] = rng.uniform(*dist["F_w_mean"], size=n)
+    draws["xi_wind"] = rng_stream(case.seed, "hidden_wind").standard_normal((n, kle.n_modes))
+    return draws
+
+
+def _time_grid(config: Mapping[str, Any]):
+    """Output times, RK4 step h <= MAX_STEP dividing the output step, and the substeps."""
+    t_end, dt = float(config["time"]["t_end"]), float(config["time"]["dt"])
+    substeps = int(np.ceil(dt / min(float(config["time"]["step"]), MAX_STEP) - 1e-9))
+    n_out = round(t_end / dt)
+    return np.arange(n_out + 1) * dt, dt / substeps, substeps
+
+
+def _actual_steering(case: HiddenEffectCase, t) -> np.ndarray:
+    """Steering at the wheels before any lag: the command, delayed by tau for actuator_delay (zero before)."""
+    params = dict(case.manoeuvre_params)
+    if case.effect != "actuator_delay":
+        return steering_command(case.manoeuvre, t, params)
+    shifted = np.asarray(t, float) - case.magnitude
+    started = shifted > -1e-9
+    return np.where(started, steering_command(case.manoeuvre, np.maximum(shifted, 0.0), params), 0.0)
+
+
+def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half):
+    """RK4 right-hand side f(x, j) of the reality on the half-step grid index j.
+
+    x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
+    fifth state for actuator_lag.
+    """
+    veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
+    v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
+    C, E, B_f, B_r = tyre["C"], tyre["E"], veh["c_Sf"], veh["c_Sr"]
+    mu, l_f = draws["mu"], draws["l_f"]
+    m = veh["m_base"] + draws["m_load"]
+    I_z, l_r = m * veh["J0"], L - l_f
+    F_fz, F_rz = m * g * l_r / L, m * g * l_f / L
+    c_f, c_r = F_fz * B_f * C * mu, F_rz * B_r * C * mu  # slopes of the Magic Formula at zero slip
+    inv_Iz, inv_mv = 1.0 / I_z, 1.0 / (m * v)
+    w_mean = draws["F_w_mean"]
+    gust_moment = bool(w["gust_yaw_moment"])
+    effect, size = case.effect, float(case.magnitude)
+    bank = g * np.sin(np.deg2rad(size)) / v if effect == "road_bank" else 0.0
+
+    def rhs(x, j):
+        psi, r, beta = x[0], x[1], x[2]
+        d = x[4] if effect == "actuator_lag" else delta_half[j]
+        gust = gust_half[j]
+        F_w = w_mean + gust
+        M_w = M_c * (F_w if gust_moment else w_mean)
+        out = np.empty_like(x)
+        out[0] = r
+        if effect == "tyre_saturation":  # non-linear single-track model (5.3) of the thesis
+            vx, vy = v * np.cos(beta), v * np.sin(beta)
+            F_f = magic_formula(d - np.arctan((vy + l_f * r) / vx), F_fz, B_f, C, mu, E) * np.cos(d)
+            F_r = magic_formula(-np.arctan((vy - l_r * r) / vx), F_rz, B_r, C, mu, E)
+            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r
+            out[3] = v * np.sin(psi)
+        else:  # linear tyres and small angles (5.4)
+            F_f = c_f * (d - beta - l_f * r / v)
+            F_r = c_r * (l_r * r / v - beta)
+            out[2] = (F_f + F_r + F_w) * inv_mv - r + bank
+            out[3] = v * np.sin(psi + beta) if effect == "lateral_kinematics" else v * psi
+        out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
+        if effect == "actuator_lag":
+            out[4] = (delta_half[j] - d) / size
+        return out
+
+    return rhs
+
+
+def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
+    """Classical RK4, inputs on the half-step grid; x every ``every`` steps, (n_steps // every + 1, *x0.shape)."""
+    out = np.empty((n_steps // every + 1,) + x0.shape)
+    out[0] = x = x0
+    for k in range(n_steps):
+        j = 2 * k
+        k1 = rhs(x, j)
+        k2 = rhs(x + 0.5 * h * k1, j + 1)
+        k3 = rhs(x + 0.5 * h * k2, j + 1)
+        k4 = rhs(x + h * k3, j + 2)
+        x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        if (k + 1) % every == 0:
+            out[(k + 1) // every] = x
+    return out
+
+
+def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=None, kle: KarhunenLoeve | None = None):
+    """Clean (noise- and sensor-error-free) response of the case's reality.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated uqdrive configuration (vehicle, tyre, uncertainty, wind, time).
+    case : HiddenEffectCase
+    draws : dict, optional
+        Output of :func:`draw_realisations` (drawn if omitted).
+    kle : KarhunenLoeve, optional
+        KLE of the unit wind on [0, t_end] (computed from the config if omitted).
+
+    Returns
+    -------
+    t : ndarray, shape (T,)
+        Output times (s).
+    delta : ndarray, shape (T,)
+        Commanded steering angle (rad).
+    x : ndarray, shape (4, samples, T)
+        True states psi, psi_dot, beta, y.
+    """
+    kle = wind_kle(config) if kle is None else kle
+    draws = draw_realisations(config, case, kle) if draws is None else draws
+    t, h, substeps = _time_grid(config)
+    n_steps = (t.size - 1) * substeps
+    t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
+    sigma = float(config["wind"]["sigma"]) * (case.magnitude if case.effect == "wind_gust" else 1.0)
+    coeffs = sigma * np.asarray(draws["xi_wind"]) * np.sqrt(kle.eigenvalues)  # (n, n_c), thesis (5.21)
+    gust_half = np.ascontiguousarray((coeffs @ kle.eigenfunctions(t_half)).T)  # (n_half, n)
+    delta_half = _actual_steering(case, t_half)
+    n = np.shape(draws["mu"])[0]
+    x0 = np.zeros((5 if case.effect == "actuator_lag" else 4, n))
+    rhs = _reality_rhs(config, case, draws, delta_half, gust_half)
+    x = _rk4(rhs, x0, h, n_steps, substeps)[:, :4]  # (T, 4, n)
+    delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
+    return t, delta, np.ascontiguousarray(x.transpose(1, 2, 0))
+
+
+def measure(case: HiddenEffectCase, x) -> np.ndarray:
+    """Measured channels: sensor effect of the case plus white Gaussian noise.
+
+    Each channel gets noise of std ``case.noise`` times its typical RMS (median over
+    realisations of the RMS over time of the true signal; the median keeps realisations that
+    lost control from inflating it), drawn from stream "hidden_noise" of ``case.seed``; the
+    noise germs do not depend on the effect, so cases differing only in a sensor error share them.
+
+    Parameters
+    ----------
+    x : ndarray, shape (4, samples, T)
+
+    Returns
+    -------
+    ndarray, shape (4, samples, T)
+    """
+    rng = rng_stream(case.seed, "hidden_noise")
+    out = np.empty_like(x)
+    for i, name in enumerate(STATES):
+        zeta = rng.standard_normal(x[i].shape)
+        scale = case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
+        gain = case.magnitude if case.effect == "sensor_scale" and case.channel == name else 1.0
+        offset = case.magnitude if case.effect == "sensor_bias" and case.channel == name else 0.0
+        out[i] = gain * x[i] + offset + scale * zeta
+    return out
+
+
+def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoeve | None = None) -> xr.Dataset:
+    """Measured ensemble of a case in the uqdrive data schema (``io.validate_ensemble``).
+
+    Variables psi, psi_dot, beta, y (sample, time) and the commanded steering ``delta`` (time),
+    coordinate time (s), attribute v_c (m/s); no label, draws, noise level or spin flag.
+    """
+    t, delta, x = simulate_states(config, case, kle=kle)
+    y = measure(case, x)
+    data_vars = {
+        name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
+        for i, name in enumerate(STATES)
+    }
+    data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
+    coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
+    attrs = {"title": "measured single-track ensemble", "v_c": float(config["vehicle"]["speed_kmh"]) / 3.6}
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)
+
+
+def case_label(case: HiddenEffectCase) -> dict[str, Any]:
+    """Ground-truth label of a case, for a labels file kept apart from the measured data."""
+    return {
+        "name": case.name,
+        "effect": case.effect,
+        "discrepant": case.effect != "none",
+        "magnitude": float(case.magnitude),
+        "channel": case.channel,
+        "manoeuvre": case.manoeuvre,
+        "manoeuvre_params": {k: v for k, v in case.manoeuvre_params},
+        "seed": int(case.seed),
+        "samples": int(case.samples),
+        "noise": float(case.noise),
+        "shift": {k: list(v) for k, v in case.shift},
+    }
+
+
+# name, effect, magnitude, manoeuvre, manoeuvre params, channel, shift, noise
+_BENCHMARK = [
+    ("none_thesis_slalom", "none", 0.0, "slalom", {"amplitude_deg": 5.0, "period": 4.0}, None, {}, 0.01),
+    ("none_step", "none", 0.0, "step", {"amplitude_deg": 2.0}, None, {}, 0.02),
+    ("none_chirp_mu_low", "none", 0.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.01),
+    ("none_lane_change", "none", 0.0, "lane_change", {"amplitude_deg": 3.0}, None, {"l_f": (1.45, 0.15)}, 0.02),
+    ("none_slalom_inverted", "none", 0.0, "slalom", {"amplitude_deg": 3.0, "period": 3.0, "sign": -1.0}, None, {"F_w_mean": (-200.0, 300.0)}, 0.01),
+    ("none_slalom_slow", "none", 0.0, "slalom", {"amplitude_deg": 2.0, "period": 6.0, "phase": 0.5}, None, {"m_load": (150.0, 40.0)}, 0.015),
+    ("tyre_saturation_3deg", "tyre_saturation", 3.0, "slalom", {"period": 3.0, "sign": -1.0}, None, {}, 0.01),
+    ("tyre_saturation_5deg", "tyre_saturation", 5.0, "lane_change", {}, None, {"mu": (0.9, 0.15)}, 0.02),
+    ("actuator_lag_80ms", "actuator_lag", 0.08, "chirp", {"amplitude_deg": 2.0}, None, {}, 0.01),
+    ("actuator_lag_200ms", "actuator_lag", 0.2, "step", {"amplitude_deg": 2.0, "ramp": 0.3}, None, {}, 0.02),
+    ("actuator_delay_50ms", "actuator_delay", 0.05, "lane_change", {"amplitude_deg": 3.0}, None, {}, 0.01),
+    ("actuator_delay_150ms", "actuator_delay", 0.15, "slalom", {"amplitude_deg": 2.0, "period": 2.5}, None, {}, 0.02),
+    ("road_bank_1deg", "road_bank", 1.0, "step", {"amplitude_deg": 2.0, "sign": -1.0}, None, {}, 0.01),
+    ("road_bank_3deg", "road_bank", 3.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.02),
+    ("wind_gust_x3", "wind_gust", 3.0, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, None, {}, 0.01),
+    ("wind_gust_x6", "wind_gust", 6.0, "lane_change", {"amplitude_deg": 2.0}, None, {}, 0.02),
+    ("lateral_kinematics_3deg", "lateral_kinematics", 3.0, "slalom", {"period": 6.0}, None, {}, 0.01),
+    ("lateral_kinematics_6deg", "lateral_kinematics", 6.0, "lane_change", {}, None, {}, 0.02),
+    ("sensor_bias_psi_dot_small", "sensor_bias", 0.005, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.01),
+    ("sensor_bias_psi_dot", "sensor_bias", 0.01, "step", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
+    ("sensor_bias_beta", "sensor_bias", 0.004, "slalom", {"amplitude_deg": 3.0, "period": 3.0}, "beta", {}, 0.01),
+    ("sensor_bias_y", "sensor_bias", 0.3, "lane_change", {"amplitude_deg": 3.0}, "y", {}, 0.02),
+    ("sensor_scale_psi_dot_110", "sensor_scale", 1.1, "lane_change", {"amplitude_deg": 3.0}, "psi_dot", {}, 0.01),
+    ("sensor_scale_psi_dot_125", "sensor_scale", 1.25, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
+    ("sensor_scale_beta_125", "sensor_scale", 1.25, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, "beta", {}, 0.01),
+]
+
+
+def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
+    """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
+    every effect at two magnitudes on manoeuvres other than the thesis slalom, and
+    "thesis_nlst", the thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config
+    distributions, root seed).
+
+    Parameters
+    ----------
+    samples : int, optional
+        Realisations per case (config ``montecarlo.samples`` by default).
+    """
+    n = int(config["montecarlo"]["samples"] if samples is None else samples)
+    root = int(config["seed"])
+    cases = [
+        HiddenEffectCase(name, effect, size, manoeuvre, params, n, root + 101 + i, channel, shift, noise)
+        for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(_BENCHMARK)
+    ]
+    st = config["steering"]
+    thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",
+                              {"period": float(st["period"])}, n, root, noise=0.01)
+    return cases + [thesis]

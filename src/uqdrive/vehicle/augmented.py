@@ -1,0 +1,302 @@
+"""Ensembles of the single-track model with named effects added (a :class:`ModelStructure`), on
+any measured time grid and steering signal, from fixed germs (common random numbers).
+
+Linear structures are discretised exactly (first-order hold, as the LST ensembles); a non-linear
+tyre is integrated by vectorised RK4. With the germs fixed, the moments are smooth functions of
+the distribution and effect parameters, so optimisers can fit them (past the thesis).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..numerics.integrate import lti_foh_response, rk4_fixed_step
+from .effects import ModelStructure
+from .single_track import VehicleParameters, lst_matrices
+from .uncertainty import kle_nystrom
+
+__all__ = ["THETA_NAMES", "Germs", "actual_steering", "AugmentedSimulator", "ensemble_moments"]
+
+#: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
+THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
+_RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
+
+
+@dataclass(frozen=True)
+class Germs:
+    """Standard germs of n realisations: normal for mu, l_f, m_load, U(0, 1) for the mean wind,
+    normal (n, n_c) for the KLE gust modes."""
+
+    mu: np.ndarray
+    l_f: np.ndarray
+    m_load: np.ndarray
+    wind: np.ndarray
+    kle: np.ndarray
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, n: int, n_modes: int) -> "Germs":
+        z = rng.standard_normal((3, n))
+        return cls(z[0], z[1], z[2], rng.random(n), rng.standard_normal((n, n_modes)))
+
+    @property
+    def n(self) -> int:
+        return int(self.mu.size)
+
+    def head(self, n: int) -> "Germs":
+        """The first ``n`` realisations' germs."""
+        return Germs(self.mu[:n], self.l_f[:n], self.m_load[:n], self.wind[:n], self.kle[:n])
+
+
+def actual_steering(delta, dt: float, lag: float = 0.0, delay: float = 0.0):
+    """Actual steering angle after a dead time and a first-order lag, from the commanded one.
+
+    Parameters
+    ----------
+    delta : ndarray, shape (T,)
+        Commanded angle on a uniform grid from t = 0 (rad). Before t = 0 the wheel is straight
+        (0), as the vehicle's zero initial state implies; a command that starts away from 0
+        (the thesis' slalom) is then a step at t = 0 that the actuator follows.
+    dt : float
+        Grid step (s).
+    lag, delay : float
+        Time constant T and dead time tau (s).
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        Exact for a piecewise-linear command: with a = exp(-dt/T), the lag is
+        x_{k+1} = a x_k + b0 u_{k+1} + b1 u_k, b0 = 1 - T (1 - a) / dt, b1 = T (1 - a) / dt - a.
+    """
+    u = np.asarray(delta, float)
+    t = np.arange(u.size) * dt
+    if delay > 0:
+        u = np.interp(t - delay, t, u, left=0.0)
+    if lag <= 0:
+        return u
+    from scipy.signal import lfilter
+
+    a = np.exp(-dt / lag)
+    b0 = 1.0 - lag * (1.0 - a) / dt
+    b1 = lag * (1.0 - a) / dt - a
+    # the step 0 -> u[0] at t = 0 arrives within the first interval (a linear ramp there)
+    drive = b0 * u[1:] + b1 * u[:-1]
+    x, _ = lfilter([1.0], [1.0, -a], drive, zi=[0.0])
+    return np.concatenate([[0.0], x])
+
+
+class AugmentedSimulator:
+    """Simulate an augmented single-track model for distribution parameters ``theta``.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration: vehicle and tyre constants, the load distribution (fixed, not
+        identified: the LST depends on the mass only through F_w / m), the wind KLE settings.
+    time : ndarray, shape (T,)
+        Uniform output grid from 0 (s).
+    delta : ndarray, shape (T,)
+        Commanded steering angle (rad).
+    v_c : float
+        Speed (m/s).
+    germs : Germs
+        Fixed germs of the realisations (common random numbers).
+    stride : int
+        States are returned every ``stride`` grid steps (``output_time``); the inputs still act
+        on the whole grid (the first-order-hold maps of the skipped steps are folded, exactly),
+        so a coarser output costs a fraction of the recursion. The grid is cut to a multiple.
+
+    Attributes
+    ----------
+    output_time : ndarray, shape (K + 1,)
+        Times (s) of the returned states.
+    """
+
+    def __init__(self, config: Mapping[str, Any], time, delta, v_c: float, germs: Germs, stride: int = 1):
+        time = np.asarray(time, float)
+        self.stride = max(1, int(stride))
+        horizon = float(time[-1])  # the wind's KLE lives on the data's whole horizon
+        usable = 1 + ((time.size - 1) // self.stride) * self.stride
+        self.time = time[:usable]
+        delta = np.asarray(delta, float)[:usable]
+        self.output_time = self.time[:: self.stride]
+        self.dt = float(self.time[1] - self.time[0])
+        self.delta = delta
+        self.germs = germs
+        self.config = config
+        w = config["wind"]
+        self.kle = kle_nystrom(0.0, horizon, w["Tc"], w["kle_quadrature"], w["kle_truncation"])
+        if germs.kle.shape[1] < self.kle.n_modes:
+            raise ValueError(f"germs hold {germs.kle.shape[1]} KLE modes; the wind needs {self.kle.n_modes}")
+        self.f = self.kle.eigenfunctions(self.time)  # (n_c, T)
+        self.sigma = float(w["sigma"])
+        self.gust_yaw_moment = bool(w["gust_yaw_moment"])
+        load = config["uncertainty"]["m_load"]
+        self.m_load = load["mean"] + load["std"] * germs.m_load
+        self.base = replace(VehicleParameters.from_config(config), v_c=float(v_c))
+
+    @classmethod
+    def drawn(cls, config: Mapping[str, Any], time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1) -> "AugmentedSimulator":
+        """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs)."""
+        w = config["wind"]
+        n_modes = kle_nystrom(0.0, float(np.asarray(time)[-1]), w["Tc"], w["kle_quadrature"], w["kle_truncation"]).n_modes
+        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes), stride)
+
+    def with_germs(self, germs: Germs) -> "AugmentedSimulator":
+        """The same model on other germs (the KLE is reused)."""
+        other = object.__new__(AugmentedSimulator)
+        other.__dict__.update(self.__dict__)
+        other.germs = germs
+        load = self.config["uncertainty"]["m_load"]
+        other.m_load = load["mean"] + load["std"] * germs.m_load
+        return other
+
+    def parameters(self, theta, germs: Germs | None = None) -> tuple[VehicleParameters, np.ndarray, np.ndarray]:
+        """Per-realisation vehicle parameters, mean wind (N) and gust mode coefficients (N).
+
+        Draws outside the physical range (mu <= 0, l_f outside (0, L)) from the normals' tails
+        are clipped to it, as a real car has mu > 0 and its centre of gravity between the axles.
+        """
+        mu_m, mu_s, lf_m, lf_s, lo, hi = np.asarray(theta, float)
+        g = self.germs if germs is None else germs
+        L = self.base.wheelbase
+        load = self.config["uncertainty"]["m_load"]
+        m_load = self.m_load if germs is None else load["mean"] + load["std"] * g.m_load
+        mu = np.maximum(mu_m + mu_s * g.mu, 0.05)
+        l_f = np.clip(lf_m + lf_s * g.l_f, 0.05 * L, 0.95 * L)
+        p = replace(self.base, mu=mu, l_f=l_f, m_load=np.maximum(m_load, -0.9 * self.base.m_base))
+        wind = lo + (hi - lo) * g.wind
+        coeffs = self.sigma * g.kle[:, : self.kle.n_modes] * np.sqrt(self.kle.eigenvalues)
+        return p, wind, coeffs
+
+    def simulate(self, theta, structure: ModelStructure = ModelStructure(), germs: Germs | None = None) -> np.ndarray:
+        """States as measured, shape (4, n, K + 1) at ``output_time``: psi, psi_dot, beta, y of
+        every realisation (of ``germs`` if given, else of the simulator's own)."""
+        p, wind, coeffs = self.parameters(theta, germs)
+        coeffs = coeffs * structure.gust_scale
+        delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay)
+        if structure.nonlinear:
+            x = self._rk4(p, wind, coeffs, delta, structure)
+        else:
+            x = self._exact(p, wind, coeffs, delta, structure)
+        gain = np.asarray(structure.output_gain, float)[:, None, None]
+        offset = np.asarray(structure.output_offset, float)[:, None, None]
+        return x * gain + offset
+
+    def simulate_many(self, thetas, structures) -> list:
+        """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model
+        is integrated numerically (one RK4 pass over all realisations of all pairs: the cost of
+        a step is NumPy call overhead, nearly independent of the batch size)."""
+        thetas = [np.asarray(th, float) for th in thetas]
+        first = structures[0]
+        same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
+        if not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1:
+            return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        n = self.germs.n
+        parts = [self.parameters(th) for th in thetas]
+        p = replace(parts[0][0], mu=np.concatenate([q[0].mu for q in parts]), l_f=np.concatenate([q[0].l_f for q in parts]),
+                    m_load=np.concatenate([np.broadcast_to(q[0].m_load, (n,)) for q in parts]))
+        wind = np.concatenate([q[1] for q in parts])
+        coeffs = np.concatenate([q[2] * s.gust_scale for q, s in zip(parts, structures)])
+        per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
+        batch = replace(first, tyre_curvature=per("tyre_curvature", self.config["tyre"]["E"]),
+                        lateral_acceleration=per("lateral_acceleration", 0.0), course_weight=per("course_weight", 0.0))
+        delta = actual_steering(self.delta, self.dt, first.steering_lag, first.steering_delay)
+        x = self._rk4(p, wind, coeffs, delta, batch)
+        out = []
+        for i, s in enumerate(structures):
+            gain = np.asarray(s.output_gain, float)[:, None, None]
+            offset = np.asarray(s.output_offset, float)[:, None, None]
+            out.append(x[:, i * n:(i + 1) * n] * gain + offset)
+        return out
+
+    def _exact(self, p, wind, coeffs, delta, s: ModelStructure):
+        A, B, W = lst_matrices(p)
+        A = A.copy()
+        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta)
+        W_gust = W.copy()
+        if not self.gust_yaw_moment:
+            W_gust[:, 1] = 0.0
+        const = W * wind[:, None]
+        const[:, 2] += s.lateral_acceleration / p.v_c
+        E = np.concatenate([B[:, :, None], const[:, :, None], W_gust[:, :, None] * coeffs[:, None, :]], axis=2)
+        g = np.column_stack([delta, np.ones_like(delta), self.f.T])
+        return lti_foh_response(A, E, g, self.dt, self.stride, np.zeros((A.shape[0], 4)))
+
+    def _rk4(self, p, wind, coeffs, delta, s: ModelStructure):
+        sub = max(1, int(np.ceil(self.dt / _RK4_MAX_STEP - 1e-9)))
+        h = self.dt / sub
+        n_steps = (self.time.size - 1) * sub
+        t_half = np.arange(2 * n_steps + 1) * (h / 2)
+        delta_half = np.interp(t_half, self.time, delta)
+        gust_half = coeffs @ self.kle.eigenfunctions(t_half)  # (n, n_half)
+        rhs = _single_track_rhs(p, s, self.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature)
+        M_c, yaw_gust = p.M_c, self.gust_yaw_moment
+
+        def f(x, j):
+            gust = gust_half[:, j]
+            F_w = wind + gust
+            return rhs(x, delta_half[j], F_w, M_c * (F_w if yaw_gust else wind))
+
+        out = rk4_fixed_step(f, np.zeros((4, wind.size)), h, n_steps, sub * self.stride)  # (K + 1, 4, n)
+        return np.ascontiguousarray(out.transpose(1, 2, 0))
+
+
+def _single_track_rhs(p: VehicleParameters, s: ModelStructure, E: float):
+    """Right-hand side of the single-track model (5.3) with the structure's tyre law, course
+    kinematics and lateral acceleration; vectorised over realisations (state (4, n))."""
+    v = float(p.v_c)
+    l_f = np.asarray(p.l_f, float)
+    l_r = p.l_r
+    lever = np.stack(np.broadcast_arrays(l_f, -l_r))
+    Bs = np.array([[p.c_Sf], [p.c_Sr]])
+    peak = np.stack(np.broadcast_arrays(p.F_fz * p.mu, p.F_rz * p.mu))
+    linear = np.stack(np.broadcast_arrays(p.c_f, p.c_r))
+    inv_I_z, inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
+    C, k, a_lat = p.C, s.course_weight, s.lateral_acceleration
+    saturating = s.tyre == "magic_formula"
+
+    def rhs(x, delta, F_w, M_w):
+        psi, psi_dot, beta, _ = x
+        sin_b, cos_b = np.sin(beta), np.cos(beta)
+        slip = -np.arctan((v * sin_b + lever * psi_dot) / (v * cos_b))
+        slip[0] += delta
+        if saturating:
+            bx = Bs * slip
+            F = peak * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
+        else:
+            F = linear * slip
+        F_fy_cos = F[0] * np.cos(delta)
+        out = np.empty_like(x)
+        out[0] = psi_dot
+        out[1] = (l_f * F_fy_cos - l_r * F[1] + M_w) * inv_I_z
+        out[2] = (F_fy_cos + F[1] + F_w) * cos_b * inv_mv - psi_dot + a_lat / v
+        out[3] = v * np.sin(psi + k * beta)
+        return out
+
+    return rhs
+
+
+def ensemble_moments(x, spin_threshold: float | None = None):
+    """Mean and standard deviation (ddof 1) over realisations, without those that lost control.
+
+    Parameters
+    ----------
+    x : ndarray, shape (4, n, T)
+    spin_threshold : float, optional
+        |beta| (rad) above which a realisation counts as lost control (excluded).
+
+    Returns
+    -------
+    mean, std : ndarray, shape (4, T)
+    used : ndarray of bool, shape (n,)
+    """
+    used = np.ones(x.shape[1], bool)
+    if spin_threshold is not None:
+        used = ~np.any(np.abs(x[2]) > spin_threshold, axis=-1)
+    if used.sum() < 2:
+        used[:] = True
+    xs = x[:, used]
+    return xs.mean(axis=1), xs.std(axis=1, ddof=1), used

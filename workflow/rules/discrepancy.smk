@@ -1,0 +1,107 @@
+# The discrepancy workflow (past the thesis): `uqdrive discover` on the configured measured files
+# and on the hidden-effect benchmark, whose labels live apart from the ensembles discover reads.
+
+from uqdrive.studies.hidden_effects import benchmark_cases as _benchmark_cases
+
+_BENCH = config["discrepancy"]["benchmark"]
+_ALL_CASES = [c.name for c in _benchmark_cases(config, samples=_BENCH["samples"])]
+DISCREPANCY_CASES = _ALL_CASES if _BENCH["cases"] == "all" else list(_BENCH["cases"])
+DISCREPANCY_MEASURED = dict(config["discrepancy"].get("measured", {}))
+DISC = f"{OUT}/discrepancy"
+#: What the reality generator and `discover` read: the car, its priors, the wind, the spin policy.
+DISC_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "montecarlo", "discrepancy")
+
+wildcard_constraints:
+    case="|".join(DISCREPANCY_CASES) or "none",
+
+
+rule discrepancy_case:
+    input:
+        src("studies.hidden_effects"),
+    output:
+        measured=f"{DISC}/benchmark/measured/{{case}}.nc",
+        label=f"{DISC}/benchmark/labels/{{case}}.json",
+    params:
+        **reads(*DISC_KEYS),
+    log:
+        f"{OUT}/logs/discrepancy_case_{{case}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_case.py"
+
+
+rule discrepancy_discover:
+    input:
+        src("cli.discover", "inference.discrepancy"),
+        measured=f"{DISC}/benchmark/measured/{{case}}.nc",
+    output:
+        directory(f"{DISC}/benchmark/discover/{{case}}"),
+    params:
+        **reads(*DISC_KEYS),
+    threads: 1
+    resources:
+        mem_mb=3000,
+        runtime=20,
+    log:
+        f"{OUT}/logs/discrepancy_discover_{{case}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_discover.py"
+
+
+rule discrepancy_measured:
+    input:
+        src("cli.discover", "inference.discrepancy"),
+        measured=lambda w: DISCREPANCY_MEASURED[w.name],
+    output:
+        directory(f"{DISC}/measured/{{name}}"),
+    params:
+        **reads(*DISC_KEYS),
+    log:
+        f"{OUT}/logs/discrepancy_measured_{{name}}.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_discover.py"
+
+
+rule discrepancy_summary:
+    input:
+        src("studies.discrepancy", "plots.discrepancy"),
+        labels=expand(f"{DISC}/benchmark/labels/{{case}}.json", case=DISCREPANCY_CASES),
+        verdicts=expand(f"{DISC}/benchmark/discover/{{case}}", case=DISCREPANCY_CASES),
+        measured=expand(f"{DISC}/measured/{{name}}", name=DISCREPANCY_MEASURED),
+    output:
+        dataset=f"{DISC}/benchmark_summary.nc",
+        table=report(f"{DISC}/benchmark_summary.csv", caption="../report/discrepancy_summary.rst", category="Discrepancy workflow"),
+        confusion=report(f"{FIG}/fig_discrepancy_confusion.png", caption="../report/discrepancy_confusion.rst", category="Discrepancy workflow"),
+        detection=report(f"{FIG}/fig_discrepancy_detection.png", caption="../report/discrepancy_detection.rst", category="Discrepancy workflow"),
+        scorecard=f"{OUT}/scorecard/discrepancy.csv",
+    log:
+        f"{OUT}/logs/discrepancy_summary.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_summary.py"
+
+
+rule discrepancy_thesis_figures:
+    input:
+        f"{DISC}/benchmark/discover/thesis_nlst",
+    output:
+        bands=report(f"{FIG}/fig_discrepancy_thesis_bands.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
+        localisation=report(f"{FIG}/fig_discrepancy_thesis_localisation.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
+    log:
+        f"{OUT}/logs/discrepancy_thesis_figures.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    shell:
+        "(cp {input}/bands.png {output.bands} && cp {input}/localisation.png {output.localisation}) 2> {log}"
+
+
+SCORECARD_PARTS.append("discrepancy")
+FIGURES += [f"{FIG}/fig_discrepancy_confusion.png", f"{FIG}/fig_discrepancy_detection.png"]
+if "thesis_nlst" in DISCREPANCY_CASES:
+    FIGURES += [f"{FIG}/fig_discrepancy_thesis_bands.png", f"{FIG}/fig_discrepancy_thesis_localisation.png"]
