@@ -124,6 +124,9 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
         {"line": '"gtol": 1e-9, "maxiter": 500', "mutation": "constant 500 -> 501", "reason": _TOL},
         {"line": "np.sum(u[:, 1:] ** 2, axis=-1)", "mutation": "drop unary `-`", "mutated": "u[:, 1:] ** 2, axis=(1))",
          "reason": "u is (time, terms): axis 1 is axis -1"},
+        {"line": "self.X0 = pr.initial_state(x0_mean) + pr.linear_initial_state(x0_lin)", "mutation": "`+` -> `-`",
+         "reason": "the initial-condition germs are U(-1, 1), symmetric and entering nothing else: m - h xi has the distribution "
+                   "of m + h xi, so every moment and the cost are unchanged"},
         {"line": "np.zeros((4,) + self.E.shape)", "mutation": "constant 4 -> 5",
          "reason": "E does not depend on K: its derivative directions are zeros, and a fifth zero direction is never read"},
     ],
