@@ -4,13 +4,27 @@ Polynomial chaos, Monte Carlo ensembles and GP models of the seeds, behind one S
 What a user needs to fit their own data is importable from here.
 """
 
+from typing import TYPE_CHECKING
+
+from ._lazy import lazy_exports
 from ._version import __version__
-from .config import load_config
-from .inference.identify import DistributionEstimator
-from .io import read_ensemble
-from .vehicle.chaos import LSTChaosModel
-from .vehicle.montecarlo import simulate_ensemble
-from .vehicle.statistics import ensemble_statistics
+
+if TYPE_CHECKING:  # static analysers and the import graph see the real imports
+    from .config import load_config  # noqa: F401
+    from .inference.identify import DistributionEstimator  # noqa: F401
+    from .io import read_ensemble  # noqa: F401
+    from .vehicle.chaos import LSTChaosModel  # noqa: F401
+    from .vehicle.montecarlo import simulate_ensemble  # noqa: F401
+    from .vehicle.statistics import ensemble_statistics  # noqa: F401
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "load_config": ".config",
+    "DistributionEstimator": ".inference.identify",
+    "read_ensemble": ".io",
+    "LSTChaosModel": ".vehicle.chaos",
+    "simulate_ensemble": ".vehicle.montecarlo",
+    "ensemble_statistics": ".vehicle.statistics",
+})
 
 __all__ = [
     "DistributionEstimator",

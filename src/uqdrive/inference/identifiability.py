@@ -1,6 +1,6 @@
 """Structural identifiability of the LST parameters by the non-linear observability rank condition
 (thesis 3.9-3.12): the state is augmented with theta = [mu, m_load, l_f, mean wind] (constant),
-Lie derivatives of the output are taken symbolically, and the rank is evaluated at a point.
+and the rank of the Lie-derivative Jacobian is evaluated at a point.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import sympy as sp
 
 
-__all__ = ["ObservabilityResult", "observability_analysis"]
+__all__ = ["ObservabilityResult", "observability_analysis", "observability_matrix"]
 
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
 
@@ -78,30 +78,96 @@ def _lst_symbolic(config: Mapping[str, Any]):
     return x, f, delta
 
 
-def observability_analysis(config: Mapping[str, Any], state=None, tol: float = 1e-9) -> ObservabilityResult:
-    """O_NL = d/dx [g, L_f g, ..., L_f^{n-1} g] with g = the four measured states (3.9)-(3.11).
+def _lie_jacobian(A, b, x, dA, db, n: int) -> np.ndarray:
+    """Rows d/dz L_F^k h, k = 0..n-1, of the augmented affine system F(z) = (A(p) x + b(p), 0).
+
+    For h(z) = x and constant parameters p, L_F^k h = A^k x + A^(k-1) b (k >= 1), so the state
+    columns are A^k and the parameter columns the derivative of that expression along p.
+
+    Parameters
+    ----------
+    A : (4, 4) ndarray, b : (4,) ndarray
+        Drift at the evaluation point (thesis (3.12) with delta fixed).
+    x : (4,) ndarray
+        State at the evaluation point.
+    dA : (m, 4, 4) ndarray, db : (m, 4) ndarray
+        Derivatives of A and b along each of the m parameters.
+    n : int
+        Number of Lie derivatives (the augmented dimension).
+
+    Returns
+    -------
+    (4 n, 4 + m) ndarray
+    """
+    m = dA.shape[0]
+    rows = [np.hstack([np.eye(4), np.zeros((4, m))])]
+    Ak, dAk = np.eye(4), np.zeros((m, 4, 4))  # A^(k-1) and its derivative
+    for _ in range(1, n):
+        drive = A @ x + b  # A x + b, so L^k h = A^(k-1) (A x + b)
+        d_drive = dA @ x + db  # (m, 4)
+        value_x = Ak @ A
+        value_p = dAk @ drive + np.einsum("ij,mj->mi", Ak, d_drive)  # (m, 4)
+        rows.append(np.hstack([value_x, value_p.T]))
+        dAk = dAk @ A + Ak @ dA  # product rule for A^k = A^(k-1) A
+        Ak = Ak @ A
+    return np.vstack(rows)
+
+
+def observability_matrix(config: Mapping[str, Any], state=None, n_lie: int | None = None):
+    """O_NL = d/dz [g, L_f g, ..., L_f^{n-1} g] with g = the four measured states (3.9)-(3.11).
 
     Evaluated with the constant input delta = delta_max at the nominal parameters and the given
     state (default: a generic non-zero state, since at rest the Lie derivatives lose the terms
-    that carry the state). The rank uses singular values relative to the largest, after scaling
-    each column by its variable's nominal magnitude and each row to unit norm (the k-th Lie
-    derivative grows like |eigenvalue|^k, which would otherwise swamp the rank test).
+    that carry the state). The LST is affine in the state, so the Lie derivatives are matrix
+    powers (see `_lie_jacobian`); their parameter derivatives are taken by complex step, exact to
+    rounding, where symbolic Lie derivatives of order 7 took ~40 s to swell.
+
+    Returns
+    -------
+    x : sympy Matrix (8, 1)
+        The augmented state's symbols.
+    point : dict
+        Symbol -> value of the evaluation point.
+    values : (4 n_lie, 8) ndarray
+        O_NL at the point (n_lie defaults to the augmented dimension 8).
     """
     x, f, delta = _lst_symbolic(config)
-    n = x.shape[0]
-    g_out = x[:4, :]
-    rows = [g_out.jacobian(x)]
-    lie = g_out
-    for _ in range(n - 1):
-        lie = lie.jacobian(x) * f
-        rows.append(lie.jacobian(x))
-    O = sp.Matrix.vstack(*rows)
+    n = x.shape[0] if n_lie is None else n_lie
+    states, params = list(x[:4]), list(x[4:])
+    drift = f[:4, :]
+    A_sym = drift.jacobian(states)
+    b_sym = drift.subs({s: 0 for s in states})  # exact: the drift is affine in the state
+    A_fn = sp.lambdify(params + [delta], A_sym, "numpy")
+    b_fn = sp.lambdify(params + [delta], b_sym, "numpy")
     unc = config["uncertainty"]
     nominal = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"], "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"]) + 100.0}
     state = state if state is not None else {"psi": 0.05, "psi_dot": 0.2, "beta": 0.01, "y": 1.0}
     point = {s: state[s.name] if s.name in state else nominal[s.name] for s in x}
     point[delta] = np.deg2rad(config["steering"]["delta_max_deg"])
-    values = np.array(sp.lambdify(list(point), O, "numpy")(*point.values()), dtype=float)
+    p0 = np.array([point[s] for s in params], dtype=complex)
+    x0 = np.array([point[s] for s in states], dtype=float)
+
+    def drift_at(p):
+        return np.array(A_fn(*p, point[delta]), dtype=complex), np.array(b_fn(*p, point[delta]), dtype=complex).ravel()
+
+    A0, b0 = (v.real for v in drift_at(p0))
+    dA, db = np.empty((len(params), 4, 4)), np.empty((len(params), 4))
+    for j in range(len(params)):
+        h = 1e-20 * max(abs(p0[j]), 1.0)
+        Aj, bj = drift_at(p0 + 1j * h * np.eye(len(params))[j])
+        dA[j], db[j] = Aj.imag / h, bj.imag / h
+    return x, point, _lie_jacobian(A0, b0, x0, dA, db, n)
+
+
+def observability_analysis(config: Mapping[str, Any], state=None, tol: float = 1e-9) -> ObservabilityResult:
+    """Rank of O_NL (`observability_matrix`) and the column-removal test (thesis sec. 5.3.1).
+
+    The rank uses singular values relative to the largest, after scaling each column by its
+    variable's nominal magnitude and each row to unit norm (the k-th Lie derivative grows like
+    |eigenvalue|^k, which would otherwise swamp the rank test).
+    """
+    x, point, values = observability_matrix(config, state)
+    n = x.shape[0]
     scale = np.array([max(abs(point[s]), 1e-3) for s in x])
     values = values * scale  # columns in relative units, so the rank is not a unit artefact
     norms = np.linalg.norm(values, axis=1, keepdims=True)
