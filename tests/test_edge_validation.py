@@ -206,7 +206,7 @@ BAD_FLAGS = {
     "m_load_negative": (["identify", "DATA", "--m-load", "-1784"], "--m-load -1784"),
     "m_load_text": (["identify", "DATA", "--m-load", "heavy"], "not a number"),
     "starts_negative": (["identify", "DATA", "--starts", "-1"], "--starts -1"),
-    "state_scale": (["identify", "DATA", "--state-scale", "si"], "invalid choice: 'si'"),
+    "state_scale": (["identify", "DATA", "--state-scale", "si"], "--state-scale 'si' is unknown; choose one of none, rms_mean, rms_std"),
     "seed_2_64": (["simulate", "--model", "lst", "--seed", str(2**64)], "--seed 18446744073709551616"),
     "seed_negative": (["simulate", "--model", "lst", "--seed", "-1"], "--seed -1"),
     "seed_float": (["simulate", "--model", "lst", "--seed", "1.5"], "not an integer"),
@@ -368,3 +368,19 @@ def test_signal_during_a_run_exits_cleanly(tiny, tmp_path, signum):
     assert proc.returncode == 128 + signum, err
     assert err.count("\n") == 1 and f"interrupted by {signal.Signals(signum).name}" in err
     assert list(out.iterdir()) == []
+
+
+def test_cost_flag_reads_the_registry(monkeypatch):
+    """--cost accepts what uqdrive.inference.identify.COSTS holds, a registry entry added later
+    included (README "Extending uqdrive"), and refuses anything else with the known names."""
+    import argparse
+
+    from uqdrive.cli.validation import registry_choice
+    from uqdrive.inference import identify
+
+    parse = registry_choice("--cost", "uqdrive.inference.identify", "COSTS")
+    assert parse("INP") == "inp"
+    with pytest.raises(argparse.ArgumentTypeError, match="choose one of std, inp, dst"):
+        parse("flat")
+    monkeypatch.setitem(identify.COSTS, "flat", identify.COSTS["std"])
+    assert parse("flat") == "flat"

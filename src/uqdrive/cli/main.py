@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import DataError, OutputError, atomic_path, check_writable
-from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, stderr_line
+from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
 
 __all__ = ["main", "build_parser", "Interrupted"]
 
@@ -93,12 +93,15 @@ def _add_identify(sub) -> None:
                                    "control (|beta| > config montecarlo.spin_threshold) are found from the data and handled by "
                                    "montecarlo.spin_policy.")
     p.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (simulated or measured)")
-    p.add_argument("--cost", default="std", choices=("std", "inp", "dst"), help="weights of the cost (5.25): STD, INP (5.26) or DST (5.28) (default std)")
+    p.add_argument("--cost", default="std", type=registry_choice("--cost", "uqdrive.inference.identify", "COSTS"), metavar="NAME",
+                   help="weights of the cost (5.25), a name of uqdrive.inference.identify.COSTS: std, inp (5.26) or dst (5.28) "
+                        "(default std)")
     p.add_argument("--m-load", type=finite_float("--m-load", 0.0, 1e5, "kg"), default=None, metavar="KG",
                    help="assumed load mass in kg, finite, 0..1e5 (default: config uncertainty.m_load.mean)")
     p.add_argument("--starts", type=bounded_int("--starts", 0, 1000), default=0, metavar="N",
                    help="extra starting points of a global stage, 0..1000 (default 0: one local fit from the config's values)")
-    p.add_argument("--state-scale", default="rms_mean", choices=("none", "rms_mean", "rms_std"),
+    p.add_argument("--state-scale", default="rms_mean", type=registry_choice("--state-scale", "uqdrive.inference.identify", "STATE_SCALES"),
+                   metavar="NAME",
                    help="per-state residual scale of (5.25). Default rms_mean: each state's residuals divided by the RMS of its "
                         "measured mean, unit-free and accurate on outside data; none: SI units as the thesis prints (5.25), the "
                         "thesis-faithful setting the workflow's experiments use (config identification.state_scale); rms_std: by "

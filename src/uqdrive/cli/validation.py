@@ -4,6 +4,7 @@ argparse with one line naming the flag, the value and the fix (exit code 2)."""
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import sys
 
@@ -53,6 +54,21 @@ def bounded_int(flag: str, low: int, high: int, what: str = ""):
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"{flag} {text} is outside {low}..{high}{what}; give an integer in that range")
         return value
+
+    parse.__name__ = flag
+    return parse
+
+
+def registry_choice(flag: str, module: str, registry: str):
+    """argparse type: a key of the registry ``module.registry`` (lower case), looked up when the
+    flag is parsed, so a cost or scale added to the registry is accepted without editing the CLI
+    and commands that do not take the flag never import the module."""
+
+    def parse(text: str) -> str:
+        names = getattr(importlib.import_module(module), registry)
+        if text.lower() not in names:
+            raise argparse.ArgumentTypeError(f"{flag} '{text}' is unknown; choose one of {', '.join(names)}")
+        return text.lower()
 
     parse.__name__ = flag
     return parse
