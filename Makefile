@@ -48,3 +48,12 @@ MUTATION_ARGS ?= --sample 60 --seed 1
 mutation: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e ".[test]"
 	$(PYTHON) tools/mutate.py $(MUTATION_ARGS)
+
+# make check-report: opens results/report.html in headless Chromium (Debian's chromium package,
+# installed here if missing) and fails, with a list, if a figure, a table or the landing page does
+# not render; writes screenshots of the landing page and of every category (tools/check_report.py).
+APT := $(if $(filter 0,$(shell id -u)),,sudo )apt-get
+.PHONY: check-report
+check-report: $(PYTHON)
+	@command -v chromium >/dev/null || { $(APT) update -q && $(APT) install -y chromium; }
+	$(PYTHON) tools/check_report.py results/report.html --screenshots results/report_screenshots

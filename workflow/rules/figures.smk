@@ -4,7 +4,8 @@ rule fig_tyre_curves:
     input:
         src("vehicle.single_track", "plots.data"),
     output:
-        report(f"{FIG}/fig_2_3.png", caption="../report/fig_2_3.rst", category="Vehicle model"),
+        report(f"{FIG}/fig_2_3.png", caption="../report/fig_2_3.rst", category="Thesis 2 Vehicle model",
+               labels={"figure": "Fig. 2.3", "content": "Magic-Formula tyre curves"}),
     params:
         **reads(surfaces="figures.tyre_surfaces"),
     log:
@@ -20,8 +21,10 @@ rule fig_kle:
         src("plots.data"),
         kle=f"{OUT}/data/kle.nc",
     output:
-        realisations=report(f"{FIG}/fig_5_2.png", caption="../report/fig_5_2.rst", category="Wind KLE"),
-        eigenfunctions=report(f"{FIG}/fig_7_1.png", caption="../report/fig_7_1.rst", category="Wind KLE"),
+        realisations=report(f"{FIG}/fig_5_2.png", caption="../report/fig_5_2.rst", category="Thesis 5 Wind and polynomial chaos",
+                            subcategory="Wind KLE", labels={"figure": "Fig. 5.2", "content": "side-wind realisations"}),
+        eigenfunctions=report(f"{FIG}/fig_7_1.png", caption="../report/fig_7_1.rst", category="Thesis 7 Wind KLE",
+                              labels={"figure": "Fig. 7.1", "content": "KLE eigenfunctions"}),
     log:
         f"{OUT}/logs/fig_kle.log",
     conda:
@@ -35,7 +38,8 @@ rule fig_data_band:
         src("plots.data"),
         stats=lambda w: f"{OUT}/data/stats_{'lst' if w.number == '1' else 'nlst'}_normal.nc",
     output:
-        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_1_2.rst", category="Measured data"),
+        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_1_2.rst", category="Thesis 6.1 Measured data",
+               labels=lambda w: {"figure": f"Fig. 6.{w.number}", "content": ("LST" if w.number == "1" else "NLST") + " data without noise"}),
     wildcard_constraints:
         number="1|2",
     params:
@@ -53,7 +57,8 @@ rule fig_noise_levels:
         src("plots.data"),
         stats=lambda w: f"{OUT}/data/noise_stats_{'lst' if w.number == '3' else 'nlst'}.nc",
     output:
-        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_3_4.rst", category="Measured data"),
+        report(f"{FIG}/fig_6_{{number}}.png", caption="../report/fig_6_3_4.rst", category="Thesis 6.1 Measured data",
+               labels=lambda w: {"figure": f"Fig. 6.{w.number}", "content": ("LST" if w.number == "3" else "NLST") + " data per noise level"}),
     wildcard_constraints:
         number="3|4",
     log:
@@ -71,8 +76,10 @@ rule fig_lst_vs_nlst:
         nlst=f"{OUT}/data/stats_nlst_normal.nc",
         kl=f"{OUT}/data/kl_nlst_lst.nc",
     output:
-        comparison=report(f"{FIG}/fig_6_5.png", caption="../report/fig_6_5.rst", category="Measured data"),
-        kl=report(f"{FIG}/fig_6_6.png", caption="../report/fig_6_6.rst", category="Measured data"),
+        comparison=report(f"{FIG}/fig_6_5.png", caption="../report/fig_6_5.rst", category="Thesis 6.1 Measured data",
+                          labels={"figure": "Fig. 6.5", "content": "LST against NLST"}),
+        kl=report(f"{FIG}/fig_6_6.png", caption="../report/fig_6_6.rst", category="Thesis 6.1 Measured data",
+                  labels={"figure": "Fig. 6.6", "content": "KL divergence NLST || LST"}),
     params:
         **reads(band_sigmas="figures.band_sigmas"),
     log:
@@ -88,7 +95,9 @@ rule fig_appendix_a:
         src("plots.data"),
         stats=lambda w: f"{OUT}/data/noise_stats_{appendix_a_model(w.n)}.nc",
     output:
-        report(f"{FIG}/fig_A{{n}}.png", caption="../report/fig_A.rst", category="Appendix A: measured data"),
+        # One row per noise level, LST/NLST as the toggle the report makes of a two-valued label.
+        report(f"{FIG}/fig_A{{n}}.png", caption="../report/fig_A.rst", category="Thesis appendix A Measured data",
+               labels=lambda w: {"noise intensity A": str(NOISE_LEVELS[(int(w.n) - 1) % N_LEVELS]), "model": appendix_a_model(w.n).upper()}),
     wildcard_constraints:
         n=r"\d+",
     params:
