@@ -11,7 +11,9 @@ $(PYTHON):
 	$(PYTHON) -m pip install --quiet --upgrade pip
 
 reproduce: $(PYTHON)
-	$(PYTHON) -m pip install --quiet -e .
+	$(PYTHON) -m pip install --quiet -r requirements.lock
+	$(PYTHON) -m pip install --quiet --no-deps -e .
+	@$(PYTHON) workflow/profiles/default/stale_lock.py
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG)
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html reported
 	@echo "report: results/report.html, scorecard: results/scorecard.csv"
@@ -27,8 +29,23 @@ sweep: $(PYTHON)
 	@echo "summary: results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv, report: results/report.html"
 
 test: $(PYTHON)
-	$(PYTHON) -m pip install --quiet -e ".[test]"
+	$(PYTHON) -m pip install --quiet -r requirements.lock
+	$(PYTHON) -m pip install --quiet --no-deps -e ".[test]"
 	$(PYTHON) -m pytest
+
+# requirements.lock: the exact versions make reproduce and make test install (pyproject.toml keeps
+# lower bounds for library users). Refreshed from a fresh venv with uqdrive and its test extra.
+.PHONY: lock
+lock:
+	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
+	python3 -m venv "$$tmp/venv" && \
+	"$$tmp/venv/bin/python" -m pip install --quiet --upgrade pip && \
+	"$$tmp/venv/bin/python" -m pip install --quiet -e ".[test]" && \
+	{ echo "# Exact versions of uqdrive's dependencies and test extra: make reproduce and make test install"; \
+	  echo "# these, then uqdrive itself with --no-deps. Written by make lock ($$("$$tmp/venv/bin/python" -V), $$(uname -sm))."; \
+	  "$$tmp/venv/bin/python" -m pip freeze --exclude-editable; } > requirements.lock.new && \
+	mv requirements.lock.new requirements.lock
+	@echo "requirements.lock: $$(grep -vc '^#' requirements.lock) packages"
 
 bench: $(PYTHON)
 	$(PYTHON) -m pip install --quiet -e .

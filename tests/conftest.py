@@ -1,6 +1,8 @@
-"""Shared fixtures: the repository's configs (validated) and small ensembles."""
+"""Shared fixtures: the repository's configs (validated) and small ensembles, one run of the DAG."""
 
 import copy
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,3 +21,14 @@ def config():
 def cfg(config):
     """A mutable copy of the default config."""
     return copy.deepcopy(config)
+
+
+@pytest.fixture(scope="session")
+def workdir(tmp_path_factory):
+    """A folder holding one uninterrupted run of the whole DAG on config/test.yaml (2 cores), shared
+    by tests/test_workflow.py and tests/test_dag_repeatability.py, so the suite pays for it once."""
+    wd = tmp_path_factory.mktemp("dag")
+    proc = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(wd),
+                           "--configfile", str(REPO / "config" / "test.yaml"), "--cores", "2"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return wd

@@ -17,14 +17,6 @@ def _run(args, cwd):
     return subprocess.run(SNAKEMAKE + ["-s", str(REPO / "Snakefile"), "--directory", str(cwd)] + args, capture_output=True, text=True)
 
 
-@pytest.fixture(scope="module")
-def workdir(tmp_path_factory):
-    wd = tmp_path_factory.mktemp("dag")
-    proc = _run(["--configfile", str(REPO / "config" / "test.yaml"), "--cores", "2"], wd)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return wd
-
-
 @pytest.mark.workflow
 def test_dag_produces_every_figure_dataset_and_scorecard(workdir):
     results = workdir / "results"

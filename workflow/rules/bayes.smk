@@ -21,6 +21,11 @@ rule posterior:
         case="|".join(BAYES_CASES),
     params:
         **reads(*BAYES_KEYS, "bayes.ensembles", "bayes.dispersion", "bayes.max_steps", per_job=("case", {"lst_noise": ("bayes.noise_level",)})),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=40,
+    group: "bayes"
     log:
         f"{OUT}/logs/posterior_{{case}}.log",
     cache: CACHE
@@ -37,6 +42,11 @@ rule posterior_coverage:
         f"{OUT}/data/posterior_coverage.nc",
     params:
         **reads(*BAYES_KEYS, "montecarlo.samples", "montecarlo.spin_threshold", "bayes.calibration_sets", "bayes.calibration_steps"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=40,
+    group: "bayes"
     log:
         f"{OUT}/logs/posterior_coverage.log",
     cache: CACHE
@@ -58,6 +68,11 @@ rule fig_bayes:
         scorecard=f"{OUT}/scorecard/bayes.csv",
     params:
         cases=BAYES_CASES,
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    group: "bayes"
     log:
         f"{OUT}/logs/fig_bayes.log",
     conda:

@@ -14,6 +14,11 @@ rule control_gains:
         f"{OUT}/data/control_gains.nc",
     params:
         **reads(*CONTROL_KEYS, "control.Q_diag", "control.R", "control.order", "control.gamma", "control.horizon", "control.simulation_time"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    group: "control"
     log:
         f"{OUT}/logs/control_gains.log",
     cache: CACHE
@@ -33,6 +38,11 @@ rule control_monte_carlo:
         model="lst|nlst",
     params:
         **reads(*CONTROL_KEYS, "time.step", "control.samples", "control.simulation_time"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    group: "control"
     log:
         f"{OUT}/logs/control_mc_{{model}}.log",
     cache: CACHE
@@ -49,6 +59,11 @@ rule control_gamma_sweep:
         f"{OUT}/data/control_gamma_sweep.nc",
     params:
         **reads(*CONTROL_KEYS, "control.Q_diag", "control.R", "control.order", "control.gamma_sweep", "control.horizon"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    group: "control"
     log:
         f"{OUT}/logs/control_gamma_sweep.log",
     cache: CACHE
@@ -74,6 +89,11 @@ rule fig_control:
         scorecard=f"{OUT}/scorecard/control.csv",
     params:
         **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "control"
     log:
         f"{OUT}/logs/fig_control.log",
     conda:

@@ -8,6 +8,11 @@ rule kle:
         f"{OUT}/data/kle.nc",
     params:
         **reads("seed", "time", "wind.Tc", "wind.kle_quadrature", "wind.kle_truncation", "figures.kle_realisations"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "data"
     log:
         f"{OUT}/logs/kle.log",
     cache: CACHE
@@ -27,6 +32,11 @@ rule ensemble:
     wildcard_constraints:
         model="lst|nlst",
         steer="normal|inverted",
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    group: "data"
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}.log",
     cache: CACHE
@@ -46,6 +56,11 @@ rule statistics:
         model="lst|nlst",
     params:
         **reads(spin_policy="montecarlo.spin_policy"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=5,
+    group: "data"
     log:
         f"{OUT}/logs/stats_{{model}}_{{steer}}.log",
     cache: CACHE
@@ -63,6 +78,11 @@ rule noise_statistics:
         f"{OUT}/data/noise_stats_{{model}}.nc",
     params:
         **reads(levels="noise.levels", seed="seed", spin_policy="montecarlo.spin_policy"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=5,
+    group: "data"
     log:
         f"{OUT}/logs/noise_stats_{{model}}.log",
     cache: CACHE
@@ -79,6 +99,11 @@ rule kl_divergence:
         nlst=f"{OUT}/data/stats_nlst_normal.nc",
     output:
         f"{OUT}/data/kl_nlst_lst.nc",
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "data"
     log:
         f"{OUT}/logs/kl_nlst_lst.log",
     conda:

@@ -23,6 +23,11 @@ rule discrepancy_case:
         label=f"{DISC}/benchmark/labels/{{case}}.json",
     params:
         **reads(*DISC_KEYS),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_case_{{case}}.log",
     conda:
@@ -43,6 +48,7 @@ rule discrepancy_discover:
     resources:
         mem_mb=3000,
         runtime=20,
+    group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_discover_{{case}}.log",
     conda:
@@ -59,6 +65,11 @@ rule discrepancy_measured:
         directory(f"{DISC}/measured/{{name}}"),
     params:
         **reads(*DISC_KEYS),
+    threads: 1
+    resources:
+        mem_mb=3000,
+        runtime=20,
+    group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_measured_{{name}}.log",
     conda:
@@ -79,6 +90,11 @@ rule discrepancy_summary:
         confusion=report(f"{FIG}/fig_discrepancy_confusion.png", caption="../report/discrepancy_confusion.rst", category="Discrepancy workflow"),
         detection=report(f"{FIG}/fig_discrepancy_detection.png", caption="../report/discrepancy_detection.rst", category="Discrepancy workflow"),
         scorecard=f"{OUT}/scorecard/discrepancy.csv",
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "summary"
     log:
         f"{OUT}/logs/discrepancy_summary.log",
     conda:
@@ -93,6 +109,11 @@ rule discrepancy_thesis_figures:
     output:
         bands=report(f"{FIG}/fig_discrepancy_thesis_bands.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
         localisation=report(f"{FIG}/fig_discrepancy_thesis_localisation.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=2,
+    group: "summary"
     log:
         f"{OUT}/logs/discrepancy_thesis_figures.log",
     conda:

@@ -8,6 +8,11 @@ rule fig_tyre_curves:
                labels={"figure": "Fig. 2.3", "content": "Magic-Formula tyre curves"}),
     params:
         **reads(surfaces="figures.tyre_surfaces"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_2_3.log",
     conda:
@@ -25,6 +30,11 @@ rule fig_kle:
                             subcategory="Wind KLE", labels={"figure": "Fig. 5.2", "content": "side-wind realisations"}),
         eigenfunctions=report(f"{FIG}/fig_7_1.png", caption="../report/fig_7_1.rst", category="Thesis 7 Wind KLE",
                               labels={"figure": "Fig. 7.1", "content": "KLE eigenfunctions"}),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_kle.log",
     conda:
@@ -44,6 +54,11 @@ rule fig_data_band:
         number="1|2",
     params:
         **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
     conda:
@@ -61,6 +76,11 @@ rule fig_noise_levels:
                labels=lambda w: {"figure": f"Fig. 6.{w.number}", "content": ("LST" if w.number == "3" else "NLST") + " data per noise level"}),
     wildcard_constraints:
         number="3|4",
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
     conda:
@@ -82,6 +102,11 @@ rule fig_lst_vs_nlst:
                   labels={"figure": "Fig. 6.6", "content": "KL divergence NLST || LST"}),
     params:
         **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_6_5_6.log",
     conda:
@@ -104,6 +129,11 @@ rule fig_appendix_a:
         index=lambda w: (int(w.n) - 1) % N_LEVELS,
         model=lambda w: appendix_a_model(w.n),
         **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
     log:
         f"{OUT}/logs/fig_A{{n}}.log",
     conda:

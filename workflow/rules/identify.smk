@@ -49,6 +49,11 @@ rule ensemble_no_wind_moment:
         steer="normal",
     params:
         **reads(*NO_WIND_MOMENT_KEYS, adjust=lambda c: experiment_config(c, "no_wind_moment")),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    group: "data"
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}_no_wind_moment.log",
     cache: CACHE
@@ -69,6 +74,11 @@ rule identification:
     params:
         **reads(*ID_KEYS, per_job=("experiment", ID_EXPERIMENT_KEYS)),
         stats_keys=lambda w: ID_INPUTS[w.experiment],
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=20,
+    group: "identification"
     log:
         f"{OUT}/logs/identification_{{experiment}}.log",
     cache: CACHE
@@ -86,6 +96,11 @@ rule identifiability:
     params:
         **reads("vehicle", "tyre.C", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "uncertainty.F_w_mean",
                 "steering.delta_max_deg"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    group: "identification"
     log:
         f"{OUT}/logs/identifiability.log",
     cache: CACHE
@@ -114,6 +129,11 @@ rule fig_identification:
     params:
         **reads("vehicle", "tyre", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "noise.levels"),
         experiments=ID_EXPERIMENTS,
+    threads: 1
+    resources:
+        mem_mb=1500,
+        runtime=10,
+    group: "identification"
     log:
         f"{OUT}/logs/fig_identification.log",
     conda:

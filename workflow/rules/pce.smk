@@ -12,6 +12,11 @@ rule pce_moments:
         f"{OUT}/data/pce_lst.nc",
     params:
         **reads(*PCE_KEYS, "pce.order", "pce.quadrature_points"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "pce"
     log:
         f"{OUT}/logs/pce_lst.log",
     cache: CACHE
@@ -28,6 +33,11 @@ rule mc_reference:
         f"{OUT}/data/mc_reference_lst.nc",
     params:
         **reads(*PCE_KEYS, "montecarlo.spin_threshold", "pce.convergence.reference_samples", "pce.convergence.chunk"),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    group: "pce"
     log:
         f"{OUT}/logs/mc_reference_lst.log",
     cache: CACHE
@@ -45,6 +55,11 @@ rule pce_convergence:
         f"{OUT}/data/pce_convergence.nc",
     params:
         **reads(*PCE_KEYS, "pce.convergence.orders", "pce.convergence.quadrature_points"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    group: "pce"
     log:
         f"{OUT}/logs/pce_convergence.log",
     cache: CACHE
@@ -66,6 +81,11 @@ rule fig_pce:
         convergence=report(f"{FIG}/fig_pce_convergence.png", caption="../report/fig_pce_convergence.rst", category="Polynomial chaos"),
     params:
         **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "pce"
     log:
         f"{OUT}/logs/fig_pce.log",
     conda:

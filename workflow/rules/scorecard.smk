@@ -12,6 +12,11 @@ rule scorecard_foundation:
     params:
         **reads("vehicle", "tyre", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "control.Q_diag", "control.R",
                 "wind.Tc", "wind.kle_quadrature", "wind.kle_truncation", "time.t_end"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "summary"
     log:
         f"{OUT}/logs/scorecard_foundation.log",
     conda:
@@ -26,6 +31,11 @@ rule scorecard:
         parts=expand(f"{OUT}/scorecard/{{part}}.csv", part=SCORECARD_PARTS),
     output:
         f"{OUT}/scorecard/merged.csv",
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=2,
+    group: "summary"
     log:
         f"{OUT}/logs/scorecard.log",
     conda:
@@ -42,6 +52,11 @@ rule scorecard_provenance:
         report(f"{OUT}/scorecard.csv", caption="../report/scorecard.rst", category="Scorecard", labels={"table": "scorecard: every published number"}),
     params:
         provenance=PROVENANCE,
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=2,
+    group: "summary"
     log:
         f"{OUT}/logs/scorecard_provenance.log",
     conda:

@@ -22,6 +22,11 @@ rule sweep_config:
         config=lambda w, input: sweep(w.sweep).point_config(w.point, point_dir(w)),
         header=lambda w, input: f"Point {w.point} of sweep {w.sweep} ({_shown(input.sweep)}): {sweep(w.sweep).base_path} with "
         + ", ".join(f"{k} = {v}" for k, v in {**sweep(w.sweep).fixed, **sweep(w.sweep).point(w.point).values}.items()),
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=2,
+    group: "sweep"
     log:
         f"{SWEEP_DIR}/{{sweep}}/{{point}}/logs/sweep_config.log",
     conda:
@@ -44,6 +49,10 @@ rule sweep_point:
         values=lambda w, input: sweep(w.sweep).point(w.point).values,
         cache=lambda w, input: f"{SWEEP_DIR}/.cache",
     threads: SWEEP_THREADS
+    resources:
+        mem_mb=4000,
+        runtime=120,
+    group: "sweep"
     log:
         f"{SWEEP_DIR}/{{sweep}}/{{point}}/logs/workflow.log",
     conda:
@@ -63,6 +72,10 @@ rule sweep_summary:
     params:
         sweep=lambda w, input: sweep(w.sweep),
         file=lambda w, input: _shown(sweep_file(w.sweep)),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         f"{SWEEP_DIR}/{{sweep}}/logs/summary.log",
     conda:

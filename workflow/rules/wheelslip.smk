@@ -20,6 +20,11 @@ rule wheelslip_gp:
         n=r"\d+",
     params:
         **reads("seed", *WS_CAR_KEYS, *WS_GP_KEYS, "wheelslip.speed"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_gp_{{n}}.log",
     cache: CACHE
@@ -42,6 +47,11 @@ rule wheelslip_calibration:
                 "wheelslip.calibration.walkers", "wheelslip.calibration.steps", "wheelslip.calibration.burn"),
         mcmc_sets=lambda wildcards, input: ws_mcmc_sets(wildcards.n),
         mcmc_trigger=lambda w: {"wheelslip.calibration.mcmc_sets": ws_mcmc_sets(w.n)},  # this size's entry
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_calibration_{{n}}.log",
     cache: CACHE
@@ -59,6 +69,11 @@ rule wheelslip_closed_loop:
         f"{OUT}/data/wheelslip_closed_loop.nc",
     params:
         **reads("seed", *WS_CAR_KEYS, "wheelslip.speed", "wheelslip.closed_loop"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_closed_loop.log",
     cache: CACHE
@@ -84,6 +99,11 @@ rule fig_wheelslip:
         closed_loop=report(f"{FIG}/paper_closed_loop.png", caption="../report/paper_closed_loop.rst", category="GP wheel slip"),
     params:
         **reads(*WS_CAR_KEYS, "wheelslip.curves_mu_H", "wheelslip.paper_slope.mean", "wheelslip.speed_range"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "wheelslip"
     log:
         f"{OUT}/logs/fig_wheelslip.log",
     conda:
@@ -100,6 +120,11 @@ rule scorecard_wheelslip:
         f"{OUT}/scorecard/wheelslip.csv",
     params:
         **reads(*WS_CAR_KEYS, "wheelslip.paper_slope", "wheelslip.speed", "wheelslip.gp.training_slip"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "wheelslip"
     log:
         f"{OUT}/logs/scorecard_wheelslip.log",
     conda:
