@@ -15,7 +15,7 @@ reproduce: $(PYTHON)
 	$(PYTHON) -m pip install --quiet --no-deps -e .
 	@$(PYTHON) workflow/profiles/default/stale_lock.py
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG)
-	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html reported
+	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html --report-stylesheet workflow/report/report.css reported
 	@echo "report: results/report.html, scorecard: results/scorecard.csv"
 
 # make sweep SWEEP=config/sweeps/NAME.yaml: every point into results/sweeps/NAME/<point>/, then
@@ -25,7 +25,7 @@ sweep: $(PYTHON)
 	@test -f config/sweeps/$(basename $(notdir $(SWEEP))).yaml || { echo "usage: make sweep SWEEP=config/sweeps/NAME.yaml (one of: $(notdir $(wildcard config/sweeps/*.yaml)))"; exit 2; }
 	$(PYTHON) -m pip install --quiet -e .
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv
-	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html reported
+	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html --report-stylesheet workflow/report/report.css reported
 	@echo "summary: results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv, report: results/report.html"
 
 test: $(PYTHON)

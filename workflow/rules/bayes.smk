@@ -1,6 +1,7 @@
 # emcee cross-check of the identified distributions (LST-LST, NLST-LST, noisy LST).
 
 BAYES_CASES = ["lst", "nlst", "lst_noise"]
+BAYES_CASE_NAMES = {"lst": "LST-LST", "nlst": "NLST-LST", "lst_noise": f"LST-LST, noise A = {config['bayes']['noise_level']}"}
 #: What both posterior rules read: the data's spin policy, the PCE model, the optimiser's settings
 #: (estimates with SI and unit-free residuals), the sampler's settings (uqdrive.studies.bayes).
 BAYES_KEYS = ("seed",) + MODEL_KEYS + ("montecarlo.spin_policy", "identification.order", "identification.quadrature_points",
@@ -62,9 +63,13 @@ rule fig_bayes:
         posteriors=expand(f"{OUT}/data/posterior_{{case}}.nc", case=BAYES_CASES),
         coverage=f"{OUT}/data/posterior_coverage.nc",
     output:
-        corners=report(expand(f"{FIG}/posterior_corner_{{case}}.png", case=BAYES_CASES), caption="../report/posterior_corner.rst", category="emcee cross-check"),
-        traces=report(expand(f"{FIG}/posterior_trace_{{case}}.png", case=BAYES_CASES), caption="../report/posterior_trace.rst", category="emcee cross-check"),
-        table=report(f"{OUT}/tables/posterior_summary.csv", caption="../report/posterior_summary.rst", category="emcee cross-check"),
+        # One row per case, corner/trace as the toggle the report makes of a two-valued label.
+        corners=[report(f"{FIG}/posterior_corner_{case}.png", caption="../report/posterior_corner.rst", category="uqdrive emcee cross-check", subcategory="posteriors",
+                        labels={"case": BAYES_CASE_NAMES[case], "plot": "corner"}) for case in BAYES_CASES],
+        traces=[report(f"{FIG}/posterior_trace_{case}.png", caption="../report/posterior_trace.rst", category="uqdrive emcee cross-check", subcategory="posteriors",
+                       labels={"case": BAYES_CASE_NAMES[case], "plot": "trace"}) for case in BAYES_CASES],
+        table=report(f"{OUT}/tables/posterior_summary.csv", caption="../report/posterior_summary.rst", category="uqdrive emcee cross-check", subcategory="summary",
+                     labels={"table": "posterior summary"}),
         scorecard=f"{OUT}/scorecard/bayes.csv",
     params:
         cases=BAYES_CASES,

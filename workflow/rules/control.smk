@@ -81,11 +81,13 @@ rule fig_control:
         nlst=f"{OUT}/data/control_mc_nlst.nc",
         sweep=f"{OUT}/data/control_gamma_sweep.nc",
     output:
-        fig_6_16=report(f"{FIG}/fig_6_16.png", caption="../report/fig_6_16.rst", category="Control"),
-        fig_6_17=report(f"{FIG}/fig_6_17.png", caption="../report/fig_6_17.rst", category="Control"),
-        fig_6_18=report(f"{FIG}/fig_6_18.png", caption="../report/fig_6_18.rst", category="Control"),
-        sweep=report(f"{FIG}/fig_gamma_sweep.png", caption="../report/fig_gamma_sweep.rst", category="Control"),
-        table=report(f"{OUT}/tables/control_gains.csv", caption="../report/control_gains.rst", category="Control"),
+        fig_6_16=report(f"{FIG}/fig_6_16.png", caption="../report/fig_6_16.rst", category="Thesis 6.3 Control", labels={"figure": "Fig. 6.16", "content": "LST with the LQR"}),
+        fig_6_17=report(f"{FIG}/fig_6_17.png", caption="../report/fig_6_17.rst", category="Thesis 6.3 Control", labels={"figure": "Fig. 6.17", "content": "LST, LQR and SLQR"}),
+        fig_6_18=report(f"{FIG}/fig_6_18.png", caption="../report/fig_6_18.rst", category="Thesis 6.3 Control", labels={"figure": "Fig. 6.18", "content": "NLST, LQR and SLQR"}),
+        sweep=report(f"{FIG}/fig_gamma_sweep.png", caption="../report/fig_gamma_sweep.rst", category="Thesis 6.3 Control",
+                     labels={"figure": "gamma sweep", "content": "past the thesis: SLQR cost against gamma"}),
+        table=report(f"{OUT}/tables/control_gains.csv", caption="../report/control_gains.rst", category="Thesis 6.3 Control",
+                     labels={"figure": "Eqs. (6.1), (6.2)", "content": "gains and closed-loop statistics (table)"}),
         scorecard=f"{OUT}/scorecard/control.csv",
     params:
         **reads(band_sigmas="figures.band_sigmas"),

@@ -1,4 +1,5 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
+from uqdrive.plots.identification import APPENDIX_B_PLAN
 from uqdrive.studies.identification import experiment_config
 
 ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted"]
@@ -112,6 +113,17 @@ rule identifiability:
 
 ID_FIGS = [f"fig_6_{i}" for i in range(7, 16)] + ["fig_robust_start"]
 B_FIGS = [f"fig_B{i}" for i in range(1, 14)]
+#: The report's labels of the identification figures: the experiment, the figure, what it shows.
+ID_LABELS = {
+    "fig_6_7": ("basic", "Fig. 6.7", "W2 per run, LST-LST"), "fig_6_8": ("basic", "Fig. 6.8", "W2 per run, NLST-LST"),
+    "fig_6_9": ("inverted steering", "Fig. 6.9", "distributions, NLST-LST [STD]"),
+    "fig_6_10": ("basic", "Fig. 6.10", "tyre curves with the identified mu"),
+    "fig_6_11": ("initial guess", "Fig. 6.11", "W2 against the initial deviation, LST-LST"),
+    "fig_6_12": ("initial guess", "Fig. 6.12", "W2 against the initial deviation, NLST-LST"),
+    "fig_6_13": ("noise", "Fig. 6.13", "W2 against the noise level, LST-LST"), "fig_6_14": ("noise", "Fig. 6.14", "W2 against the noise level, NLST-LST"),
+    "fig_6_15": ("noise", "Fig. 6.15", "distributions per noise level, LST-LST [STD]"),
+    "fig_robust_start": ("robust start", "past the thesis", "W2 against the initial deviation, single vs multi-start"),
+}
 
 
 rule fig_identification:
@@ -120,11 +132,17 @@ rule fig_identification:
         **{e: f"{OUT}/data/identification_{e}.nc" for e in ID_EXPERIMENTS},
         identifiability=f"{OUT}/data/identifiability.csv",
     output:
-        figures=report(expand(f"{FIG}/{{name}}.png", name=ID_FIGS), caption="../report/identification.rst", category="Identification"),
-        appendix=report(expand(f"{FIG}/{{name}}.png", name=B_FIGS), caption="../report/appendix_b.rst", category="Appendix B: estimated distributions"),
-        table_6_2=report(f"{OUT}/tables/table_6_2.csv", caption="../report/table_6_2.rst", category="Identification"),
-        table_6_3=report(f"{OUT}/tables/table_6_3.csv", caption="../report/table_6_3.rst", category="Identification"),
-        identifiability=report(f"{OUT}/tables/identifiability.csv", caption="../report/identifiability.rst", category="Identification"),
+        figures=[report(f"{FIG}/{name}.png", caption="../report/identification.rst", category="Thesis 6.2 Identification", subcategory="figures",
+                        labels=dict(zip(("experiment", "figure", "shows"), ID_LABELS[name]))) for name in ID_FIGS],
+        appendix=[report(f"{FIG}/{name}.png", caption="../report/appendix_b.rst", category="Thesis appendix B Estimated distributions",
+                         labels={"experiment": exp.replace("_", " "), "data": est.split("-")[0], "cost function": est.split("-")[1], "figure": f"Fig. B.{k}"})
+                  for k, (name, (exp, est)) in enumerate(zip(B_FIGS, APPENDIX_B_PLAN), 1)],
+        table_6_2=report(f"{OUT}/tables/table_6_2.csv", caption="../report/table_6_2.rst", category="Thesis 6.2 Identification", subcategory="tables",
+                         labels={"experiment": "basic", "table": "Table 6.2", "shows": "identified distributions beside the thesis"}),
+        table_6_3=report(f"{OUT}/tables/table_6_3.csv", caption="../report/table_6_3.rst", category="Thesis 6.2 Identification", subcategory="tables",
+                         labels={"experiment": "inverted steering", "table": "Table 6.3", "shows": "identified distributions beside the thesis"}),
+        identifiability=report(f"{OUT}/tables/identifiability.csv", caption="../report/identifiability.rst", category="Thesis 6.2 Identification", subcategory="tables",
+                               labels={"experiment": "identifiability", "table": "rank table", "shows": "observability rank (sec. 5.3.1)"}),
         scorecard=f"{OUT}/scorecard/identification.csv",
     params:
         **reads("vehicle", "tyre", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "noise.levels"),

@@ -76,9 +76,12 @@ rule fig_pce:
         mc=f"{OUT}/data/stats_lst_normal.nc",
         convergence=f"{OUT}/data/pce_convergence.nc",
     output:
-        comparison=report(f"{FIG}/fig_5_3.png", caption="../report/fig_5_3.rst", category="Polynomial chaos"),
-        sobol=report(f"{FIG}/fig_5_4.png", caption="../report/fig_5_4.rst", category="Polynomial chaos"),
-        convergence=report(f"{FIG}/fig_pce_convergence.png", caption="../report/fig_pce_convergence.rst", category="Polynomial chaos"),
+        comparison=report(f"{FIG}/fig_5_3.png", caption="../report/fig_5_3.rst", category="Thesis 5 Wind and polynomial chaos", subcategory="Polynomial chaos",
+                          labels={"figure": "Fig. 5.3", "content": "PCE against Monte Carlo"}),
+        sobol=report(f"{FIG}/fig_5_4.png", caption="../report/fig_5_4.rst", category="Thesis 5 Wind and polynomial chaos", subcategory="Polynomial chaos",
+                     labels={"figure": "Fig. 5.4", "content": "first-order Sobol indices"}),
+        convergence=report(f"{FIG}/fig_pce_convergence.png", caption="../report/fig_pce_convergence.rst", category="Thesis 5 Wind and polynomial chaos", subcategory="Polynomial chaos",
+                           labels={"figure": "PCE convergence", "content": "past the thesis: error against N_PCE"}),
     params:
         **reads(band_sigmas="figures.band_sigmas"),
     threads: 1

@@ -67,8 +67,10 @@ rule sweep_summary:
         points=lambda w: [f"{SWEEP_DIR}/{w.sweep}/{p.name}/metrics.json" for p in sweep(w.sweep).points],
     output:
         nc=f"{SWEEP_DIR}/{{sweep}}/summary.nc",
-        csv=report(f"{SWEEP_DIR}/{{sweep}}/summary.csv", caption="../report/sweep_summary.rst", category="Sweep {sweep}"),
-        figure=report(f"{SWEEP_DIR}/{{sweep}}/summary.png", caption="../report/sweep_figure.rst", category="Sweep {sweep}"),
+        csv=report(f"{SWEEP_DIR}/{{sweep}}/summary.csv", caption="../report/sweep_summary.rst", category="uqdrive sweep {sweep}",
+                   labels=lambda w: {"output": "summary table", "swept": ", ".join(sweep(w.sweep).keys)}),
+        figure=report(f"{SWEEP_DIR}/{{sweep}}/summary.png", caption="../report/sweep_figure.rst", category="uqdrive sweep {sweep}",
+                      labels=lambda w: {"output": "summary figure", "swept": ", ".join(sweep(w.sweep).keys)}),
     params:
         sweep=lambda w, input: sweep(w.sweep),
         file=lambda w, input: _shown(sweep_file(w.sweep)),
