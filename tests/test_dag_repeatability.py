@@ -28,7 +28,8 @@ import xarray as xr
 
 from conftest import REPO
 
-pytestmark = pytest.mark.workflow
+# Every test of the DAG runs on one xdist worker, so the session-scoped `workdir` run happens once.
+pytestmark = [pytest.mark.xdist_group("dag"), pytest.mark.workflow]
 
 TEST_CONFIG = REPO / "config" / "test.yaml"
 CLUSTER_PROFILE = REPO / "workflow" / "profiles" / "cluster-generic-local"

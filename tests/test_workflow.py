@@ -10,6 +10,9 @@ import yaml
 
 from conftest import REPO
 
+# Every test of the DAG runs on one xdist worker, so the session-scoped `workdir` run happens once.
+pytestmark = pytest.mark.xdist_group("dag")
+
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 
 
