@@ -5,14 +5,18 @@ sampling by several independent emcee ensembles with autocorrelation-based stopp
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import emcee
 import numpy as np
 import xarray as xr
 
-__all__ = ["MOVES", "MomentLikelihood", "BoxPrior", "log_posterior", "sample_ensembles", "gelman_rubin", "chain_dataset"]
+from ..numerics.threads import with_single_blas_thread
+
+__all__ = ["MOVES", "MomentLikelihood", "BoxPrior", "log_posterior", "log_posteriors", "log_posterior_batch", "sample_ensembles",
+           "gelman_rubin", "chain_dataset"]
 
 
 def _stretch():
@@ -85,6 +89,15 @@ class MomentLikelihood:
         z = _forward(self.chol, r)
         return -0.5 * self.precision_factor * float(z @ z)
 
+    def batch(self, model_mean, model_variance) -> np.ndarray:
+        """Log-likelihoods of B model moments at once, (B, 4, K) each -> (B,): one triangular
+        solve with B right-hand sides, otherwise the arithmetic of ``__call__``."""
+        var = model_variance if self.noise_variance is None else model_variance + self.noise_variance[:, None]
+        B = model_mean.shape[0]
+        r = np.concatenate([(model_mean - self.mean).reshape(B, -1), (np.sqrt(np.maximum(var, 0.0)) - self.std).reshape(B, -1)], axis=1)
+        z = _forward(self.chol, r.T)  # (8K, B)
+        return -0.5 * self.precision_factor * np.einsum("ij,ij->j", z, z)
+
 
 def _forward(L, r):
     from scipy.linalg import solve_triangular
@@ -111,6 +124,11 @@ class BoxPrior:
             return -np.inf
         return 0.0
 
+    def inside(self, thetas) -> np.ndarray:
+        """thetas (B, p) -> bool (B,): where ``__call__`` is 0 (not -inf)."""
+        thetas = np.asarray(thetas)
+        return np.all(thetas > self.low, axis=1) & np.all(thetas < self.high, axis=1) & (thetas[:, 4] < thetas[:, 5])
+
 
 def log_posterior(theta, model, likelihood: MomentLikelihood, prior: BoxPrior, index) -> float:
     """log prior + log likelihood; -inf outside the prior or where the model is not physical."""
@@ -122,6 +140,51 @@ def log_posterior(theta, model, likelihood: MomentLikelihood, prior: BoxPrior, i
     except ValueError:
         return -np.inf
     return lp + likelihood(r.mean[:, index], r.variance[:, index])
+
+
+@with_single_blas_thread
+def log_posteriors(model, requests: Sequence, every: int = 1) -> list[np.ndarray]:
+    """Log-posteriors of several targets that share one model, all proposals in one model call.
+
+    Parameters
+    ----------
+    model
+        Has ``moments_batch(thetas, every)`` (e.g. :class:`uqdrive.vehicle.chaos.LSTChaosModel`).
+    requests : sequence of (thetas, likelihood, prior, index)
+        thetas (n_i, p); a :class:`MomentLikelihood` and a :class:`BoxPrior`; ``index`` the
+        likelihood times on the model grid observed every ``every`` samples.
+    every : int
+        Passed to ``moments_batch``: only the times the likelihoods read are computed.
+
+    Returns
+    -------
+    list of ndarray, shape (n_i,)
+        log prior + log likelihood, -inf outside the prior or where the model is not physical
+        (as :func:`log_posterior` per theta). Runs with one BLAS thread (small matrices).
+    """
+    thetas = [np.atleast_2d(np.asarray(t, float)) for t, *_ in requests]
+    inside = [prior.inside(t) for t, (_, _, prior, _) in zip(thetas, requests)]
+    out = [np.full(t.shape[0], -np.inf) for t in thetas]
+    stacked = np.concatenate([t[ok] for t, ok in zip(thetas, inside)])
+    if stacked.shape[0] == 0:
+        return out
+    m = model.moments_batch(stacked, every=every)
+    start = 0
+    for (_, like, _, index), ok, lp in zip(requests, inside, out):
+        stop = start + int(ok.sum())
+        good = m.admissible[start:stop]
+        values = np.full(stop - start, -np.inf)
+        if good.any():
+            values[good] = like.batch(m.mean[start:stop][good][..., index], m.variance[start:stop][good][..., index])
+        lp[ok] = values
+        start = stop
+    return out
+
+
+def log_posterior_batch(thetas, model, likelihood: MomentLikelihood, prior: BoxPrior, index, every: int = 1) -> np.ndarray:
+    """:func:`log_posterior` of B parameter vectors (B, p) -> (B,) in one batched model call;
+    ``index`` on the model grid observed every ``every`` samples."""
+    return log_posteriors(model, [(thetas, likelihood, prior, index)], every)[0]
 
 
 def gelman_rubin(chains) -> np.ndarray:
@@ -136,13 +199,62 @@ def gelman_rubin(chains) -> np.ndarray:
     return np.sqrt(var / W)
 
 
+class _Lockstep:
+    """Gathers the log-probability calls of samplers that run in threads into one call.
+
+    Each active sampler blocks in :meth:`request` until every active sampler has a call
+    pending; the last to arrive evaluates them all at once, in the samplers' order, and wakes
+    the others. A batch thus holds one call per active sampler in a fixed order, whatever the
+    thread timing, so the batches, and the chains, are reproducible.
+    """
+
+    def __init__(self, evaluate: Callable, n: int):
+        self._evaluate, self._active = evaluate, n
+        self._pending: dict = {}
+        self._done: dict = {}
+        self._cv = threading.Condition()
+
+    def request(self, key, thetas):
+        with self._cv:
+            self._pending[key] = thetas
+            self._flush_if_complete()
+            while key not in self._done:
+                self._cv.wait()
+            out = self._done.pop(key)
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+    def leave(self):
+        """A sampler has finished: the others no longer wait for it."""
+        with self._cv:
+            self._active -= 1
+            self._flush_if_complete()
+
+    def _flush_if_complete(self):
+        if not self._pending or len(self._pending) < self._active:
+            return
+        batch, self._pending = dict(sorted(self._pending.items())), {}  # in sampler order, not arrival order
+        try:
+            results = self._evaluate(list(batch.items()))
+        except Exception as error:  # every waiting sampler raises it
+            results = [error] * len(batch)
+        self._done.update(zip(batch, results))
+        self._cv.notify_all()
+
+
 def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Generator, max_steps: int,
                      check_every: int = 500, tau_factor: float = 50.0, ball: float = 1e-3, progress: bool = False,
-                     burn_in: int = 0, moves: str = "stretch"):
+                     burn_in: int = 0, moves: str = "stretch", vectorize: bool = False, lockstep: bool = False,
+                     log: Callable[[str], None] | None = None):
     """Run one emcee ensemble per start until N > tau_factor * tau (or max_steps).
 
     Parameters
     ----------
+    log_prob : callable
+        theta (p,) -> float; with ``vectorize``, the proposals of the walkers being moved
+        (n, p) -> (n,) (emcee's ``vectorize=True``: one call per half-ensemble update); with
+        ``lockstep``, a list of (ensemble index, thetas (n, p)) -> a list of (n,) arrays.
     starts : sequence of ndarray, shape (p,)
         Centre of each ensemble's initial ball (relative radius ``ball``).
     burn_in : int
@@ -150,6 +262,15 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
         ball before tau is measured, so the transient does not inflate it.
     moves : {"stretch", "de"}
         Proposal scheme, see :data:`MOVES`.
+    vectorize : bool
+        ``log_prob`` takes all proposals of a half-ensemble update at once (see above).
+    lockstep : bool
+        Run the ensembles concurrently, one thread each, and evaluate the pending proposals of
+        all of them in one ``log_prob`` call (e.g. one batched model evaluation for 4 x 6
+        walkers). Each ensemble keeps its own random state, proposals and stopping, so its
+        chain is the one it has when run alone (to the rounding of the batched arithmetic).
+    log : callable, optional
+        Receives a progress line at every convergence check.
 
     Returns
     -------
@@ -158,13 +279,16 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
     """
     if moves not in MOVES:
         raise ValueError(f"unknown emcee moves '{moves}'; choose one of {', '.join(MOVES)}")
-    out = []
-    for centre in starts:
+    initial = []
+    for centre in starts:  # the draws of the sequential loop, in its order
         centre = np.asarray(centre, float)
-        p0 = centre * (1.0 + ball * rng.standard_normal((walkers, centre.size)))
-        sampler = emcee.EnsembleSampler(walkers, centre.size, log_prob, moves=MOVES[moves]())
-        sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
-        state, tau, converged = p0, np.full(centre.size, np.inf), False
+        initial.append((centre * (1.0 + ball * rng.standard_normal((walkers, centre.size))), int(rng.integers(2**31))))
+
+    def run(i, fn):
+        p0, seed = initial[i]
+        sampler = emcee.EnsembleSampler(walkers, p0.shape[1], fn, moves=MOVES[moves](), vectorize=vectorize or lockstep)
+        sampler.random_state = np.random.RandomState(seed).get_state()
+        state, tau, converged = p0, np.full(p0.shape[1], np.inf), False
         if burn_in > 0:
             # emcee's condition-number check misfires on a small ball when the parameters have
             # very different scales (0.1 for mu's std, 500 N for the wind); the ball is its own advice.
@@ -173,14 +297,38 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
         while sampler.iteration < max_steps:
             state = sampler.run_mcmc(state, check_every, progress=progress, skip_initial_state_check=True)
             tau = sampler.get_autocorr_time(tol=0)
-            if np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max():
-                converged = True
+            converged = bool(np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max())
+            if log is not None:
+                log(f"ensemble {i}: {sampler.iteration} steps after burn-in, tau max {np.nanmax(tau):.1f}"
+                    f"{', converged' if converged else ''}")
+            if converged:
                 break
         burn = int(2 * np.nanmax(tau)) if np.all(np.isfinite(tau)) else sampler.iteration // 2
         thin = max(1, int(0.5 * np.nanmin(tau))) if np.all(np.isfinite(tau)) else 1
-        out.append({"chain": sampler.get_chain(), "log_prob": sampler.get_log_prob(), "tau": tau, "converged": converged,
-                    "burn": min(burn, sampler.iteration - 1), "thin": thin, "acceptance": float(np.mean(sampler.acceptance_fraction)),
-                    "burn_in": int(burn_in)})
+        return {"chain": sampler.get_chain(), "log_prob": sampler.get_log_prob(), "tau": tau, "converged": converged,
+                "burn": min(burn, sampler.iteration - 1), "thin": thin, "acceptance": float(np.mean(sampler.acceptance_fraction)),
+                "burn_in": int(burn_in)}
+
+    if not lockstep:
+        return [run(i, log_prob) for i in range(len(initial))]
+    batcher = _Lockstep(log_prob, len(initial))
+    out, errors = [None] * len(initial), []
+
+    def worker(i):
+        try:
+            out[i] = run(i, lambda thetas: batcher.request(i, thetas))
+        except BaseException as error:  # re-raised below, in the caller's thread
+            errors.append(error)
+        finally:
+            batcher.leave()
+
+    threads = [threading.Thread(target=worker, args=(i,), name=f"emcee-ensemble-{i}", daemon=True) for i in range(len(initial))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    if errors:
+        raise errors[0]
     return out
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..inference.bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posterior, sample_ensembles
+from ..inference.bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posteriors, sample_ensembles
 from ..config import config_hash
 from ..inference.identify import DistributionEstimator, configured_optimiser, configured_state_scale
 from ..vehicle.montecarlo import simulate_ensemble
@@ -53,14 +53,24 @@ def _model(config, dt=None, m_load=None, gusts: bool = False):
                          quadrature_points=ident["quadrature_points"], fixed={"m_load": m_load})
 
 
-def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generator, ensembles=None, max_steps=None, progress=False):
-    """Optimiser estimate (STD cost, full grid) and its emcee posterior (aggregated likelihood)."""
+def _models(config):
+    """The optimiser's model (full grid) and the sampler's (``bayes.model_dt``, gusts if asked)."""
+    b = config["bayes"]
+    return _model(config), _model(config, dt=b["model_dt"], gusts=b.get("model_gusts", False))
+
+
+def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generator, ensembles, models) -> dict:
+    """Optimiser estimates, the likelihood target and the ensembles' starts of one case.
+
+    Returns a dict with ``target`` (likelihood, prior, index on the sampler's grid observed
+    every ``every`` samples), ``every``, ``starts`` (one per ensemble) and ``attrs``.
+    """
     b = config["bayes"]
     dt = config["time"]["dt"]
     mean, std = x.mean(axis=1), x.std(axis=1, ddof=1)
     if noise_var is not None:  # noise-aware, as the identification's past-the-thesis estimate
         std = np.sqrt(np.maximum(std**2 - noise_var[:, None], 0.0))
-    full = _model(config)
+    full, coarse = models
     truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
     est, unit_free = (
         DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
@@ -73,26 +83,48 @@ def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Gener
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"bayes.likelihood_dt = {b['likelihood_dt']} must be a multiple of {name} = {step}: the model and the data must share the likelihood times")
     stride = int(round(b["likelihood_dt"] / dt))
+    every = int(round(b["likelihood_dt"] / b["model_dt"]))
     data_idx = np.arange(stride, x.shape[2], stride)
-    coarse = _model(config, dt=b["model_dt"], gusts=b.get("model_gusts", False))
-    model_idx = data_idx * int(round(b["likelihood_dt"] / b["model_dt"])) // stride
-    like = MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var)
-    prior = BoxPrior.from_config(config)
-
-    def log_prob(theta):
-        return log_posterior(theta, coarse, like, prior, model_idx)
-
+    # The likelihood times are every `every`-th model time: the sampler's model computes only those.
+    target = (MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var), BoxPrior.from_config(config), data_idx // stride)
     n_ens = b["ensembles"] if ensembles is None else ensembles
     centre = est.theta_.copy()
     starts = [centre] + [centre * (1.0 + b["dispersion"] * rng.standard_normal(centre.size)) for _ in range(n_ens - 1)]
-    starts = [s if np.isfinite(log_prob(s)) else centre for s in starts]
-    runs = sample_ensembles(log_prob, starts, b["walkers"], rng, b["max_steps"] if max_steps is None else max_steps, b["check_every"], b["tau_factor"], progress=progress,
-                            burn_in=b.get("burn_in", 0), moves=b.get("moves", "stretch"))
+    admissible = log_posteriors(coarse, [(np.array(starts), *target)], every)[0]
+    starts = [s if np.isfinite(lp) else centre for s, lp in zip(starts, admissible)]
     attrs = {"optimiser_estimate": est.theta_, "optimiser_converged": int(est.converged_), "truth": truth,
              "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": configured_state_scale(config, normalised=True),
              "likelihood_times": int(data_idx.size), "model_gusts": int(b.get("model_gusts", False)), "moves": b.get("moves", "stretch"), "n_samples": int(x.shape[1]), "seed": int(config["seed"]),
              "config_hash": config_hash(config), "uqdrive_version": __version__}
-    return chain_dataset(runs, full.theta_names, attrs)
+    return {"target": target, "every": every, "starts": starts, "attrs": attrs}
+
+
+def _sample(config, cases, coarse, rng, max_steps, progress=False, log=None):
+    """All ensembles of all cases at once (:func:`sample_ensembles` in lockstep): every update of
+    every ensemble's half-walkers is one batched model call; the runs, grouped by case."""
+    b = config["bayes"]
+    owner = [c for c, case in enumerate(cases) for _ in case["starts"]]
+
+    def log_prob(calls):
+        return log_posteriors(coarse, [(thetas, *cases[owner[i]]["target"]) for i, thetas in calls], cases[0]["every"])
+
+    runs = sample_ensembles(log_prob, [s for case in cases for s in case["starts"]], b["walkers"], rng,
+                            b["max_steps"] if max_steps is None else max_steps, b["check_every"], b["tau_factor"], progress=progress,
+                            burn_in=b.get("burn_in", 0), moves=b.get("moves", "stretch"), lockstep=True, log=log)
+    return [[r for r, o in zip(runs, owner) if o == c] for c in range(len(cases))]
+
+
+def posterior_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generator, ensembles=None, max_steps=None, progress=False, log=None):
+    """Optimiser estimate (STD cost, full grid) and its emcee posterior (aggregated likelihood).
+
+    The ensembles run in lockstep with one batched PCE evaluation per half-ensemble update of
+    all of them (:func:`uqdrive.inference.bayes.sample_ensembles`); each chain is the one it has alone.
+    ``log`` receives progress lines.
+    """
+    models = _models(config)
+    case = _setup_case(config, x, noise_var, rng, ensembles, models)
+    runs = _sample(config, [case], models[1], rng, max_steps, progress, log)[0]
+    return chain_dataset(runs, models[0].theta_names, case["attrs"])
 
 
 def summarise(ds: xr.Dataset) -> dict:
@@ -148,15 +180,27 @@ def posterior_table_rows(posteriors: Mapping[str, xr.Dataset], titles: Mapping[s
     return rows
 
 
-def coverage_study(config: Mapping[str, Any], sets: int, steps: int, rng: np.random.Generator):
-    """LST-LST on independently simulated ensembles: how often the 95 % intervals hold the truth."""
-    hits, total = 0, 0
-    per_set = []
+def coverage_study(config: Mapping[str, Any], sets: int, steps: int, rng: np.random.Generator, log=None):
+    """LST-LST on independently simulated ensembles: how often the 95 % intervals hold the truth.
+
+    One ensemble per set; the sets' samplers run together in lockstep (one batched PCE call per
+    update of all of them), each with its own data, likelihood and random stream, drawn in the
+    order of the one-set-at-a-time loop, so each set's chain is the one it has alone.
+    """
+    models = _models(config)
+    cases = []
     for k in range(sets):
         ens = simulate_ensemble(config, "lst", seed=int(config["seed"]) + 1000 + k)
         x, _ = prepare_data(config, ens)
-        ds = posterior_case(config, x, None, rng, ensembles=1, max_steps=steps)
-        s = summarise(ds)
+        cases.append(_setup_case(config, x, None, rng, 1, models))
+        del ens, x
+        if log is not None:
+            log(f"set {k}: optimiser estimates done")
+    runs = _sample(config, cases, models[1], rng, steps, log=log)
+    hits, total = 0, 0
+    per_set = []
+    for case, case_runs in zip(cases, runs):
+        s = summarise(chain_dataset(case_runs, models[0].theta_names, case["attrs"]))
         hits += int(s["contains_truth"].sum())
         total += s["contains_truth"].size
         per_set.append(s["contains_truth"].astype(int))

@@ -13,13 +13,14 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..numerics.adjoint import foh_response_vjp
+from ..numerics.batched_lti import foh_discretise_batched, lti_response_batched
 from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
 from ..numerics.threads import with_single_blas_thread
 from .single_track import VehicleParameters, lst_matrices, steering_input
 
-__all__ = ["DISTRIBUTIONS", "ChaosMoments", "LSTChaosModel"]
+__all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
 
 #: Distribution of each uncertain parameter, thesis (5.8)-(5.11).
 DISTRIBUTIONS = {"mu": "normal", "m_load": "normal", "l_f": "normal", "F_w_mean": "uniform"}
@@ -66,6 +67,18 @@ class ChaosMoments:
         full = np.zeros((self.states.shape[0], 4 * self.n_terms))
         full[:, self.state_index] = self.states
         return full.reshape(-1, 4, self.n_terms).transpose(1, 2, 0)
+
+
+@dataclass(frozen=True)
+class BatchMoments:
+    """Moments of the expanded LST at B parameter vectors (:meth:`LSTChaosModel.moments_batch`):
+    time (T,); mean, variance (B, 4, T), NaN where ``admissible`` (B,) is False, i.e. where
+    ``moments`` raises ValueError (a std <= 0, low >= high, a quadrature node not physical)."""
+
+    time: np.ndarray
+    mean: np.ndarray
+    variance: np.ndarray
+    admissible: np.ndarray
 
 
 class LSTChaosModel:
@@ -196,6 +209,29 @@ class LSTChaosModel:
         self._check_physical(values)
         return values, dvalues
 
+    def _parameters_at_nodes_batch(self, thetas):
+        """Parameter values (B, Q) at the nodes for B parameter vectors, and which are admissible
+        (the checks of :meth:`_parameters_at_nodes`, per vector, without raising)."""
+        thetas = np.asarray(thetas, float)
+        if thetas.ndim != 2 or thetas.shape[1] != len(self.theta_names):
+            raise ValueError(f"thetas must have shape (B, {len(self.theta_names)}) {self.theta_names}, got {thetas.shape}")
+        xi = self.projector.nodes
+        B, Q = thetas.shape[0], xi.shape[0]
+        values = {k: np.full((B, Q), float(v)) for k, v in self.fixed.items()}
+        values["F_w_half"] = np.zeros((B, Q))
+        ok = np.ones(B, bool)
+        for j, u in enumerate(self.uncertain):
+            a, b = thetas[:, 2 * j, None], thetas[:, 2 * j + 1, None]
+            if DISTRIBUTIONS[u] == "normal":
+                ok &= b[:, 0] > 0
+                values[u] = a + b * xi[:, self.parametric.index(u)]  # (5.8)-(5.10)
+            else:
+                ok &= b[:, 0] > a[:, 0]
+                values[u], values["F_w_half"] = np.repeat(0.5 * (a + b), Q, axis=1), np.repeat(0.5 * (b - a), Q, axis=1)  # (5.11)
+        l_f = values["l_f"]
+        ok &= np.all(values["mu"] > 0.0, axis=1) & np.all(l_f > 0.0, axis=1) & np.all(l_f < self.vehicle.wheelbase, axis=1)
+        return values, ok
+
     def _check_physical(self, values):
         """The quadrature nodes must describe physical vehicles: mu > 0 and 0 < l_f < L."""
         if np.any(values["mu"] <= 0.0):
@@ -237,11 +273,14 @@ class LSTChaosModel:
         values, _ = self._parameters_at_nodes(theta)
         return self._expanded(values, None)
 
-    def _expanded(self, values, states):
+    def _expanded(self, values, states, batch=None):
         """A_PCE and the input matrix for parameter values at the nodes, rows and columns
         ``states`` (the excited terms in block order for the moments: the never-excited ones are
-        dropped exactly, see GalerkinProjector.excited)."""
+        dropped exactly, see GalerkinProjector.excited); ``batch``: values hold that many
+        members' nodes one after the other (flat, B Q), giving (B, N, N) and (B, N, r)."""
         A, E, F = self._system(values)
+        if batch is not None:
+            A, E, F = (x.reshape((batch, -1) + x.shape[1:]) for x in (A, E, F))
         pr = self.projector
         return pr.matrix(A, states), np.concatenate([pr.input_matrix(E, states), pr.linear_input_matrix(F, states)], axis=-1)
 
@@ -268,6 +307,40 @@ class LSTChaosModel:
         dA_pce, dE_pce = self._expanded_derivatives(values, dvalues)
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         return self._moments(*lti_response_single(*maps, self.inputs, x0, dmaps))
+
+    @with_single_blas_thread
+    def moments_batch(self, thetas, every: int = 1) -> BatchMoments:
+        """Mean and variance at B parameter vectors in one pass (no gradients).
+
+        The B Galerkin systems are assembled as one stack and discretised and advanced by
+        :mod:`uqdrive.numerics.batched_lti`: per member the arithmetic of :meth:`moments`, except
+        that the recursion runs block by block (``moments`` merges small blocks into one dense
+        system), so the results agree with ``moments`` to rounding (~1e-15 relative).
+
+        Parameters
+        ----------
+        thetas : ndarray, shape (B, n_theta)
+            Distribution parameters in ``theta_names`` order.
+        every : int, optional
+            Moments at ``time[::every]`` only (up to the last multiple): the same discretised
+            model observed less often, with less work.
+
+        Returns
+        -------
+        BatchMoments
+            mean and variance (B, 4, T); inadmissible rows (where ``moments`` raises
+            ValueError) are NaN and flagged in ``admissible``.
+        """
+        values, ok = self._parameters_at_nodes_batch(thetas)
+        time = self.time[: (self.time.size - 1) // every * every + 1 : every]
+        mean, var = np.full((ok.size, 4, time.size), np.nan), np.full((ok.size, 4, time.size), np.nan)
+        n = int(ok.sum())
+        if n:
+            A_pce, E_pce = self._expanded({k: v[ok].ravel() for k, v in values.items()}, self.expanded_states, batch=n)
+            X = lti_response_batched(*foh_discretise_batched(A_pce, E_pce, self.dt), self.inputs, every=every)  # (n, T, N)
+            mean[ok] = X[:, :, self._mean_rows].swapaxes(1, 2)
+            var[ok] = ((X * X) @ self._variance_indicator).swapaxes(1, 2)
+        return BatchMoments(time, mean, var, ok)
 
     @with_single_blas_thread
     def moments_vjp(self, theta):
