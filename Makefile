@@ -53,6 +53,7 @@ bench: $(PYTHON)
 	$(PYTHON) benchmarks/bench_pce.py
 	$(PYTHON) benchmarks/bench_identify.py
 	$(PYTHON) benchmarks/bench_discover.py
+	$(PYTHON) benchmarks/bench_posterior.py
 
 clean:
 	rm -rf results .snakemake
