@@ -75,7 +75,8 @@ def test_null_case_says_none(files, capsys):
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(out)], capsys)
     assert code == 0, cap.err
     v = json.loads((out / "verdict.json").read_text())
-    assert v["effect"] == "none" and v["ambiguous_with"] == [] and v["parameters"] == {}
+    assert v["effect"] == "none" and v["ambiguous_with"] == [] and v["parameters"] == {} and v["separating_input"] == []
+    assert "posterior" not in v  # sampled only for the config's effects (discrepancy.posterior.effects)
     assert v["evidence"]["max_statistic"] <= v["evidence"]["threshold"]
 
 

@@ -35,6 +35,7 @@ def _check(outcome, verdict):
 def ci_config(config):
     c = copy.deepcopy(config)
     c["discrepancy"].update(model_samples=400, nonlinear_samples=150, bootstrap=100, max_times=80)
+    c["discrepancy"]["posterior"]["enabled"] = False  # its own test: tests/test_discrepancy_posterior.py
     return c
 
 
@@ -83,3 +84,27 @@ def test_case_outcome_accepts_an_ambiguity_set_holding_the_truth():
                "distributions": {"before": {"mu": {"mean": 1.0}}, "after": {"mu": {"mean": 1.0}}}, "evidence": {"seconds": 1}}
     assert case_outcome(label, verdict)["correct"]
     assert not case_outcome(label, dict(verdict, ambiguous_with=[]))["correct"]
+
+
+def test_detection_limits_name_the_smallest_magnitude_found_and_the_figure_marks_it():
+    """Per effect (per channel for sensor effects): the smallest magnitude named; nan when never."""
+    from uqdrive.plots.discrepancy import detection_vs_magnitude
+    from uqdrive.studies.discrepancy import detection_limits
+
+    base = {"ambiguous_with": "", "detected": True, "gap_before": 4.0, "gap_after": 0.1, "gap_halved": True, "mu_mean_before": 0.9,
+            "mu_mean_after": 1.0, "seconds": 1.0, "manoeuvre": "step"}
+    rows = [dict(base, case="b1", truth="road_bank", channel="", magnitude=1.0, verdict="none", correct=False),
+            dict(base, case="b3", truth="road_bank", channel="", magnitude=3.0, verdict="road_bank", correct=True),
+            dict(base, case="b2", truth="road_bank", channel="", magnitude=2.0, verdict="road_bank", correct=True),
+            dict(base, case="s", truth="sensor_bias", channel="y", magnitude=0.3, verdict="sensor_bias", correct=True),
+            dict(base, case="g", truth="wind_gust", channel="", magnitude=3.0, verdict="none", correct=False),
+            dict(base, case="n", truth="none", channel="", magnitude=0.0, verdict="none", correct=True, detected=False)]
+    ds = benchmark_dataset(rows)
+    lim = detection_limits(ds)
+    assert set(lim) == {"road_bank", "sensor_bias y", "wind_gust"}
+    assert lim["road_bank"]["smallest_named"] == 2.0 and lim["road_bank"]["named"] == [False, True, True]
+    assert lim["sensor_bias y"]["unit"] == "m" and lim["road_bank"]["unit"] == "deg"
+    assert lim["wind_gust"]["smallest_named"] != lim["wind_gust"]["smallest_named"]  # nan: never named
+    fig = detection_vs_magnitude(ds)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert "road_bank\nfound from 2 deg" in titles and "wind_gust\nnever found" in titles

@@ -121,3 +121,28 @@ def test_strided_output_equals_the_full_grid_subsampled(config, structure):
     strided = AugmentedSimulator(config, t, d, 19.4, germs, stride=7)
     assert np.allclose(strided.simulate(THETA, structure), full[:, :, : strided.time.size : 7], rtol=1e-9, atol=1e-12)
     assert strided.output_time[-1] == pytest.approx(294 * 0.01)
+
+
+def test_moment_matched_germs_have_the_populations_mean_and_covariance():
+    """Germs.matched: sample mean 0 and covariance I of (mu, l_f, m_load, sqrt(12)(u - 1/2), KLE
+    modes) exactly, a near-identity change (the uniform germ stays nearly uniform); too few
+    realisations to whiten are refused. Unmatched, the same draws miss both by O(M^-1/2)."""
+    g = Germs.draw(np.random.default_rng(0), 400, 5)
+    m = g.matched()
+    z = lambda h: np.column_stack([h.mu, h.l_f, h.m_load, np.sqrt(12.0) * (h.wind - 0.5), h.kle])  # noqa: E731
+    assert np.allclose(z(m).mean(axis=0), 0.0, atol=1e-12) and np.allclose(np.cov(z(m), rowvar=False), np.eye(9), atol=1e-10)
+    assert np.abs(np.cov(z(g), rowvar=False) - np.eye(9)).max() > 0.05
+    assert np.abs(z(m) - z(g)).max() < 0.5 and -0.05 < m.wind.min() and m.wind.max() < 1.05
+    assert np.allclose(Germs.draw(np.random.default_rng(0), 400, 5, matched=True).kle, m.kle)
+    with pytest.raises(ValueError, match="more than 9"):
+        g.head(9).matched()
+
+
+def test_with_input_steers_the_same_germs_by_another_command(config):
+    t = np.arange(201) * 0.01
+    sim = AugmentedSimulator.drawn(config, t, np.zeros_like(t), 70 / 3.6, 20, np.random.default_rng(1))
+    steered = sim.with_input(np.deg2rad(2.0) * np.ones_like(t))
+    assert steered.germs is sim.germs and np.allclose(steered.delta, np.deg2rad(2.0))
+    assert np.abs(steered.simulate(THETA)[1] - sim.simulate(THETA)[1]).max() > 1e-3  # yaw rate answers the step
+    with pytest.raises(ValueError, match="samples"):
+        sim.with_input(np.zeros(5))

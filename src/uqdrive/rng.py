@@ -23,6 +23,7 @@ STREAMS = {
     "hidden_parameters": 11, "hidden_wind": 12, "hidden_noise": 13,
     "discrepancy_model": 20,
     "discrepancy_bootstrap": 21,
+    "discrepancy_posterior": 22,
 }
 
 

@@ -15,12 +15,29 @@ import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
 from ..io import DataError, read_ensemble
+from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
 
-__all__ = ["MIN_SAMPLES", "discover_file", "write_outputs"]
+__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "write_outputs"]
 
 #: Fewer realisations give moment statistics too noisy for a calibrated verdict.
 MIN_SAMPLES = 50
+
+#: Manoeuvres (uqdrive.studies.manoeuvres) among which the verdict names the input that would
+#: separate ambiguous candidates: slow and fast slaloms, steps, a chirp, a lane change.
+SEPARATING_INPUTS = {
+    "slalom_5deg_4s": ("slalom", {"amplitude_deg": 5.0, "period": 4.0}),
+    "slalom_3deg_2s": ("slalom", {"amplitude_deg": 3.0, "period": 2.0}),
+    "step_2deg": ("step", {"amplitude_deg": 2.0}),
+    "step_5deg": ("step", {"amplitude_deg": 5.0}),
+    "chirp_2deg": ("chirp", {"amplitude_deg": 2.0}),
+    "lane_change_4deg": ("lane_change", {"amplitude_deg": 4.0}),
+}
+
+
+def separating_inputs(time) -> dict:
+    """The commands of :data:`SEPARATING_INPUTS` on the measured time grid (rad)."""
+    return {name: steering_command(m, time, params) for name, (m, params) in SEPARATING_INPUTS.items()}
 
 
 def _checked_candidates(candidates: Sequence[str] | None):
@@ -32,8 +49,11 @@ def _checked_candidates(candidates: Sequence[str] | None):
         raise DataError(str(err).strip("'\"")) from None
 
 
-def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path) -> dict:
+def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None) -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
+
+    ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
+    (True), never (False), or as config ``discrepancy.posterior`` says (None).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind.
@@ -45,7 +65,7 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
         raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
-    finder = DiscrepancyFinder(config, candidates=names)
+    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values))
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..studies.discrepancy import detection_limits
 from ..vehicle.single_track import STATE_UNITS, STATES
 from .figure import label_state, state_axes, time_axis
 
@@ -79,17 +80,35 @@ def confusion_matrix(ds):
 
 
 def detection_vs_magnitude(ds):
-    """Per hidden effect: named correctly (1) or not (0) against its magnitude."""
-    effects = [e for e in sorted(set(ds["truth"].values.tolist())) if e != "none"]
-    fig, axes = plt.subplots(1, max(len(effects), 1), figsize=(2.2 * max(len(effects), 1), 2.6), constrained_layout=True, squeeze=False)
-    for ax, e in zip(axes[0], effects):
-        sel = ds["truth"].values == e
-        mag = ds["magnitude"].values[sel]
-        ok = ds["correct"].values[sel].astype(float)
-        ax.plot(mag, ok, "o", color="C0")
-        ax.set_ylim(-0.2, 1.2)
+    """Per hidden effect (per channel for sensor effects): named correctly or missed against its
+    magnitude, the smallest magnitude it is named at marked (dashed line, value in the title).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        :func:`uqdrive.studies.discrepancy.benchmark_dataset` (variables truth, channel, magnitude, correct).
+    """
+    limits = detection_limits(ds)
+    cols = min(max(len(limits), 1), 4)
+    rows = -(-max(len(limits), 1) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.2 * rows + 0.4), constrained_layout=True, squeeze=False)
+    for ax in axes.flat[len(limits):]:
+        ax.set_visible(False)
+    for ax, (group, lim) in zip(axes.flat, limits.items()):
+        mag, ok = np.array(lim["magnitudes"]), np.array(lim["named"], bool)
+        ax.plot(mag[ok], np.ones(ok.sum()), "o", color="C0", label="named")
+        ax.plot(mag[~ok], np.zeros((~ok).sum()), "x", color="C3", label="missed")
+        smallest = lim["smallest_named"]
+        if np.isfinite(smallest):
+            ax.axvline(smallest, color="C0", ls="--", lw=0.8)
+        span = max(float(np.ptp(mag)), 0.2 * max(float(np.max(np.abs(mag))), 1e-12))
+        ax.set_xlim(float(mag.min()) - 0.5 * span, float(mag.max()) + 0.5 * span)
+        ax.set_ylim(-0.3, 1.3)
         ax.set_yticks([0, 1], ["missed", "named"])
-        ax.set_title(e, fontsize=8)
-        ax.set_xlabel("magnitude", fontsize=8)
+        found = f"found from {smallest:g}" if np.isfinite(smallest) else "never found"
+        ax.set_title(f"{group}\n{found} {lim['unit']}" if np.isfinite(smallest) else f"{group}\n{found}", fontsize=7)
+        ax.set_xlabel(f"magnitude [{lim['unit']}]", fontsize=7)
+        ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
+    fig.suptitle("Detection versus magnitude: the smallest magnitude each effect is named at (dashed)", fontsize=8)
     return fig

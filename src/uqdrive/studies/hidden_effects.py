@@ -40,7 +40,7 @@ from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formu
 from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
 from .manoeuvres import MANOEUVRES, steering_command
 
-__all__ = ["EFFECTS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
+__all__ = ["EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
            "simulate_states", "wind_kle"]
 
 EFFECTS = (
@@ -48,6 +48,9 @@ EFFECTS = (
     "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale",
 )
 AMPLITUDE_EFFECTS = ("tyre_saturation", "lateral_kinematics")  # magnitude = steering amplitude (deg)
+#: Unit of each effect's magnitude (the table of the module docstring); sensor effects: the channel's.
+MAGNITUDE_UNITS = {"none": "-", "tyre_saturation": "deg", "actuator_lag": "s", "actuator_delay": "s", "road_bank": "deg",
+                   "wind_gust": "x sigma", "lateral_kinematics": "deg", "sensor_bias": "channel unit", "sensor_scale": "gain"}
 SENSOR_EFFECTS = ("sensor_bias", "sensor_scale")
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
 MAX_STEP = 0.005  # s, largest internal RK4 step

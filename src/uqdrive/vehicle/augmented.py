@@ -37,9 +37,33 @@ class Germs:
     kle: np.ndarray
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, n: int, n_modes: int) -> "Germs":
+    def draw(cls, rng: np.random.Generator, n: int, n_modes: int, matched: bool = False) -> "Germs":
+        """n realisations' germs from ``rng``; ``matched``: moment-matched (:meth:`matched`)."""
         z = rng.standard_normal((3, n))
-        return cls(z[0], z[1], z[2], rng.random(n), rng.standard_normal((n, n_modes)))
+        germs = cls(z[0], z[1], z[2], rng.random(n), rng.standard_normal((n, n_modes)))
+        return germs.matched() if matched else germs
+
+    def matched(self) -> "Germs":
+        """Moment matching (a variance reduction for common random numbers): the germ vector
+        (mu, l_f, m_load, the wind's germ standardised as sqrt(12) (u - 1/2), the KLE modes) is
+        shifted and jointly whitened (Cholesky) so that its sample mean is exactly 0 and its
+        sample covariance exactly I, the population's moments.
+
+        A model ensemble on matched germs reproduces every statistic that is linear or quadratic
+        in the germs without sampling error: the mean wind's and the gusts' share of the mean and
+        variance, and their cross terms with mu, l_f and the load. Unmatched, an ensemble of M
+        realisations misstates e.g. a gust mode's variance by ~sqrt(2 / M) (4.5 % at M = 1000),
+        an error that no distribution parameter can absorb (a gust scale moves all modes alike).
+        The wind's germ keeps its uniform shape up to an O(M^-1/2) affine change (it may leave
+        [0, 1] by that much). Needs n > 4 + n_modes.
+        """
+        z = np.column_stack([self.mu, self.l_f, self.m_load, np.sqrt(12.0) * (self.wind - 0.5), self.kle])
+        if z.shape[0] <= z.shape[1]:
+            raise ValueError(f"moment matching of {z.shape[1]} germs needs more than {z.shape[1]} realisations; got {z.shape[0]}")
+        z = z - z.mean(axis=0)
+        L = np.linalg.cholesky(np.cov(z, rowvar=False))
+        w = np.linalg.solve(L, z.T).T
+        return Germs(w[:, 0], w[:, 1], w[:, 2], 0.5 + w[:, 3] / np.sqrt(12.0), np.ascontiguousarray(w[:, 4:]))
 
     @property
     def n(self) -> int:
@@ -138,11 +162,13 @@ class AugmentedSimulator:
         self.base = replace(VehicleParameters.from_config(config), v_c=float(v_c))
 
     @classmethod
-    def drawn(cls, config: Mapping[str, Any], time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1) -> "AugmentedSimulator":
-        """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs)."""
+    def drawn(cls, config: Mapping[str, Any], time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
+              matched: bool = False) -> "AugmentedSimulator":
+        """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
+        moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
         w = config["wind"]
         n_modes = kle_nystrom(0.0, float(np.asarray(time)[-1]), w["Tc"], w["kle_quadrature"], w["kle_truncation"]).n_modes
-        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes), stride)
+        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride)
 
     def with_germs(self, germs: Germs) -> "AugmentedSimulator":
         """The same model on other germs (the KLE is reused)."""
@@ -151,6 +177,17 @@ class AugmentedSimulator:
         other.germs = germs
         load = self.config["uncertainty"]["m_load"]
         other.m_load = load["mean"] + load["std"] * germs.m_load
+        return other
+
+    def with_input(self, delta) -> "AugmentedSimulator":
+        """The same model and germs steered by another command ``delta`` (rad) on the same grid
+        (shape (T,) of the grid given at construction, or already cut to ``time``)."""
+        other = object.__new__(AugmentedSimulator)
+        other.__dict__.update(self.__dict__)
+        delta = np.asarray(delta, float)
+        if delta.size < self.time.size:
+            raise ValueError(f"the input has {delta.size} samples; the grid needs {self.time.size}")
+        other.delta = delta[: self.time.size]
         return other
 
     def parameters(self, theta, germs: Germs | None = None) -> tuple[VehicleParameters, np.ndarray, np.ndarray]:

@@ -51,6 +51,8 @@ class StructureFit:
     structure_ : ModelStructure
     statistics_ : ndarray, shape (2, 4, K)
         Model [mean, std] at the estimate.
+    measured_, scale_ : ndarray, shape (2, 4, K)
+        The measured statistics and the null-band scale the fit was given.
     z_ : ndarray, shape (2, 4, K)
         Standardised gap at the estimate.
     chi2_ : float
@@ -81,6 +83,12 @@ class StructureFit:
         names = THETA_NAMES if self.fit_theta else ()
         return names + (self.effect.parameters if self.effect is not None else ())
 
+    @property
+    def parameter_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the fitted parameters (``parameter_names`` order)."""
+        bounds = (THETA_BOUNDS if self.fit_theta else ()) + (tuple(self.effect.bounds) if self.effect is not None else ())
+        return np.array([b[0] for b in bounds], float), np.array([b[1] for b in bounds], float)
+
     def structure(self, effect_values=()) -> ModelStructure:
         if self.effect is None:
             return self.base
@@ -106,7 +114,21 @@ class StructureFit:
 
     def statistics(self, theta, structure: ModelStructure):
         """Model [mean, std] (2, 4, K) with the noise variance added to the model's variance."""
-        x = self._simulate([(theta, structure)])[0]
+        return self._measured_statistics(self._simulate([(theta, structure)])[0], structure)
+
+    def statistics_many(self, thetas, structures, batch: int = 32):
+        """:meth:`statistics` of many (theta, structure) pairs, shape (B, 2, 4, K); simulated in
+        batches of ``batch`` pairs (one RK4 pass each for a non-linear tyre), bypassing the cache."""
+        out = []
+        for start in range(0, len(thetas), batch):
+            th, st = list(thetas[start:start + batch]), list(structures[start:start + batch])
+            sims = self.simulator.simulate_many(th, [self._dynamic(s) for s in st])
+            out += [self._measured_statistics(x, s) for x, s in zip(sims, st)]
+        return np.array(out)
+
+    def _measured_statistics(self, x, structure: ModelStructure):
+        """[mean, std] (2, 4, K) of realisations x (4, n, T) as measured: spun ones excluded,
+        the structure's output map applied, the noise variance added."""
         keep = np.ones(x.shape[1], bool)
         if self.spin_threshold is not None:
             keep = ~np.any(np.abs(x[2]) > self.spin_threshold, axis=-1)
@@ -130,17 +152,11 @@ class StructureFit:
         theta0 = np.clip(np.asarray(theta0, float), [b[0] for b in THETA_BOUNDS], [b[1] for b in THETA_BOUNDS])
         eff = self.effect
         e_start = np.asarray(eff.start if effect_start is None else effect_start, float) if eff is not None else np.zeros(0)
-        lo, hi, typical = [], [], []
-        if self.fit_theta:
-            lo += [b[0] for b in THETA_BOUNDS]
-            hi += [b[1] for b in THETA_BOUNDS]
-            typical += list(THETA_SCALE)
+        typical = list(THETA_SCALE) if self.fit_theta else []
         if eff is not None:
-            lo += [b[0] for b in eff.bounds]
-            hi += [b[1] for b in eff.bounds]
             typical += [max(abs(s), (b[1] - b[0]) / 20.0) for s, b in zip(eff.start, eff.bounds)]
         x0 = np.concatenate([theta0 if self.fit_theta else np.zeros(0), e_start])
-        lo, hi = np.array(lo, float), np.array(hi, float)
+        lo, hi = self.parameter_bounds
         x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
 
         def residuals(params):
@@ -170,6 +186,7 @@ class StructureFit:
         theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)
         theta[4:6] = np.sort(theta[4:6])
         self.theta_ = theta
+        self.measured_, self.scale_ = measured, scale
         self.effect_values_ = np.asarray(ev, float)
         self.structure_ = self.structure(self.effect_values_)
         self.statistics_ = self.statistics(theta, self.structure_)
