@@ -93,7 +93,7 @@ def test_posterior_covers_the_truth_and_a_wrong_constant_moves_it_off(small, ban
     assert lo > 1.05, (lo, hi)
 
 
-def test_ci_config_keeps_the_posterior_off(repo_root=None):
+def test_ci_config_keeps_the_posterior_off():
     from pathlib import Path
 
     from uqdrive.config import load_config
