@@ -86,9 +86,12 @@ rule discrepancy_summary:
         measured=expand(f"{DISC}/measured/{{name}}", name=DISCREPANCY_MEASURED),
     output:
         dataset=f"{DISC}/benchmark_summary.nc",
-        table=report(f"{DISC}/benchmark_summary.csv", caption="../report/discrepancy_summary.rst", category="Discrepancy workflow"),
-        confusion=report(f"{FIG}/fig_discrepancy_confusion.png", caption="../report/discrepancy_confusion.rst", category="Discrepancy workflow"),
-        detection=report(f"{FIG}/fig_discrepancy_detection.png", caption="../report/discrepancy_detection.rst", category="Discrepancy workflow"),
+        table=report(f"{DISC}/benchmark_summary.csv", caption="../report/discrepancy_summary.rst", category="uqdrive discrepancy workflow",
+                     labels={"figure": "benchmark summary (table)", "case": "hidden-effect benchmark"}),
+        confusion=report(f"{FIG}/fig_discrepancy_confusion.png", caption="../report/discrepancy_confusion.rst", category="uqdrive discrepancy workflow",
+                         labels={"figure": "confusion matrix", "case": "hidden-effect benchmark"}),
+        detection=report(f"{FIG}/fig_discrepancy_detection.png", caption="../report/discrepancy_detection.rst", category="uqdrive discrepancy workflow",
+                         labels={"figure": "detection against magnitude", "case": "hidden-effect benchmark"}),
         scorecard=f"{OUT}/scorecard/discrepancy.csv",
     threads: 1
     resources:
@@ -107,8 +110,10 @@ rule discrepancy_thesis_figures:
     input:
         f"{DISC}/benchmark/discover/thesis_nlst",
     output:
-        bands=report(f"{FIG}/fig_discrepancy_thesis_bands.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
-        localisation=report(f"{FIG}/fig_discrepancy_thesis_localisation.png", caption="../report/discrepancy_thesis.rst", category="Discrepancy workflow"),
+        bands=report(f"{FIG}/fig_discrepancy_thesis_bands.png", caption="../report/discrepancy_thesis.rst", category="uqdrive discrepancy workflow",
+                     labels={"figure": "bands", "case": "thesis NLST data"}),
+        localisation=report(f"{FIG}/fig_discrepancy_thesis_localisation.png", caption="../report/discrepancy_thesis.rst", category="uqdrive discrepancy workflow",
+                            labels={"figure": "localisation", "case": "thesis NLST data"}),
     threads: 1
     resources:
         mem_mb=500,
