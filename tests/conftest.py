@@ -6,10 +6,22 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from uqdrive.config import load_config
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def tiny_config(t_end: float = 0.8, samples: int = 12) -> dict:
+    """The test config on a short grid (dt 0.02 s, t_end s), `samples` realisations and a cheap
+    identification: a tiny ensemble for the CLI's edge tests, simulated in well under a second."""
+    cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
+    cfg["time"].update(t_end=t_end, dt=0.02, step=0.01)
+    cfg["wind"]["kle_quadrature"] = 40
+    cfg["montecarlo"]["samples"] = samples
+    cfg["identification"].update(max_iter=15, order=1, quadrature_points=2)
+    return cfg
 
 
 @pytest.fixture(scope="session")

@@ -19,17 +19,7 @@ from uqdrive.cli.identify import fit_warnings
 from uqdrive.cli.main import Interrupted, _signals_exit_cleanly, main
 from uqdrive.io import OutputError, atomic_path, write_dataset
 
-from conftest import REPO
-
-
-def tiny_config() -> dict:
-    """The test config on a short grid: a tiny ensemble in well under a second."""
-    cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
-    cfg["time"].update(t_end=0.8, dt=0.02, step=0.01)
-    cfg["wind"]["kle_quadrature"] = 40
-    cfg["montecarlo"]["samples"] = 12
-    cfg["identification"].update(max_iter=15, order=1, quadrature_points=2)
-    return cfg
+from conftest import REPO, tiny_config
 
 
 @pytest.fixture(scope="module")

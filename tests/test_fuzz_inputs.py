@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 from uqdrive.cli.main import main
 from uqdrive.io import read_ensemble
 
-from conftest import REPO
+from conftest import tiny_config
 
 STATES = ("psi", "psi_dot", "beta", "y")
 VARIABLES = STATES + ("delta",)
@@ -46,20 +46,11 @@ CONFIG_VALUES = BAD_NUMBERS + ("x", None, True, [1, 2], 2.5, 3, "x1.1", "x0.9") 
 COUNTS = {"tried": 0, "refused": 0, "accepted": 0}
 
 
-def tiny_config() -> dict:
-    cfg = yaml.safe_load((REPO / "config" / "test.yaml").read_text())
-    cfg["time"].update(t_end=0.98, dt=0.02, step=0.01)  # 50 time points
-    cfg["wind"]["kle_quadrature"] = 40
-    cfg["montecarlo"]["samples"] = 20
-    cfg["identification"].update(max_iter=15, order=1, quadrature_points=2)
-    return cfg
-
-
 @pytest.fixture(scope="module")
 def base(tmp_path_factory):
     """A valid NLST ensemble of 20 samples x 50 time points (in memory) and its config."""
     folder = tmp_path_factory.mktemp("fuzz")
-    (folder / "c.yaml").write_text(yaml.safe_dump(tiny_config()))
+    (folder / "c.yaml").write_text(yaml.safe_dump(tiny_config(t_end=0.98, samples=20)))  # 50 time points
     assert main(["simulate", "--model", "nlst", "--config", str(folder / "c.yaml"), "--out", str(folder / "e.nc")]) == 0
     ds = xr.load_dataset(folder / "e.nc")
     for name in ds.variables:
@@ -218,7 +209,7 @@ def test_fuzzed_inputs_are_refused_in_one_line_or_give_a_valid_result(base, caps
         targets = data.draw(st.lists(st.sampled_from(kinds), min_size=1, max_size=2), label="targets")
         ds = base.isel(sample=slice(0, data.draw(st.integers(5, 20), label="samples")),
                        time=slice(0, data.draw(st.integers(20, 50), label="time points"))).copy(deep=True)
-        cfg = tiny_config()
+        cfg = tiny_config(t_end=0.98, samples=20)  # 50 time points
         with tempfile.TemporaryDirectory() as tmp:
             tmp = Path(tmp)
             config_bytes = yaml.safe_dump(cfg).encode()
