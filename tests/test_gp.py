@@ -171,6 +171,8 @@ def test_marginal_likelihood_and_gradient_with_exact_points_in_two_inputs():
     nll, grad = gp._nll_and_grad(theta)
     v1, g, v0 = np.exp(theta[0]), np.exp(theta[1:4]), np.exp(theta[4])
     assert nll == pytest.approx(_independent_nll(X, y, v1, g, v0, (~exact).astype(float)), rel=1e-10)
+    assert gp._nll(theta) == pytest.approx(nll, rel=1e-12)  # the sampler's value-only path
+    assert gp.log_marginal_likelihood_ == pytest.approx(-gp._nll(np.log([1.0, 1.0, 1.0, 1.0, 1.0])), rel=1e-12)
     fd = np.array([(gp._nll_and_grad(theta + 1e-6 * e)[0] - gp._nll_and_grad(theta - 1e-6 * e)[0]) / 2e-6 for e in np.eye(5)])
     assert grad == pytest.approx(fd, rel=1e-6, abs=1e-8)
     assert abs(grad[4]) > 1e-3  # the v0 component is not trivially zero
@@ -184,6 +186,7 @@ def test_non_positive_definite_covariance_is_a_dominating_penalty():
     gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0], "v0": 1.0}).fit(x, np.tanh(6 * x), noise_free=np.ones(12, bool))
     nll, grad = gp._nll_and_grad(np.array([9.0, -9.0, 9.0, -9.0]))
     assert nll >= 1e20 and np.all(grad == 0.0)
+    assert gp._nll(np.array([9.0, -9.0, 9.0, -9.0])) >= 1e20
 
 
 def test_predictions_equal_the_gaussian_conditioning_formulas():

@@ -10,6 +10,9 @@ DISCREPANCY_MEASURED = dict(config["discrepancy"].get("measured", {}))
 DISC = f"{OUT}/discrepancy"
 #: What the reality generator and `discover` read: the car, its priors, the wind, the spin policy.
 DISC_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "montecarlo", "discrepancy")
+#: What the hidden-effect generator alone reads: the car and its inputs, not the analysis settings
+#: (a new spin policy or bootstrap count reruns discover, not the 26 benchmark ensembles).
+CASE_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "discrepancy.benchmark")
 
 wildcard_constraints:
     case="|".join(DISCREPANCY_CASES) or "none",
@@ -22,7 +25,7 @@ rule discrepancy_case:
         measured=f"{DISC}/benchmark/measured/{{case}}.nc",
         label=f"{DISC}/benchmark/labels/{{case}}.json",
     params:
-        **reads(*DISC_KEYS),
+        **reads(*CASE_KEYS),
     threads: 1
     resources:
         mem_mb=1000,

@@ -11,6 +11,7 @@ import numpy as np
 from scipy.stats import beta as beta_dist
 from scipy.stats import norm
 
+from ..numerics.threads import with_single_blas_thread
 from .gp import ArcsineGP, arcsine_kernel, arcsine_kernel_grad_x, arcsine_kernel_grad_xx
 from .quarter_car import QuarterCar, damping, friction_curve, friction_slope, pid_gains
 
@@ -63,8 +64,7 @@ def slope_interval_ml(gp: ArcsineGP, x: float):
 
 
 def _log_posterior(log_theta, gp: ArcsineGP, prior_std: float):
-    nll, _ = gp._nll_and_grad(log_theta)
-    return -nll - 0.5 * np.sum((log_theta / prior_std) ** 2)
+    return -gp._nll(log_theta) - 0.5 * np.sum((log_theta / prior_std) ** 2)
 
 
 def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walkers: int = 16, steps: int = 400, burn: int = 150, prior_std: float = 3.0, draws: int = 200):
@@ -105,6 +105,7 @@ def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walke
     return float(means.mean()), float(np.sqrt(total_var)), tuple(bounds)
 
 
+@with_single_blas_thread
 def calibration(car: QuarterCar, n: int, sets: int, region, noise_std: float, restarts: int, rng: np.random.Generator, mcmc: Mapping[str, int] | None = None):
     """How often the 95 % slope interval at lambda* contains the true slope 0.3882.
 
@@ -127,6 +128,7 @@ def calibration(car: QuarterCar, n: int, sets: int, region, noise_std: float, re
     return out
 
 
+@with_single_blas_thread
 def prior_calibration(hyper: Mapping[str, Any], x_train, x_star: float, sets: int, rng: np.random.Generator):
     """Exact calibration check: truths drawn from the GP prior with known hyperparameters.
 

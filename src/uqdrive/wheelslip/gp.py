@@ -11,6 +11,8 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve, solve_triangular
 from scipy.optimize import minimize
 
+from ..numerics.threads import with_single_blas_thread
+
 __all__ = [
     "arcsine_kernel",
     "arcsine_kernel_grad_x",
@@ -133,6 +135,18 @@ class ArcsineGP:
         theta = np.exp(log_theta)
         return theta[0], theta[1 : D + 2], theta[D + 2]
 
+    def _nll(self, log_theta) -> float:
+        """Negative log marginal likelihood alone (no gradient): what a sampler needs, at a
+        third of the cost of :meth:`_nll_and_grad` (one Cholesky factor, no inverse)."""
+        X, y, noisy = self._X, self._y, self._noisy
+        v1, g, v0 = self._unpack(log_theta, X.shape[1])
+        z = np.clip(_parts(X, X, g)[-1], -1 + 1e-15, 1 - 1e-15)
+        try:
+            c = cho_factor(v1 * np.arcsin(z) + np.diag(v0 * noisy + self._jitter), lower=True)
+        except np.linalg.LinAlgError:
+            return 1e25
+        return 0.5 * y @ cho_solve(c, y) + np.sum(np.log(np.diag(c[0]))) + 0.5 * y.size * np.log(2 * np.pi)
+
     def _nll_and_grad(self, log_theta):
         X, y, noisy = self._X, self._y, self._noisy
         D = X.shape[1]
@@ -156,6 +170,8 @@ class ArcsineGP:
         grad = np.array([-0.5 * np.sum(W * dK) for dK in grads])
         return nll, grad
 
+    # tens-by-tens Cholesky factors: OpenBLAS threads make them several times slower (threads.py)
+    @with_single_blas_thread
     def fit(self, X, y, noise_free=None) -> "ArcsineGP":
         """Fit to observations y at X; ``noise_free`` marks exact points (e.g. mu(0) = 0).
 
@@ -187,8 +203,7 @@ class ArcsineGP:
             log_theta = best.x
         self.log_theta_ = log_theta
         self.v1_, self.g_, self.v0_ = self._unpack(log_theta, D)
-        nll, _ = self._nll_and_grad(log_theta)
-        self.log_marginal_likelihood_ = -nll
+        self.log_marginal_likelihood_ = -self._nll(log_theta)
         K = arcsine_kernel(self._X, self._X, self.v1_, self.g_) + np.diag(self.v0_ * self._noisy + self._jitter)
         self._L = np.linalg.cholesky(K)
         self._alpha = cho_solve((self._L, True), self._y)
