@@ -63,8 +63,9 @@ def slope_interval_ml(gp: ArcsineGP, x: float):
     return m[0], s, (m[0] - Z95 * s, m[0] + Z95 * s)
 
 
-def _log_posterior(log_theta, gp: ArcsineGP, prior_std: float):
-    return -gp._nll(log_theta) - 0.5 * np.sum((log_theta / prior_std) ** 2)
+def _log_posterior(log_thetas, gp: ArcsineGP, prior_std: float):
+    """Log posterior of log hyperparameters, shape (W, p) -> (W,): emcee's vectorised form."""
+    return -gp._nll_batch(log_thetas) - 0.5 * np.sum((log_thetas / prior_std) ** 2, axis=-1)
 
 
 def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walkers: int = 16, steps: int = 400, burn: int = 150, prior_std: float = 3.0, draws: int = 200):
@@ -77,7 +78,7 @@ def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walke
     """
     ndim = gp.log_theta_.size
     p0 = gp.log_theta_ + 1e-3 * rng.standard_normal((walkers, ndim))
-    sampler = emcee.EnsembleSampler(walkers, ndim, _log_posterior, args=(gp, prior_std))
+    sampler = emcee.EnsembleSampler(walkers, ndim, _log_posterior, args=(gp, prior_std), vectorize=True)
     # emcee draws its moves from a RandomState of its own: seed it from the caller's generator.
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     sampler.run_mcmc(p0, steps, progress=False)
