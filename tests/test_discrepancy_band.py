@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.inference.discrepancy.band import NullBand, excess_rms, moment_statistics, refit_projection, scan, scan_windows, statistic_scale
+from uqdrive.inference.discrepancy.band import NullBand, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan, scan_windows, statistic_scale
 from uqdrive.inference.discrepancy.catchall import smooth_discrepancy
 
 
@@ -91,3 +91,20 @@ def test_catch_all_absorbs_a_smooth_gap_but_not_white_noise():
     assert p == 64 and np.abs(resid).max() < 0.05
     noise = rng.standard_normal((2, 4, 100))
     assert np.sum(smooth_discrepancy(noise)[0] ** 2) > 0.8 * np.sum(noise**2)
+
+
+def test_replicate_statistics_equal_the_one_replicate_functions():
+    """The null band's one-pass statistics of R replicates equal moment_statistics and
+    statistic_scale per replicate (rel 1e-10: the same sums in another order), for heavy-tailed
+    data (the fourth moment matters), a model ratio and a state that does not vary (the floor)."""
+    rng = np.random.default_rng(4)
+    x = rng.standard_t(5, (4, 3, 50, 6))
+    x[1, :, :, 0] = 2.0  # no spread at the first time: the floor decides the scale there
+    stats, scale = replicate_statistics(x, model_ratio=0.5)
+    assert stats.shape == scale.shape == (3, 2, 4, 6)
+    k = np.arange(6)
+    for r in range(3):
+        assert stats[r] == pytest.approx(moment_statistics(x[:, r], k), rel=1e-10, abs=1e-12)
+        assert scale[r] == pytest.approx(statistic_scale(x[:, r], k, model_ratio=0.5), rel=1e-10)
+    assert not np.allclose(scale[0], scale[1])  # replicates are not mixed up
+    assert np.all(np.isfinite(scale)) and np.all(scale > 0)  # the floor, not 0 / 0, at the constant state

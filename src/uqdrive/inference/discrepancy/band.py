@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "statistic_scale", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
+__all__ = ["STATISTICS", "moment_statistics", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -60,10 +60,47 @@ def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):
     s = xs.std(axis=1, ddof=1)
     c = xs - xs.mean(axis=1, keepdims=True)
     m4 = np.mean(c**4, axis=1)
-    var_s = np.maximum(m4 - s**4, 0.0) / (4.0 * np.maximum(s, 1e-300) ** 2 * n)
+    # where nothing varies (s = 0) the std's own spread is 0 and the floor below decides; a
+    # 1e-300 guard would square to 0 and give 0 / 0 = NaN there
+    var_s = np.divide(np.maximum(m4 - s**4, 0.0), 4.0 * s**2 * n, out=np.zeros_like(s), where=s > 0)
     scale = np.stack([s / np.sqrt(n), np.sqrt(var_s)]) * np.sqrt(1.0 + model_ratio)
     top = scale.max(axis=-1, keepdims=True)
     return np.maximum(scale, floor * np.where(top > 0, top, 1.0))
+
+
+def replicate_statistics(x, model_ratio: float = 0.0, floor: float = 1e-3):
+    """:func:`moment_statistics` and :func:`statistic_scale` of many replicates in one pass.
+
+    The bootstrap of the null band needs both for hundreds of replicates; computing the
+    centred values once (mean, then sum c^2 and sum c^4) instead of five reductions per
+    statistic halves its cost.
+
+    Parameters
+    ----------
+    x : ndarray, shape (4, R, n, K)
+        R replicates of n realisations of the four states at K times.
+    model_ratio, floor : float
+        As in :func:`statistic_scale`.
+
+    Returns
+    -------
+    statistics, scale : ndarray, shape (R, 2, 4, K)
+        Equal to ``moment_statistics(x[:, r], all)`` and ``statistic_scale(x[:, r], all, ...)``
+        for each replicate r (to rounding).
+    """
+    n = x.shape[2]
+    m = x.mean(axis=2)
+    c2 = x - m[:, :, None, :]
+    np.square(c2, out=c2)
+    s = np.sqrt(c2.sum(axis=2) / (n - 1))
+    m4 = np.einsum("rsnk,rsnk->rsk", c2, c2) / n
+    # where nothing varies (s = 0) the std's own spread is 0 and the floor below decides; a
+    # 1e-300 guard would square to 0 and give 0 / 0 = NaN there
+    var_s = np.divide(np.maximum(m4 - s**4, 0.0), 4.0 * s**2 * n, out=np.zeros_like(s), where=s > 0)
+    scale = np.stack([s / np.sqrt(n), np.sqrt(var_s)]) * np.sqrt(1.0 + model_ratio)
+    top = scale.max(axis=-1, keepdims=True)
+    scale = np.maximum(scale, floor * np.where(top > 0, top, 1.0))
+    return np.stack([m, s]).transpose(2, 0, 1, 3), scale.transpose(2, 0, 1, 3)
 
 
 def standardised_gap(measured, model, scale):

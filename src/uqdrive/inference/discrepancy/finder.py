@@ -16,7 +16,7 @@ from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, expand_names
 from ...vehicle.noise import estimate_noise_variance
 from ...vehicle.single_track import STATES
-from .band import STATISTICS, NullBand, excess_rms, moment_statistics, refit_projection, scan_windows, statistic_scale
+from .band import STATISTICS, NullBand, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan_windows, statistic_scale
 from .catchall import smooth_discrepancy
 from .fit import StructureFit
 from .posterior import AugmentedPosterior
@@ -206,13 +206,15 @@ class DiscrepancyFinder:
             germs = type(sim.germs).draw(rng, reps * n, sim.germs.kle.shape[1])
             xb = sim.simulate(base.theta_, base.structure_, germs=germs)[:, :, index]
             xb = xb + rng.standard_normal(xb.shape) * np.sqrt(noise)[:, None, None]
-            for r in range(reps):
-                xr = xb[:, r * n:(r + 1) * n]
-                if spin is not None:
-                    keep = ~np.any(np.abs(xr[2]) > spin, axis=-1)
-                    xr = xr[:, keep] if keep.sum() >= 2 else xr
-                k = np.arange(xr.shape[-1])
-                z.append((moment_statistics(xr, k) - base.statistics_) / statistic_scale(xr, k, model_ratio=ratio))
+            xb = xb.reshape(4, reps, n, -1)
+            keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[2]) > spin, axis=-1)
+            whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
+            stats, scale = np.empty((reps, 2, 4, xb.shape[-1])), np.empty((reps, 2, 4, xb.shape[-1]))
+            if whole.any():
+                stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
+            for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
+                stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
+            z.extend((stats - base.statistics_) / scale)
         z = refit_projection(np.array(z), base.jacobian_)
         return NullBand.from_replicates(z, scan_windows(index.size), self.level)
 
