@@ -112,3 +112,23 @@ def test_bad_input_is_refused_with_one_line_and_no_verdict(files, capsys, how):
     assert code == 2
     assert len(cap.err.strip().splitlines()) == 1 and "Traceback" not in cap.err
     assert not out.exists() and not list(root.glob(f".{out.name}*"))
+
+
+@pytest.mark.parametrize("flag, expected", [([], None), (["--posterior"], True), (["--no-posterior"], False)])
+def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, expected):
+    """--posterior / --no-posterior override config discrepancy.posterior; without either the
+    config decides (None). The finder's reading of True/False/None is tested in
+    test_discrepancy_posterior; here the plumbing from the command line."""
+    import uqdrive.cli.discover as discover
+
+    seen = {}
+
+    def fake(config, measured, candidates, out, posterior=None):
+        seen["posterior"] = posterior
+        return {"effect": "none", "ambiguous_with": [], "gap_before": 0.0, "gap_after": 0.0, "evidence": {"n_spun": 0}}
+
+    monkeypatch.setattr(discover, "discover_file", fake)
+    root, cfg, paths = files
+    code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / f"flag_{len(flag)}_{expected}"), *flag], capsys)
+    assert code == 0, cap.err
+    assert seen == {"posterior": expected}

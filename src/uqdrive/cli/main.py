@@ -9,6 +9,7 @@ Adding a subcommand: one ``_add_<name>`` that builds its parser and one ``_<name
 
 from __future__ import annotations
 
+import argparse
 import signal
 import sys
 import threading
@@ -182,6 +183,9 @@ def _add_discover(sub) -> None:
                         "sensor_bias, sensor_scale (or one channel, e.g. sensor_bias_psi_dot)")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (written whole, only once the run succeeded)")
+    p.add_argument("--posterior", action=argparse.BooleanOptionalAction, default=None,
+                   help="sample the emcee posterior of the repaired model into verdict.json (--posterior) or never "
+                        "(--no-posterior); default: as config discrepancy.posterior says (enabled, for the effects listed)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(run=_discover)
 
@@ -197,7 +201,7 @@ def _discover(args) -> None:
     if not parent.is_dir():
         raise OutputError(f"output folder's parent '{parent}' does not exist; create it first")
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
-    v = discover_file(config, args.measured, candidates, out)
+    v = discover_file(config, args.measured, candidates, out, posterior=args.posterior)
     print(f"wrote {out / 'verdict.json'}: effect {v['effect']}" + (f" (ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
           + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
 
