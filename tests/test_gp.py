@@ -271,9 +271,16 @@ def test_batched_nll_equals_the_one_point_nll_row_by_row():
     exact[[0, 4]] = True
     gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0, 1.0], "v0": 1.0}).fit(X, y, noise_free=exact)
     rows = rng.uniform(-2, 2, (7, 5))
+    expected = [gp._nll(r) for r in rows]
+
+    def no_fallback(row):
+        raise AssertionError("positive definite rows must be computed in the batch, not one by one")
+
+    gp._nll = no_fallback  # the batch itself, not its one-row fallback, must give the values
     batch = gp._nll_batch(rows)
+    del gp._nll
     assert batch.shape == (7,)
-    assert batch == pytest.approx([gp._nll(r) for r in rows], rel=1e-10)
+    assert batch == pytest.approx(expected, rel=1e-10)
     assert len(set(np.round(batch, 6))) == 7  # the rows differ: no row repeated for all
     x = np.linspace(0.5, 1.0, 12)
     flat = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0], "v0": 1.0}).fit(x, np.tanh(6 * x), noise_free=np.ones(12, bool))
