@@ -20,11 +20,12 @@ reproduce: $(PYTHON)
 
 # make sweep SWEEP=config/sweeps/NAME.yaml: every point into results/sweeps/NAME/<point>/, then
 # results/sweeps/NAME/summary.{nc,csv,png}, then the report (README "Sweeping a config value").
+# The target comes first: --configfile takes every word after it as a config file.
 .PHONY: sweep
 sweep: $(PYTHON)
 	@test -f config/sweeps/$(basename $(notdir $(SWEEP))).yaml || { echo "usage: make sweep SWEEP=config/sweeps/NAME.yaml (one of: $(notdir $(wildcard config/sweeps/*.yaml)))"; exit 2; }
 	$(PYTHON) -m pip install --quiet -e .
-	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv
+	$(VENV)/bin/snakemake results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv --cores $(CORES) --configfile $(CONFIG)
 	$(VENV)/bin/snakemake --cores $(CORES) --configfile $(CONFIG) --report results/report.html --report-stylesheet workflow/report/report.css reported
 	@echo "summary: results/sweeps/$(basename $(notdir $(SWEEP)))/summary.csv, report: results/report.html"
 

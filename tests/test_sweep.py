@@ -7,6 +7,7 @@ import csv
 import importlib.util
 import json
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -274,3 +275,23 @@ def test_two_point_sweep(tmp_path):
     rc, out = _snakemake(["--report", str(tmp_path / "report.html"), "reported"], tmp_path)
     assert rc == 0, out[-3000:]
     assert "Sweep two" in (tmp_path / "report.html").read_text()
+
+
+@pytest.mark.parametrize("goal, target", [("sweep", "results/sweeps/noise_levels/summary.csv"), ("reproduce", None)])
+def test_make_hands_snakemake_its_config_and_target_apart(goal, target):
+    """Every Snakemake call of `make sweep` and `make reproduce` (as `make -n` prints them), read
+    by Snakemake's own argument parser: the config file is CONFIG alone and the sweep's summary a
+    target. (--configfile takes every word after it: a target placed after it was read as a
+    second config file and `make sweep` stopped with FileNotFoundError.)"""
+    from snakemake.cli import get_argument_parser
+
+    out = subprocess.run(["make", "-n", goal, "SWEEP=config/sweeps/noise_levels.yaml", "CONFIG=config/test.yaml", "CORES=2"],
+                         cwd=REPO, capture_output=True, text=True, check=True).stdout
+    calls = [shlex.split(line)[1:] for line in out.splitlines() if line.strip().split(" ")[0].endswith("bin/snakemake")]
+    assert len(calls) == 2  # the run, then the report
+    for argv in calls:
+        args = get_argument_parser().parse_args(argv)
+        assert [str(p) for p in args.configfile] == ["config/test.yaml"]
+    run, report = (get_argument_parser().parse_args(a) for a in calls)
+    assert list(run.targets) == ([target] if target else []) and run.report is None
+    assert report.report and list(report.targets) == ["reported"]
