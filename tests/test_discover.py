@@ -3,6 +3,7 @@
 
 import copy
 import json
+import re
 
 import numpy as np
 import pytest
@@ -132,3 +133,16 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / f"flag_{len(flag)}_{expected}"), *flag], capsys)
     assert code == 0, cap.err
     assert seen == {"posterior": expected}
+
+
+def test_progress_lines_name_each_stage_and_the_verdict(files, small):
+    """The workflow's log gets one line per finished stage with its seconds, then the verdict (a
+    long rule reports progress): on the null case, the baseline, the null band and the verdict."""
+    from uqdrive.cli.discover import discover_file
+
+    root, _, paths = files
+    lines = []
+    v = discover_file(small, paths["null"], None, root / "progress_out", log=lines.append)
+    assert [line.split(" done")[0] for line in lines[:2]] == ["discover: baseline", "discover: null_band"]
+    assert all(re.search(r"done in \d+\.\d s", line) for line in lines[:2])
+    assert lines[-1] == f"discover: verdict none, gap {v['gap_before']:.3g} -> {v['gap_after']:.3g}"

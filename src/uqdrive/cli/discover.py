@@ -8,7 +8,7 @@ import json
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import yaml
@@ -49,11 +49,13 @@ def _checked_candidates(candidates: Sequence[str] | None):
         raise DataError(str(err).strip("'\"")) from None
 
 
-def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None) -> dict:
+def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
+                  log: Callable[[str], None] | None = None) -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
 
     ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
-    (True), never (False), or as config ``discrepancy.posterior`` says (None).
+    (True), never (False), or as config ``discrepancy.posterior`` says (None). ``log`` receives
+    a progress line per stage (the workflow's log file).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind.
@@ -65,7 +67,7 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
         raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
-    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values))
+    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log)
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)

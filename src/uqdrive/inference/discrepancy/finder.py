@@ -6,7 +6,7 @@ localise where the data leave it, name the missing effect among registered candi
 from __future__ import annotations
 
 import time as _time
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -72,6 +72,9 @@ class DiscrepancyFinder:
         ``separating_input`` names, for every candidate ambiguous with the named one, the input
         that would separate them best (:func:`.separate.suggest_input`); the measured input is
         always among them. None: no suggestion.
+    log : callable, optional
+        Receives one progress line per finished stage (baseline fit, null band, screening,
+        joint fits, verdict, posterior) with its seconds, e.g. ``print`` to a log file.
 
     Attributes
     ----------
@@ -90,7 +93,7 @@ class DiscrepancyFinder:
     def __init__(self, config: Mapping[str, Any], candidates: Sequence[str] | None = None, model_samples: int | None = None,
                  nonlinear_samples: int | None = None, bootstrap: int | None = None, level: float | None = None,
                  max_times: int | None = None, top: int | None = None, seed: int | None = None, posterior: bool | None = None,
-                 inputs: Mapping[str, Any] | None = None):
+                 inputs: Mapping[str, Any] | None = None, log: Callable[[str], None] | None = None):
         d = dict(config.get("discrepancy", {}))
         self.config = config
         self.candidates = expand_names(candidates if candidates is not None else d.get("candidates", DEFAULT_CANDIDATES))
@@ -103,6 +106,7 @@ class DiscrepancyFinder:
         self.seed = int(config["seed"] if seed is None else seed)
         self.posterior = posterior
         self.inputs = inputs
+        self.log = log
 
     # -- data ---------------------------------------------------------------------------------
     def _prepare(self, ds):
@@ -145,15 +149,21 @@ class DiscrepancyFinder:
         prior = self.config["uncertainty"]
         theta0 = [prior["mu"]["mean"], prior["mu"]["std"], prior["l_f"]["mean"], prior["l_f"]["std"], prior["F_w_mean"]["low"], prior["F_w_mean"]["high"]]
         stages = {}
+
+        def lap(stage, detail=""):
+            stages[stage] = _time.perf_counter() - clock - sum(stages.values())
+            if self.log is not None:
+                self.log(f"discover: {stage} done in {stages[stage]:.1f} s{detail}")
+
         base = StructureFit(sim, index, noise, spin).fit(self.measured_, self.scale_, theta0)
-        stages["baseline"] = _time.perf_counter() - clock
+        lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
         self.baseline_ = base
         self.band_ = band = self._null_band(sim, base, n, index, noise, spin, ratio)
-        stages["null_band"] = _time.perf_counter() - clock - sum(stages.values())
         z0 = base.z_
         gap0 = excess_rms(z0, band)
         stat0 = band.max_statistic(z0)
         significant = stat0 > band.threshold
+        lap("null_band", f" ({self.bootstrap} replicates; max statistic {stat0:.3g}, threshold {band.threshold:.3g})")
         self.fits_, screening = {}, {}
         if significant:
             # Screening: each candidate's own parameters fitted with the distributions held.
@@ -162,19 +172,21 @@ class DiscrepancyFinder:
             # towards the prior), so it is held at the prior, from the config's tyre shape.
             # The best few are then re-identified jointly with the distributions.
             screening = self._screen(sim, base, theta0, index, noise, spin, n)
-            stages["screening"] = _time.perf_counter() - clock - sum(stages.values())
+            lap("screening", f" ({len(screening)} candidates)")
             for name in sorted(screening, key=lambda c: screening[c]["chi2"])[: self.top]:
                 start_theta = theta0 if self._nonlinear(name) else base.theta_
                 self.fits_[name] = self._joint(sim, start_theta, name, screening[name]["values"], index, noise, spin, n)
-            stages["joint_fits"] = _time.perf_counter() - clock - sum(stages.values())
+            lap("joint_fits", f" ({', '.join(self.fits_)})")
         self.verdict_ = self._decide(base, band, z0, gap0, stat0, significant, screening, noise, n, (sim, index, spin))
         self.verdict_["separating_input"] = self._separating_input(delta, n)
+        if self.log is not None:
+            self.log(f"discover: verdict {self.verdict_['effect']}, gap {self.verdict_['gap_before']:.3g} -> {self.verdict_['gap_after']:.3g}")
         self.posterior_ = None
         if self._wants_posterior(self.verdict_["effect"]):
             settings = {k: v for k, v in self.config.get("discrepancy", {}).get("posterior", {}).items() if k not in ("enabled", "effects")}
             self.posterior_ = AugmentedPosterior(**settings).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
             self.verdict_["posterior"] = self.posterior_.summary()
-            stages["posterior"] = _time.perf_counter() - clock - sum(stages.values())
+            lap("posterior")
         self.verdict_["evidence"]["seconds"] = round(_time.perf_counter() - clock, 1)
         self.verdict_["evidence"]["stage_seconds"] = {k: round(v, 1) for k, v in stages.items()}
         return self
