@@ -443,3 +443,49 @@ def test_default_run_scorecard_has_no_fail_and_every_deviation_explained():
     with open(path) as fh:  # provenance columns may follow
         assert tuple(fh.readline().strip().split(","))[: len(COLUMNS)] == COLUMNS
     assert scorecard_problems(read_scorecard(path)) == []
+
+
+# --- edges that mutation testing found unchecked -------------------------------------------------
+
+def test_rows_and_deviations_are_immutable():
+    """A row is a record of a comparison: changing its status afterwards must be impossible."""
+    import dataclasses
+
+    row = compare("q", "thesis eq. (1)", 1.0, 3.0, 0.1)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        row.status = "pass"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        KNOWN_DEVIATIONS["gp_training_region"].reason = "anything"
+
+
+def test_a_value_exactly_at_the_tolerance_passes():
+    """|reproduced - published| == tolerance (+ the 1e-12 rounding guard) is inside: the
+    tolerance is an inclusive bound (0.5 + 1e-12 is the same double on both sides)."""
+    assert compare("q", "s", 0.0, 0.5 + 1e-12, 0.5).status == "pass"
+    assert compare("q", "s", 0.0, 0.5 + 3e-12, 0.5).status == "fail"
+
+
+def test_coverage_of_a_single_trial():
+    """One trial that covered: coverage 1/1 (not 1/2), within the binomial half-width
+    1.96 sqrt(0.95 0.05 / 1) = 0.427 of 0.95."""
+    row = coverage_row("c", UQDRIVE_CHECK, 1, 1)
+    assert row.reproduced == 1.0 and row.tolerance == pytest.approx(1.96 * np.sqrt(0.95 * 0.05)) and row.status == "pass"
+    assert coverage_row("c", UQDRIVE_CHECK, 0, 0).reproduced == 0.0  # no trials: no division by zero
+
+
+def test_gp_estimate_rows_without_a_finite_interval_fail_instead_of_crashing(config):
+    """All training draws' intervals non-finite (e.g. every fit failed): the rows report NaN and
+    fail; they do not crash the scorecard."""
+    broken = _calibration(means=np.full(5, np.nan))
+    rows = gp_estimate_rows(config, [broken])
+    assert len(rows) == 2 and all(np.isnan(r.reproduced) and r.status == "fail" for r in rows)
+
+
+def test_gp_estimate_tolerance_at_a_tie_takes_the_upper_side(config):
+    """The paper's E(Gamma) equal to uqdrive's median: the tolerance is the upper spread (the side
+    'PAPER >= median' selects), here 0.5 + 0.0787 interpolated, not the lower one."""
+    means = np.array([-0.3, SEED_PAPER["E_Gamma"], 0.5])  # median exactly the paper's -0.0787
+    e = gp_estimate_rows(config, [_calibration(means=means, stds=np.array([0.4, 0.0, 0.4]))])[0]  # m +- 0: m exactly
+    assert e.reproduced == SEED_PAPER["E_Gamma"] and e.status == "pass"
+    assert e.tolerance == pytest.approx(np.percentile(means, 97.5) - SEED_PAPER["E_Gamma"])
+    assert e.tolerance != pytest.approx(SEED_PAPER["E_Gamma"] - np.percentile(means, 2.5))

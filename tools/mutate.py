@@ -135,7 +135,16 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
          "reason": "E does not depend on K: its derivative directions are zeros, and a fifth zero direction is never read"},
     ],
     "statistics": [],
-    "scorecard": [],
+    "scorecard": [
+        {"line": "+ 1e-12 if np.isfinite(miss) else 0.0", "mutation": "constant 0.0 -> 1.0",
+         "reason": "the slack of a row whose miss is infinite (reproduced NaN): inf > 0 and inf > 1 agree, as do inf < -0 and inf < -1"},
+        {"line": "(r.status == \"pass\" and miss > slack)", "mutation": "`>` -> `>=`",
+         "reason": "differs only when the miss equals the 6-digit slack to the last bit: an exact tie of two computed doubles"},
+        {"line": "holds=extrapolates and hits / max(sets, 1) > 0.95", "mutation": "`>` -> `>=`",
+         "reason": "holds matters only for a row outside its tolerance; coverage exactly 0.95 is the nominal value, always inside"},
+        {"line": "holds=extrapolates and hits / max(sets, 1) > 0.95", "mutation": "constant 1 -> 2",
+         "reason": "differs only for sets = 1, where coverage 1 passes (within 0.427 of 0.95) and coverage 0 gives 0 either way"},
+    ],
 }
 
 IGNORE_COPY = shutil.ignore_patterns(".git", ".venv", ".snakemake", "results", ".hypothesis", ".ruff_cache", ".pytest_cache", "__pycache__", "*.pyc",
