@@ -462,7 +462,7 @@ def test_a_value_exactly_at_the_tolerance_passes():
     """|reproduced - published| == tolerance (+ the 1e-12 rounding guard) is inside: the
     tolerance is an inclusive bound (0.5 + 1e-12 is the same double on both sides)."""
     assert compare("q", "s", 0.0, 0.5 + 1e-12, 0.5).status == "pass"
-    assert compare("q", "s", 0.0, 0.5 + 3e-12, 0.5).status == "fail"
+    assert compare("q", "s", 0.0, 0.5 + 1.5e-12, 0.5).status == "fail"  # the guard is 1e-12, no more
 
 
 def test_coverage_of_a_single_trial():
@@ -489,3 +489,23 @@ def test_gp_estimate_tolerance_at_a_tie_takes_the_upper_side(config):
     assert e.reproduced == SEED_PAPER["E_Gamma"] and e.status == "pass"
     assert e.tolerance == pytest.approx(np.percentile(means, 97.5) - SEED_PAPER["E_Gamma"])
     assert e.tolerance != pytest.approx(SEED_PAPER["E_Gamma"] - np.percentile(means, 2.5))
+
+
+def test_coverage_row_explains_by_default_when_its_deviation_is_named():
+    """coverage_row's ``holds`` defaults to True: naming a registered deviation explains an
+    out-of-tolerance coverage unless the caller says the condition does not hold."""
+    q = "slope 95% interval coverage of the true slope, emcee (10 points)"
+    row = coverage_row(q, UQDRIVE_CHECK, 100, 100, deviation="gp_coverage_conservative")
+    assert row.status == "deviates" and row.reason == KNOWN_DEVIATIONS["gp_coverage_conservative"].reason
+    assert coverage_row(q, UQDRIVE_CHECK, 100, 100, deviation="gp_coverage_conservative", holds=False).status == "fail"
+
+
+def test_csv_rounding_slack_scales_with_the_magnitudes_not_their_signs():
+    """A pass row 1e-3 outside its tolerance at values of order 400 is within the 6 digits the CSV
+    keeps (slack 5e-6 x (|published| + |reproduced| + tolerance) = 4.4e-3), whatever the signs:
+    negative published and reproduced values (the wind's lower bound) get the same slack."""
+    for sign in (1.0, -1.0):
+        row = ScoreRow("wind lower bound", "thesis Table 6.2", sign * 412.0, sign * 442.001, 30.0, "pass")
+        assert scorecard_problems([row]) == []
+        far = ScoreRow("wind lower bound", "thesis Table 6.2", sign * 412.0, sign * 442.01, 30.0, "pass")
+        assert len(scorecard_problems([far])) == 1  # 1e-2 is more than rounding
