@@ -501,11 +501,12 @@ def test_coverage_row_explains_by_default_when_its_deviation_is_named():
 
 
 def test_csv_rounding_slack_scales_with_the_magnitudes_not_their_signs():
-    """A pass row 1e-3 outside its tolerance at values of order 400 is within the 6 digits the CSV
-    keeps (slack 5e-6 x (|published| + |reproduced| + tolerance) = 4.4e-3), whatever the signs:
-    negative published and reproduced values (the wind's lower bound) get the same slack."""
+    """A pass row 4.3e-3 outside its tolerance at values of order 400 is within the 6 digits the CSV
+    keeps (slack 5e-6 x (|published| + |reproduced| + tolerance) = 4.42e-3; with the tolerance
+    subtracted it would be 4.12e-3), whatever the signs: negative published and reproduced values
+    (the wind's lower bound) get the same slack."""
     for sign in (1.0, -1.0):
-        row = ScoreRow("wind lower bound", "thesis Table 6.2", sign * 412.0, sign * 442.001, 30.0, "pass")
+        row = ScoreRow("wind lower bound", "thesis Table 6.2", sign * 412.0, sign * 442.0043, 30.0, "pass")
         assert scorecard_problems([row]) == []
         far = ScoreRow("wind lower bound", "thesis Table 6.2", sign * 412.0, sign * 442.01, 30.0, "pass")
         assert len(scorecard_problems([far])) == 1  # 1e-2 is more than rounding
