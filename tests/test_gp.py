@@ -155,18 +155,24 @@ def test_single_start_is_the_zero_start_and_draws_nothing():
     assert default.rng.bit_generator.state == np.random.default_rng(0).bit_generator.state
 
 
+def _two_input_gp(rng):
+    """Nine noisy points of a smooth function of two inputs, two of them exact, and a GP with unit
+    hyperparameters fitted to them (no optimisation): (X, y, exact, gp)."""
+    X = rng.uniform(-1, 1, (9, 2))
+    y = np.tanh(2 * X[:, 0]) - 0.5 * X[:, 1] + 0.1 * rng.normal(size=9)
+    exact = np.zeros(9, bool)
+    exact[[0, 4]] = True
+    gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0, 1.0], "v0": 1.0}).fit(X, y, noise_free=exact)
+    return X, y, exact, gp
+
+
 def test_marginal_likelihood_and_gradient_with_exact_points_in_two_inputs():
     """Two inputs and two noise-free points: the NLL equals the independent Gaussian log density
     (rel 1e-10) and its analytic gradient, including the exact-point branch of d/d log v0 (only
     noisy points carry v0), equals central differences (h = 1e-6: truncation ~h^2 |f'''| ~ 1e-11,
     rounding ~1e-16 |f| / h ~ 1e-10; tolerance 1e-6 relative, 1e-8 absolute on components of
     order 1)."""
-    rng = np.random.default_rng(3)
-    X = rng.uniform(-1, 1, (9, 2))
-    y = np.tanh(2 * X[:, 0]) - 0.5 * X[:, 1] + 0.1 * rng.normal(size=9)
-    exact = np.zeros(9, bool)
-    exact[[0, 4]] = True
-    gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0, 1.0], "v0": 1.0}).fit(X, y, noise_free=exact)
+    X, y, exact, gp = _two_input_gp(np.random.default_rng(3))
     theta = np.array([0.3, -0.5, 1.2, 0.4, -2.5])
     nll, grad = gp._nll_and_grad(theta)
     v1, g, v0 = np.exp(theta[0]), np.exp(theta[1:4]), np.exp(theta[4])
@@ -265,11 +271,7 @@ def test_batched_nll_equals_the_one_point_nll_row_by_row():
     1), on two inputs with exact points; a row whose covariance is singular gets the penalty
     while the other rows keep their values."""
     rng = np.random.default_rng(5)
-    X = rng.uniform(-1, 1, (9, 2))
-    y = np.tanh(2 * X[:, 0]) - 0.5 * X[:, 1] + 0.1 * rng.normal(size=9)
-    exact = np.zeros(9, bool)
-    exact[[0, 4]] = True
-    gp = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0, 1.0], "v0": 1.0}).fit(X, y, noise_free=exact)
+    X, y, exact, gp = _two_input_gp(rng)
     rows = rng.uniform(-2, 2, (7, 5))
     expected = [gp._nll(r) for r in rows]
 
