@@ -31,9 +31,13 @@ def test_binomial_interval():
 
 def test_calibration_and_mcmc_remedy_run():
     rng = np.random.default_rng(3)
-    res = calibration(CAR, 10, 4, (0.0, 0.1), 0.05, 2, rng, {"sets": 1, "walkers": 10, "steps": 40, "burn": 10})
+    lines = []
+    res = calibration(CAR, 10, 4, (0.0, 0.1), 0.05, 2, rng, {"sets": 1, "walkers": 10, "steps": 40, "burn": 10}, log=lines.append, log_every=3)
     assert res["ml_bounds"].shape == (4, 2) and res["mcmc_bounds"].shape == (1, 2)
     assert np.all(res["ml_bounds"][:, 0] < res["ml_bounds"][:, 1])
+    # progress every 3 sets and at the end, for the workflow's log
+    assert [line.split(",")[0] for line in lines] == ["calibration (10 points): 3/4 training sets", "calibration (10 points): 4/4 training sets"]
+    assert " 1 with emcee" in lines[-1]
 
 
 def test_mcmc_interval_is_reproducible():

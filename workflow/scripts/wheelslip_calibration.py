@@ -14,4 +14,5 @@ config, n = snakemake.params.config, int(snakemake.wildcards.n)  # noqa: F821
 gp = xr.load_dataset(snakemake.input.gp)  # noqa: F821
 hyper = {"v1": gp.attrs["v1"], "g": np.atleast_1d(gp.attrs["g"]), "v0": gp.attrs["v0"]}
 rng = rng_stream(config["seed"], "wheelslip_calibration", n)
-write_dataset(calibration_dataset(config, n, snakemake.params.mcmc_sets, hyper, rng), snakemake.output[0])  # noqa: F821
+progress = lambda line: print(line, file=sys.stderr, flush=True)  # noqa: E731
+write_dataset(calibration_dataset(config, n, snakemake.params.mcmc_sets, hyper, rng, log=progress), snakemake.output[0])  # noqa: F821

@@ -4,7 +4,7 @@ calibration, and closed-loop braking with friction curves drawn from the GP post
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import xarray as xr
@@ -60,14 +60,16 @@ def gp_from_dataset(ds: xr.Dataset) -> ArcsineGP:
     return gp.fit(ds["train_slip"].values, ds["train_mu"].values, noise_free=ds["train_exact"].values.astype(bool))
 
 
-def calibration_dataset(config: Mapping[str, Any], n: int, mcmc_sets: int, hyper: Mapping[str, Any], rng: np.random.Generator) -> xr.Dataset:
+def calibration_dataset(config: Mapping[str, Any], n: int, mcmc_sets: int, hyper: Mapping[str, Any], rng: np.random.Generator,
+                        log: Callable[[str], None] | None = None) -> xr.Dataset:
     """Coverage of the true slope by the 95 % interval over many training sets (ML and emcee),
-    and the exact check with truths drawn from the GP prior with hyperparameters ``hyper``."""
+    and the exact check with truths drawn from the GP prior with hyperparameters ``hyper``;
+    ``log`` receives progress lines."""
     w = config["wheelslip"]
     c = w["calibration"]
     car = QuarterCar.from_config(config)
     mcmc = {"sets": mcmc_sets, "walkers": c["walkers"], "steps": c["steps"], "burn": c["burn"]} if mcmc_sets else None
-    res = calibration(car, n, c["sets"], w["gp"]["training_slip"], w["gp"]["noise_std"], w["gp"]["restarts"], rng, mcmc)
+    res = calibration(car, n, c["sets"], w["gp"]["training_slip"], w["gp"]["noise_std"], w["gp"]["restarts"], rng, mcmc, log=log)
     x_train = np.concatenate([[0.0], np.linspace(*w["gp"]["training_slip"], n)])
     prior_hits, prior_sets = prior_calibration(hyper, x_train, car.lambda_star, c["prior_sets"], rng)
     from ..wheelslip.calibration import binomial_interval

@@ -4,7 +4,8 @@ calibration (maximum likelihood vs hyperparameters integrated out with emcee), c
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+import time
+from typing import Any, Callable, Mapping
 
 import emcee
 import numpy as np
@@ -107,19 +108,24 @@ def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walke
 
 
 @with_single_blas_thread
-def calibration(car: QuarterCar, n: int, sets: int, region, noise_std: float, restarts: int, rng: np.random.Generator, mcmc: Mapping[str, int] | None = None):
+def calibration(car: QuarterCar, n: int, sets: int, region, noise_std: float, restarts: int, rng: np.random.Generator, mcmc: Mapping[str, int] | None = None,
+                log: Callable[[str], None] | None = None, log_every: int = 100):
     """How often the 95 % slope interval at lambda* contains the true slope 0.3882.
 
     Returns a dict with per-set interval bounds, the hit count and the Clopper-Pearson interval,
     for maximum likelihood and (if ``mcmc`` settings are given) for integrated hyperparameters.
+    ``log`` receives a progress line every ``log_every`` training sets.
     """
     truth = float(friction_slope(car.lambda_star, car.mu_H, car.k))
     out = {"truth": truth, "ml": [], "mcmc": []}
-    for _ in range(sets):
+    clock = time.perf_counter()
+    for k in range(sets):
         gp, _, _ = fit_friction_gp(car, n, region, noise_std, restarts, rng)
         out["ml"].append(slope_interval_ml(gp, car.lambda_star)[2])
         if mcmc is not None and len(out["mcmc"]) < mcmc["sets"]:
             out["mcmc"].append(slope_interval_mcmc(gp, car.lambda_star, rng, mcmc["walkers"], mcmc["steps"], mcmc["burn"])[2])
+        if log is not None and ((k + 1) % log_every == 0 or k + 1 == sets):
+            log(f"calibration ({n} points): {k + 1}/{sets} training sets, {len(out['mcmc'])} with emcee, {time.perf_counter() - clock:.0f} s")
     for key in ("ml", "mcmc"):
         bounds = np.array(out[key]).reshape(-1, 2)
         hits = int(np.sum((bounds[:, 0] <= truth) & (truth <= bounds[:, 1])))
