@@ -116,6 +116,11 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
         {"line": 'if "z" not in cache or not np.array_equal(cache["z"], z):', "mutation": "drop unary `not`", "mutated": 'or (np.array_equal',
          "reason": "least_squares asks for the Jacobian only at the point it evaluated last, so the cache always matches; the "
                    "mutant recomputes it there (cost only)"},
+        {"line": "out = self._objective(np.asarray(theta, float), gradient=False)", "mutation": "constant False -> True",
+         "reason": "cost_function returns out[0], the cost; the mutant computes the gradient too and drops it"},
+        {"line": "best.fun < self._penalty)", "mutation": "`<` -> `<=`",
+         "reason": "the start must be physical (else ValueError) and costs 1 in scaled units; the local optimisers never end above "
+                   "their start, so best.fun <= 1 < 1e6 and equality with the penalty cannot occur"},
         {"line": "n = 24 * self.starts", "mutation": "constant 24 -> 25",
          "reason": "size of the random candidate pool of the global stage: a tuning choice, no specified output"},
         {"line": 'RuntimeWarning, stacklevel=2', "mutation": "constant 2 -> 3",
