@@ -135,17 +135,30 @@ class ArcsineGP:
         theta = np.exp(log_theta)
         return theta[0], theta[1 : D + 2], theta[D + 2]
 
+    def _factor(self, log_theta):
+        """Cholesky factor of the training covariance K at ``log_theta`` (None where K is not
+        numerically positive definite), the hyperparameters and the kernel parts the gradient
+        needs: (factor, (v1, g, v0), (A, a, b, root, z))."""
+        v1, g, v0 = self._unpack(log_theta, self._X.shape[1])
+        A, _, u, a, b, root, z = _parts(self._X, self._X, g)
+        z = np.clip(z, -1 + 1e-15, 1 - 1e-15)
+        try:
+            c = cho_factor(v1 * np.arcsin(z) + np.diag(v0 * self._noisy + self._jitter), lower=True)
+        except np.linalg.LinAlgError:
+            c = None
+        return c, (v1, g, v0), (A, a, b, root, z)
+
+    def _nll_of_factor(self, c):
+        """NLL and alpha = K^-1 y from the Cholesky factor of K."""
+        y = self._y
+        alpha = cho_solve(c, y)
+        return 0.5 * y @ alpha + np.sum(np.log(np.diag(c[0]))) + 0.5 * y.size * np.log(2 * np.pi), alpha
+
     def _nll(self, log_theta) -> float:
         """Negative log marginal likelihood alone (no gradient): what a sampler needs, at a
         third of the cost of :meth:`_nll_and_grad` (one Cholesky factor, no inverse)."""
-        X, y, noisy = self._X, self._y, self._noisy
-        v1, g, v0 = self._unpack(log_theta, X.shape[1])
-        z = np.clip(_parts(X, X, g)[-1], -1 + 1e-15, 1 - 1e-15)
-        try:
-            c = cho_factor(v1 * np.arcsin(z) + np.diag(v0 * noisy + self._jitter), lower=True)
-        except np.linalg.LinAlgError:
-            return 1e25
-        return 0.5 * y @ cho_solve(c, y) + np.sum(np.log(np.diag(c[0]))) + 0.5 * y.size * np.log(2 * np.pi)
+        c = self._factor(log_theta)[0]
+        return 1e25 if c is None else self._nll_of_factor(c)[0]
 
     def _nll_batch(self, log_thetas) -> np.ndarray:
         """:meth:`_nll` at many points at once, for a sampler that moves a whole ensemble.
@@ -179,18 +192,11 @@ class ArcsineGP:
         return 0.5 * quad + logdet + 0.5 * y.size * np.log(2 * np.pi)
 
     def _nll_and_grad(self, log_theta):
-        X, y, noisy = self._X, self._y, self._noisy
-        D = X.shape[1]
-        v1, g, v0 = self._unpack(log_theta, D)
-        A, _, u, a, b, root, z = _parts(X, X, g)
-        z = np.clip(z, -1 + 1e-15, 1 - 1e-15)
-        K = v1 * np.arcsin(z) + np.diag(v0 * noisy + self._jitter)
-        try:
-            c = cho_factor(K, lower=True)
-        except np.linalg.LinAlgError:
+        y, noisy, D = self._y, self._noisy, self._X.shape[1]
+        c, (v1, g, v0), (A, a, b, root, z) = self._factor(log_theta)
+        if c is None:
             return 1e25, np.zeros_like(log_theta)
-        alpha = cho_solve(c, y)
-        nll = 0.5 * y @ alpha + np.sum(np.log(np.diag(c[0]))) + 0.5 * y.size * np.log(2 * np.pi)
+        nll, alpha = self._nll_of_factor(c)
         W = np.outer(alpha, alpha) - cho_solve(c, np.eye(y.size))  # d nll = -1/2 tr(W dK)
         grads = [v1 * np.arcsin(z)]  # d K / d log v1
         ds = v1 / np.sqrt(1.0 - z**2)

@@ -60,6 +60,12 @@ def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):
     s = xs.std(axis=1, ddof=1)
     c = xs - xs.mean(axis=1, keepdims=True)
     m4 = np.mean(c**4, axis=1)
+    return _scale_of_moments(s, m4, n, model_ratio, floor)
+
+
+def _scale_of_moments(s, m4, n: int, model_ratio: float, floor: float):
+    """[s / sqrt(n), sqrt(Var s)] * sqrt(1 + model_ratio), floored: the formula of
+    :func:`statistic_scale` from the std s and fourth central moment m4 (any shape, time last)."""
     # where nothing varies (s = 0) the std's own spread is 0 and the floor below decides; a
     # 1e-300 guard would square to 0 and give 0 / 0 = NaN there
     var_s = np.divide(np.maximum(m4 - s**4, 0.0), 4.0 * s**2 * n, out=np.zeros_like(s), where=s > 0)
@@ -94,12 +100,7 @@ def replicate_statistics(x, model_ratio: float = 0.0, floor: float = 1e-3):
     np.square(c2, out=c2)
     s = np.sqrt(c2.sum(axis=2) / (n - 1))
     m4 = np.einsum("rsnk,rsnk->rsk", c2, c2) / n
-    # where nothing varies (s = 0) the std's own spread is 0 and the floor below decides; a
-    # 1e-300 guard would square to 0 and give 0 / 0 = NaN there
-    var_s = np.divide(np.maximum(m4 - s**4, 0.0), 4.0 * s**2 * n, out=np.zeros_like(s), where=s > 0)
-    scale = np.stack([s / np.sqrt(n), np.sqrt(var_s)]) * np.sqrt(1.0 + model_ratio)
-    top = scale.max(axis=-1, keepdims=True)
-    scale = np.maximum(scale, floor * np.where(top > 0, top, 1.0))
+    scale = _scale_of_moments(s, m4, n, model_ratio, floor)
     return np.stack([m, s]).transpose(2, 0, 1, 3), scale.transpose(2, 0, 1, 3)
 
 
