@@ -85,31 +85,47 @@ def _multilevel_in_place(Phi_T, out):
     arithmetic of the plain loop: the same sums in another order, equal to round-off for a
     stable or marginally stable Phi (powers up to Phi^L of each level are formed).
     """
-    K = out.shape[0] - 1
-    tail = out.shape[1:]
+    _multilevel_batched(Phi_T[None], out[None])
+
+
+def _multilevel_batched(Phi_T, out):
+    """x_{k+1} = x_k Phi_T[b] + d_k (row vectors) in place for every member b.
+
+    The nested chunks of :func:`_multilevel_in_place` (L ~ K^(1/3) steps, chunk starts by the
+    same recursion with Phi^L), every product one stacked ``matmul`` over the members; one
+    system is the batch of one.
+
+    Parameters
+    ----------
+    Phi_T : ndarray, shape (B, n, n)
+        Transposed one-step transition of each member.
+    out : ndarray, shape (B, K + 1, ..., n), any strides
+        x_0 and d_0..d_{K-1} on entry, x_0..x_K on return; the middle axes are independent
+        systems of the same member.
+    """
+    B, K = out.shape[0], out.shape[1] - 1
+    tail = out.shape[2:]
     n = tail[-1]
     done = 0
     if K > _DIRECT_STEPS:
         L = max(2, int(round(K ** (1.0 / 3.0))))
         C = K // L
-        z = out[1 : C * L + 1].reshape((C, L) + tail)  # z[c, i] holds x_{c L + i + 1}
-        # Every step is one 2-D product over all chunks and systems (np.reshape copies the
-        # rows together when a strided view cannot be flattened).
-        end = np.reshape(z[:, 0], (-1, n))
+        z = out[:, 1 : C * L + 1].reshape((B, C, L) + tail)  # z[:, c, i] holds x_{c L + i + 1}
+        end = np.reshape(z[:, :, 0], (B, -1, n))
         for i in range(1, L):
             end = end @ Phi_T
-            end.reshape((C,) + tail)[...] += z[:, i]
-        starts = np.empty((C,) + tail)
-        starts[0] = out[0]
-        starts[1:] = end.reshape((C,) + tail)[:-1]
-        _multilevel_in_place(np.linalg.matrix_power(Phi_T, L), starts)
-        state = starts.reshape(-1, n)
+            end.reshape((B, C) + tail)[...] += z[:, :, i]
+        starts = np.empty((B, C) + tail)
+        starts[:, 0] = out[:, 0]
+        starts[:, 1:] = end.reshape((B, C) + tail)[:, :-1]
+        _multilevel_batched(np.linalg.matrix_power(Phi_T, L), starts)
+        state = starts.reshape(B, -1, n)
         for i in range(L):
-            z[:, i] += (state @ Phi_T).reshape((C,) + tail)
-            state = np.reshape(z[:, i], (-1, n))
+            z[:, :, i] += (state @ Phi_T).reshape((B, C) + tail)
+            state = np.reshape(z[:, :, i], (B, -1, n))
         done = C * L
     for k in range(done, K):
-        out[k + 1] += (np.reshape(out[k], (-1, n)) @ Phi_T).reshape(tail)
+        out[:, k + 1] += (np.reshape(out[:, k], (B, -1, n)) @ Phi_T).reshape((B,) + tail)
 
 
 def identical_block_groups(Phi) -> list[np.ndarray]:
