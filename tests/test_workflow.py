@@ -68,6 +68,16 @@ def test_changing_a_config_value_reruns_its_dependants(workdir):
     assert "ensemble" in out and "scorecard_foundation" not in out.split("Reasons")[0].split("Job stats")[-1]
 
 
+def test_the_dag_group_keeps_one_worker(request):
+    """pytest-xdist's loadgroup sends every test of the "dag" group to one worker by tagging its
+    node id "@dag"; where that tag is lost (pytest 9.2 with xdist 3.8) the group's tests spread
+    over the workers and each worker runs the session's DAG again (CI measured it: two DAG runs,
+    4 minutes of the suite's 8)."""
+    if not getattr(request.config.option, "loadgroup", False):  # set on xdist workers under --dist loadgroup
+        pytest.skip("not on an xdist worker under --dist loadgroup")
+    assert request.node.nodeid.endswith("@dag"), request.node.nodeid
+
+
 def test_lint_is_clean():
     proc = subprocess.run(SNAKEMAKE + ["--lint"], capture_output=True, text=True, cwd=REPO)
     assert "Lints for" not in proc.stdout + proc.stderr
