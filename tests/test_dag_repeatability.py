@@ -35,7 +35,7 @@ TEST_CONFIG = REPO / "config" / "test.yaml"
 CLUSTER_PROFILE = REPO / "workflow" / "profiles" / "cluster-generic-local"
 STALE_LOCK = REPO / "workflow" / "profiles" / "default" / "stale_lock.py"
 #: Jobs finished before each interruption (of the ~70 jobs of config/test.yaml).
-CTRL_C_AFTER, KILL_AFTER = 20, 4
+CTRL_C_AFTER, KILL_AFTER = 10, 4
 #: Variables and attributes that hold the wall-clock seconds a step took: they measure the
 #: machine, not the result, and are the only values a rerun may change.
 WALL_CLOCK = {"seconds"}
@@ -114,10 +114,10 @@ def _unlock_as_told(unlock, wd):
     return answers
 
 
-# The second DAG run costs ~0.8 of a full CI DAG in CPU; with it the suite took 11 min 42 s from a
-# clean clone on 2 cores (session 6), over CI's 10 minutes. It runs on demand (`pytest -m slow
-# tests/test_dag_repeatability.py`) until the CI-sized DAG is cheaper; the checks below it stay in CI.
-SECOND_RUN = pytest.mark.slow
+# The second DAG run costs ~0.8 of a CI DAG in CPU. Until session 8 it ran on demand only: CI
+# was at 8-9 minutes because the DAG ran twice (pytest 9.2 had broken xdist's loadgroup, so the
+# tests of the "dag" group spread over both workers, each with its own session `workdir`).
+SECOND_RUN = pytest.mark.workflow
 
 
 @pytest.fixture(scope="module")

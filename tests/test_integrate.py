@@ -123,3 +123,28 @@ def test_input_only_directions_equal_the_frechet_derivative():
         for got, want in zip((dPhi[p], dP[p], dQ[p]), ref):
             assert got == pytest.approx(want, rel=1e-12, abs=1e-13)
     assert not np.any(dPhi[[0, 2]])
+
+
+@pytest.mark.parametrize("scale", [0.05, 10.0, 60.0])  # ||A h||_1 about 0.004, 0.8, 5 (uqdrive's cars: up to 5.4): 0, 1, 4 doublings
+def test_foh_maps_equal_van_loans_exponential_with_and_without_doublings(scale):
+    """Phi, P, Q against scipy's expm of Van Loan's block [[A h, E h, 0], [0, 0, I h], [0, 0, 0]]
+    (independent of foh_discretise's phi-function series and its doublings of the step, which
+    each scale exercises: none, one, several). Tolerance: a few hundred ulps of the largest entry,
+    the rounding of ~20 products; a wrong coefficient of the series, or the series cut
+    a few terms short, misses by far more."""
+    from scipy.linalg import expm
+
+    from uqdrive.numerics import integrate
+
+    rng = np.random.default_rng(3)
+    A, E, h = rng.normal(size=(20, 4, 4)) * scale, rng.normal(size=(20, 4, 3)), 0.01
+    rho = np.abs(A * h).sum(axis=-2).max()
+    assert (rho <= integrate._PHI_TAYLOR_NORM) == (scale < 1)
+    Phi, P, Q = foh_discretise(A, E, h)
+    for j in range(A.shape[0]):
+        M = np.zeros((10, 10))
+        M[:4, :4], M[:4, 4:7], M[4:7, 7:] = A[j] * h, E[j] * h, np.eye(3) * h
+        F = expm(M)
+        Qr = F[:4, 7:] / h
+        for got, ref in ((Phi[j], F[:4, :4]), (P[j], F[:4, 4:7] - Qr), (Q[j], Qr)):
+            assert np.abs(got - ref).max() <= 5e-14 * np.abs(ref).max()

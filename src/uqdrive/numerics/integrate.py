@@ -26,8 +26,10 @@ __all__ = [
 def foh_discretise(A, E, h: float):
     """Exact discretisation of x' = A x + E g(t) for g linear between samples (first-order hold).
 
-    Uses Van Loan's block exponential exp([[A, I, 0], [0, 0, I], [0, 0, 0]] h), whose top row is
-    [Phi, J_0, J_1] with J_0 = int_0^h e^{A s} ds and J_1 = int_0^h e^{A s} (h - s) ds; with
+    Van Loan's block exponential exp([[A, I, 0], [0, 0, I], [0, 0, 0]] h) has the top row
+    [Phi, J_0, J_1] with J_0 = int_0^h e^{A s} ds and J_1 = int_0^h e^{A s} (h - s) ds; they are
+    computed here on d x d matrices by scaling and squaring (Taylor series of e^X, phi_1, phi_2
+    at h / 2^s, then doublings of the step), not as the 3d x 3d exponential. With
     Gamma_0 = J_0 E and Gamma_1 = J_1 E,
     x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with Q = Gamma_1 / h and P = Gamma_0 - Q.
 
@@ -45,18 +47,59 @@ def foh_discretise(A, E, h: float):
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
-    d = A.shape[-1]
-    # Van Loan's block with the identity as input matrix (size 3d, whatever the number of
-    # inputs): its top row holds int e^{As} ds and int e^{As} (h - s) ds, applied to E after.
-    M = np.zeros(A.shape[:-2] + (3 * d, 3 * d))
-    M[..., :d, :d] = A * h
-    M[..., :d, d : 2 * d] = np.eye(d) * h
-    M[..., d : 2 * d, 2 * d :] = np.eye(d) * h
-    F = batched_expm(M)
-    Phi = F[..., :d, :d]
-    Gamma0 = F[..., :d, d : 2 * d] @ E
-    Q = (F[..., :d, 2 * d :] / h) @ E
-    return Phi, Gamma0 - Q, Q
+    X = A * h
+    rho = np.abs(X).sum(axis=-2).max() if X.size else 0.0
+    # Scaling and squaring of e^{Ah}, J_0 = int_0^h e^{As} ds and J_1 = int_0^h e^{As} (h - s) ds
+    # on d x d matrices (Van Loan's 3d x 3d block costs 27 times the arithmetic per product):
+    # Taylor series at h / 2^s, then per doubling of the step
+    # J_1(2h) = (I + Phi) J_1 + h J_0, J_0(2h) = (I + Phi) J_0, Phi(2h) = Phi^2.
+    s = max(0, int(np.ceil(np.log2(rho / _PHI_TAYLOR_NORM)))) if rho > _PHI_TAYLOR_NORM else 0
+    hs = h / 2.0**s
+    Phi, phi1, phi2 = _phi_functions_taylor(X / 2.0**s, rho / 2.0**s)
+    J0, J1 = phi1 * hs, phi2 * (hs * hs)
+    for _ in range(s):
+        J1 = J1 + Phi @ J1 + hs * J0
+        J0 = J0 + Phi @ J0
+        Phi = Phi @ Phi
+        hs *= 2.0
+    Q = (J1 / h) @ E
+    return Phi, J0 @ E - Q, Q
+
+
+#: Largest 1-norm of A h / 2^s at which :func:`foh_discretise` sums the Taylor series.
+_PHI_TAYLOR_NORM = 0.5
+
+
+def _phi_functions_taylor(X, rho: float):
+    """e^X, phi_1(X) = sum X^k / (k+1)! and phi_2(X) = sum X^k / (k+2)! of a stack of matrices
+    whose 1-norms are at most ``rho`` <= 1, by their Taylor series.
+
+    With X = A h, Van Loan's exponential holds J_0 = h phi_1(X) and J_1 = h^2 phi_2(X) (Higham,
+    Functions of Matrices, sec. 10.7). The series is cut at the first degree N with
+    rho^(N+1) / (N+1)! < 1e-17 (the remainder of each series is below that times e^rho), i.e.
+    N <= 13 for rho <= 0.5: below the rounding of double precision.
+
+    Parameters
+    ----------
+    X : ndarray, shape (..., d, d)
+    rho : float
+        Upper bound of the 1-norms of X.
+
+    Returns
+    -------
+    expX, phi1, phi2 : ndarray, shape (..., d, d)
+    """
+    eye = np.broadcast_to(np.eye(X.shape[-1]), X.shape)
+    expX, phi1, phi2 = eye + X, eye + X / 2.0, eye / 2.0 + X / 6.0
+    term, k, bound = X, 1, rho * rho / 2.0
+    while bound > 1e-17 and k < 30:
+        k += 1
+        term = (term @ X) / k  # X^k / k!
+        bound *= rho / (k + 1)  # rho^(k+1) / (k+1)!, the first term left out
+        expX = expX + term
+        phi1 = phi1 + term / (k + 1)
+        phi2 = phi2 + term / ((k + 1) * (k + 2))
+    return expX, phi1, phi2
 
 
 def _van_loan_input_block(A, E, h):
@@ -258,22 +301,28 @@ def lti_foh_response(A, E, g, h: float, substeps: int, x0=None):
     if (g.shape[0] - 1) % S:
         raise ValueError("g must hold K * substeps + 1 samples")
     Phi, P, Q = foh_discretise(A, E, h)
-    # M[s] maps the fine sample s of one output interval to the state at its end.
-    M = np.zeros((S + 1, n, d, r))
-    power = np.broadcast_to(np.eye(d), (n, d, d)).copy()  # Phi^(S-1-s), built from s = S-1 down
-    for s in range(S - 1, -1, -1):
-        M[s] += power @ P
-        M[s + 1] += power @ Q
-        power = power @ Phi
+    # M[s, q, i, j] maps input q at the fine sample s of one output interval to state i of
+    # system j at its end. Systems last: the products of n small matrices are einsums over a
+    # contiguous last axis (2-3x faster than a batched matmul of (n, d, d) stacks), and M is
+    # already in the layout of the drive's BLAS product below.
+    P_t, Q_t = (np.ascontiguousarray(np.moveaxis(a, 0, -1)) for a in (P, Q))  # (d, r, n)
+    Phi_t = np.ascontiguousarray(np.moveaxis(Phi, 0, -1))  # (d, d, n)
+    M = np.zeros((S + 1, r, d, n))
+    M[S - 1] = P_t.transpose(1, 0, 2)  # Phi^0 = I for the last fine step
+    M[S] = Q_t.transpose(1, 0, 2)
+    power = Phi_t  # Phi^(S-1-s), built from s = S-1 down
+    for s in range(S - 2, -1, -1):
+        M[s] += np.einsum("ikn,kqn->qin", power, P_t)
+        M[s + 1] += np.einsum("ikn,kqn->qin", power, Q_t)
+        power = np.einsum("ikn,kjn->ijn", power, Phi_t)
     windows = np.lib.stride_tricks.sliding_window_view(g, (S + 1, r))[::S, 0]  # (K, S+1, r)
-    # drive[k, i, j] = sum_{s, q} M[s, j, i, q] windows[k, s, q] is one BLAS product (several
+    # drive[k, i, j] = sum_{s, q} M[s, q, i, j] windows[k, s, q] is one BLAS product (several
     # times faster than the equivalent einsum), written straight into the output's slots.
     K = windows.shape[0]
-    M2 = np.ascontiguousarray(M.transpose(0, 3, 2, 1)).reshape((S + 1) * r, d * n)
     out = np.empty((K + 1, d, n))
-    np.matmul(windows.reshape(K, -1), M2, out=out[1:].reshape(K, d * n))
+    np.matmul(windows.reshape(K, -1), M.reshape((S + 1) * r, d * n), out=out[1:].reshape(K, d * n))
     out[0] = 0.0 if x0 is None else np.asarray(x0, float).T
-    _linear_recursion_in_place(power, out)
+    _linear_recursion_in_place(np.moveaxis(power, -1, 0), out)  # power = Phi^S
     return out.transpose(1, 2, 0)
 
 
