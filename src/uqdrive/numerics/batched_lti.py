@@ -1,8 +1,8 @@
 """A batch of discretised LTI systems of one structure (e.g. one Galerkin model at many parameter
 values, the walkers of an MCMC ensemble): exact first-order-hold discretisation and responses to
-shared inputs with a leading batch axis, in the same arithmetic per member as the one-system
-kernels of :mod:`uqdrive.numerics.integrate` (same Van Loan blocks, same exponentials, same products), so
-a batch of one theta gives the one-system numbers to rounding.
+shared inputs with a leading batch axis: the maps of the one-system kernels of
+:mod:`uqdrive.numerics.integrate` (Van Loan's exponential, here by scaling and squaring on each
+block) and their recursion, so a batch of one theta gives the one-system numbers to rounding.
 
 The batch shares the block structure of its matrices (decoupled blocks, groups of identical
 blocks, which inputs reach which block): it is read from the union of the members' sparsity
@@ -15,8 +15,8 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
+from .integrate import foh_discretise
 from .recursion import _multilevel_batched, consecutive_slice, decoupled_blocks
 
 __all__ = [
@@ -26,7 +26,6 @@ __all__ = [
     "foh_discretise_batched",
     "linear_recursion_batched",
     "lti_response_batched",
-    "van_loan_input_blocks",
 ]
 
 _ALL = slice(None)
@@ -145,36 +144,14 @@ def _ix(rows, cols):
     return row_run, cols if col_run is None else col_run
 
 
-def van_loan_input_blocks(A, E, h: float):
-    """Van Loan blocks [[A, E, 0], [0, 0, I], [0, 0, 0]] h of a batch, size d + 2 r.
-
-    Parameters
-    ----------
-    A : ndarray, shape (B, d, d)
-    E : ndarray, shape (B, d, r)
-    h : float
-        Step (s).
-
-    Returns
-    -------
-    ndarray, shape (B, d + 2 r, d + 2 r)
-        The exponential of each has the top row [Phi, Gamma_0, Gamma_1] with Phi = e^{A h},
-        Gamma_0 = int_0^h e^{A s} ds E and Gamma_1 = int_0^h e^{A s} (h - s) ds E (see
-        :func:`uqdrive.numerics.integrate.foh_discretise`).
-    """
-    B, d, r = E.shape
-    M = np.zeros((B, d + 2 * r, d + 2 * r))
-    M[:, :d, :d] = A * h
-    M[:, :d, d : d + r] = E * h
-    M[:, d : d + r, d + r :] = np.eye(r) * h
-    return M
-
-
 def foh_discretise_batched(A, E, h: float):
     """Exact first-order-hold discretisation of B systems x' = A_b x + E_b g(t) of one structure.
 
     x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with Phi = e^{A h}, Q = Gamma_1 / h, P = Gamma_0 - Q,
-    from Van Loan's block exponential per member (SciPy's Pade ``expm`` over the stack). As in
+    the maps of Van Loan's block exponential per member, computed on the b x b blocks by
+    :func:`uqdrive.numerics.integrate.foh_discretise` (scaling and squaring of e^X, phi_1, phi_2:
+    the block with its inputs, b + 2 r wide, would cost ((b + 2r) / b)^3 times the arithmetic
+    per product), to rounding the maps of the one-system kernel. As in
     :func:`uqdrive.numerics.integrate.foh_discretise_single`, decoupled blocks are discretised one at a
     time with only the inputs that reach them, and groups of identical blocks share one
     exponential (their inputs are extra columns of the same Van Loan block), so each member's
@@ -201,20 +178,13 @@ def foh_discretise_batched(A, E, h: float):
     blocks = []
     for group in groups:
         E_group = np.concatenate([E[(_ALL,) + rect] for rect in group.rects], axis=-1) if len(group.rects) > 1 else E[(_ALL,) + group.rects[0]]
-        d = group.index.shape[1]
-        Phi_b, P_b, Q_b = _split(expm(van_loan_input_blocks(A[(_ALL,) + group.squares[0]], E_group, h)), d, E_group.shape[-1], h)
+        Phi_b, P_b, Q_b = foh_discretise(A[(_ALL,) + group.squares[0]], E_group, h)
         blocks.append((group, Phi_b))
         start = 0
         for rect, width in zip(group.rects, group.widths):
             P[(_ALL,) + rect], Q[(_ALL,) + rect] = P_b[..., start : start + width], Q_b[..., start : start + width]
             start += width
     return blocks, P, Q
-
-
-def _split(F, d, r, h):
-    """Phi, P, Q from Van Loan exponentials F (B, d + 2r, d + 2r)."""
-    Q = F[:, :d, d + r :] / h
-    return F[:, :d, :d], F[:, :d, d : d + r] - Q, Q
 
 
 def linear_recursion_batched(blocks, out):
