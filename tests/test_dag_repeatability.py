@@ -114,10 +114,11 @@ def _unlock_as_told(unlock, wd):
     return answers
 
 
-# The second DAG run costs ~0.8 of a CI DAG in CPU. Until session 8 it ran on demand only: CI
-# was at 8-9 minutes because the DAG ran twice (pytest 9.2 had broken xdist's loadgroup, so the
-# tests of the "dag" group spread over both workers, each with its own session `workdir`).
-SECOND_RUN = pytest.mark.workflow
+# The second DAG run costs ~3.5 CPU-minutes. In CI it took a clean-clone `.ci/run` to 9 min 27 s
+# and 9 min 47 s (two runs, session 8, idle 2-core machine), too close to CI's 10 minutes, so it
+# runs on demand: `pytest -m slow tests/test_dag_repeatability.py`. (Session 8 also found that CI
+# had been running the first DAG twice: pytest 9.2 broke xdist's loadgroup; now pinned.)
+SECOND_RUN = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +133,9 @@ def resumed(tmp_path_factory):
     log, t0 = wd / "cluster.log", time.monotonic()
     proc = _start([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--configfile", str(TEST_CONFIG),
                    "--workflow-profile", str(CLUSTER_PROFILE)], wd, log)
-    _wait(lambda: _finished(log) >= CTRL_C_AFTER, proc, log, timeout=900)
+    # ... and its log has been quiet for a moment: Snakemake waits on running jobs, as when a user
+    # presses Ctrl-C during a long job (see the test below for a Ctrl-C while it schedules).
+    _wait(lambda: _finished(log) >= CTRL_C_AFTER and time.time() - log.stat().st_mtime > 1.5, proc, log, timeout=900)
     os.killpg(proc.pid, signal.SIGINT)
     steps["cluster"] = _step(log, t0, returncode=proc.wait(timeout=120), locks=sorted((wd / ".snakemake" / "locks").glob("*")))
 
@@ -165,9 +168,18 @@ def test_the_dag_runs_through_the_cluster_generic_executor_in_group_jobs(resumed
     submitted = re.findall(r"Submitted (group job|job) \S+ with external jobid '(\d+)'", cluster["log"])
     assert submitted and all(kind == "group job" for kind, _ in submitted), cluster["log"][-3000:]  # every rule has a group
     assert cluster["finished"] >= CTRL_C_AFTER
-    # Ctrl-C: Snakemake stopped, cancelling the jobs it could (cancel.sh), and removed its lock.
-    assert "Terminating processes on user request" in cluster["log"], cluster["log"][-3000:]
-    assert cluster["returncode"] != 0 and cluster["locks"] == []
+    assert cluster["returncode"] != 0
+    if "Terminating processes on user request" in cluster["log"]:
+        # Ctrl-C while Snakemake waits on jobs: it stops, cancelling the jobs it can (cancel.sh),
+        # and removes its lock.
+        assert cluster["locks"] == [], cluster["log"][-3000:]
+    else:
+        # Ctrl-C while Snakemake selects jobs (seen once in CI: "Error grouping resources in group
+        # 'bayes': KeyboardInterrupt"): it stops with the interrupt reported and may leave its
+        # lock, which make reproduce's stale-lock step removes (the next test checks that it ran).
+        assert "KeyboardInterrupt" in cluster["log"], cluster["log"][-3000:]
+        if cluster["locks"]:
+            assert "removed the stale lock" in steps["unlock_1"][-1].stderr, steps["unlock_1"]
 
 
 @SECOND_RUN
