@@ -9,11 +9,10 @@ from typing import Callable
 import numpy as np
 from scipy.linalg import expm
 
-from .matrix_exponential import batched_expm, expm_frechet_directions
+from .matrix_exponential import expm_frechet_directions
 from .recursion import consecutive_slice, decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
-    "batched_expm",
     "decoupled_blocks",
     "foh_discretise",
     "foh_discretise_single",
