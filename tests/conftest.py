@@ -1,14 +1,26 @@
 """Shared fixtures: the repository's configs (validated) and small ensembles, one run of the DAG."""
 
 import copy
+import os
 import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-import yaml
+# Two xdist workers share two cores: BLAS threads on top of them only oversubscribe the cores, and
+# OpenBLAS's idle threads spin (measured: the unit tests took 341 CPU-s with them, 275 without).
+# Set before numpy loads; the CLI and Snakemake subprocesses inherit it (Snakemake sets each job's
+# own count from its rule's `threads`). tests/test_threads.py raises the limit where it needs more.
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
 
-from uqdrive.config import load_config
+import pytest  # noqa: E402
+import yaml  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+from uqdrive.config import load_config  # noqa: E402
+
+# In case a plugin loaded numpy before this file: the same limit through threadpoolctl.
+_ONE_BLAS_THREAD = threadpool_limits(limits=1, user_api="blas")
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -1,5 +1,5 @@
 import numpy as np
-from threadpoolctl import threadpool_info
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from uqdrive.numerics.threads import single_blas_thread, with_single_blas_thread
 
@@ -9,13 +9,17 @@ def _blas_threads():
 
 
 def test_single_blas_thread_limits_and_restores():
+    """From two threads (the suite itself runs on one: tests/conftest.py) to one and back."""
     np.ones((2, 2)) @ np.ones((2, 2))  # BLAS loaded
-    before = _blas_threads()
-    with single_blas_thread():
-        assert all(n == 1 for n in _blas_threads())
-    assert _blas_threads() == before
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _blas_threads()
+        assert before and all(n == 2 for n in before)
+        with single_blas_thread():
+            assert all(n == 1 for n in _blas_threads())
+        assert _blas_threads() == before
 
 
 def test_decorator_runs_the_function_with_one_thread():
-    seen = with_single_blas_thread(_blas_threads)()
+    with threadpool_limits(limits=2, user_api="blas"):
+        seen = with_single_blas_thread(_blas_threads)()
     assert seen and all(n == 1 for n in seen)

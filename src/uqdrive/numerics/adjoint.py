@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import expm_frechet
 
-from .integrate import _van_loan_input_block
+from .discretise import _van_loan_input_block
 from .recursion import reverse_linear_recursion
 
 __all__ = ["backward_recursion", "foh_response_vjp"]

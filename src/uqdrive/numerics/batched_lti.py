@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .integrate import foh_discretise
+from .discretise import foh_discretise
 from .recursion import _multilevel_batched, consecutive_slice, decoupled_blocks
 
 __all__ = [

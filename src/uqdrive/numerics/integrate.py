@@ -1,5 +1,5 @@
-"""Time integration kernels: exact first-order-hold discretisation of LTI systems (batched small
-ones, or one large one with exact parameter derivatives) and a vectorised fixed-step RK4.
+"""Time integration kernels: responses of exactly discretised LTI systems (batched small ones, or
+one large one by its decoupled blocks, with exact parameter derivatives) and a vectorised RK4.
 """
 
 from __future__ import annotations
@@ -7,14 +7,14 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import expm
 
-from .matrix_exponential import expm_frechet_directions
+from .discretise import foh_discretise, foh_discretise_derivatives
 from .recursion import consecutive_slice, decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
     "decoupled_blocks",
     "foh_discretise",
+    "foh_discretise_derivatives",
     "foh_discretise_single",
     "lti_foh_response",
     "lti_response_single",
@@ -22,109 +22,12 @@ __all__ = [
 ]
 
 
-def foh_discretise(A, E, h: float):
-    """Exact discretisation of x' = A x + E g(t) for g linear between samples (first-order hold).
-
-    Van Loan's block exponential exp([[A, I, 0], [0, 0, I], [0, 0, 0]] h) has the top row
-    [Phi, J_0, J_1] with J_0 = int_0^h e^{A s} ds and J_1 = int_0^h e^{A s} (h - s) ds; they are
-    computed here on d x d matrices by scaling and squaring (Taylor series of e^X, phi_1, phi_2
-    at h / 2^s, then doublings of the step), not as the 3d x 3d exponential. With
-    Gamma_0 = J_0 E and Gamma_1 = J_1 E,
-    x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with Q = Gamma_1 / h and P = Gamma_0 - Q.
-
-    Parameters
-    ----------
-    A : ndarray, shape (..., d, d)
-    E : ndarray, shape (..., d, r)
-    h : float
-        Step (s).
-
-    Returns
-    -------
-    Phi : ndarray, shape (..., d, d)
-    P, Q : ndarray, shape (..., d, r)
-    """
-    A = np.asarray(A, float)
-    E = np.asarray(E, float)
-    X = A * h
-    rho = np.abs(X).sum(axis=-2).max() if X.size else 0.0
-    # Scaling and squaring of e^{Ah}, J_0 = int_0^h e^{As} ds and J_1 = int_0^h e^{As} (h - s) ds
-    # on d x d matrices (Van Loan's 3d x 3d block costs 27 times the arithmetic per product):
-    # Taylor series at h / 2^s, then per doubling of the step
-    # J_1(2h) = (I + Phi) J_1 + h J_0, J_0(2h) = (I + Phi) J_0, Phi(2h) = Phi^2.
-    s = max(0, int(np.ceil(np.log2(rho / _PHI_TAYLOR_NORM)))) if rho > _PHI_TAYLOR_NORM else 0
-    hs = h / 2.0**s
-    Phi, phi1, phi2 = _phi_functions_taylor(X / 2.0**s, rho / 2.0**s)
-    J0, J1 = phi1 * hs, phi2 * (hs * hs)
-    for _ in range(s):
-        J1 = J1 + Phi @ J1 + hs * J0
-        J0 = J0 + Phi @ J0
-        Phi = Phi @ Phi
-        hs *= 2.0
-    Q = (J1 / h) @ E
-    return Phi, J0 @ E - Q, Q
-
-
-#: Largest 1-norm of A h / 2^s at which :func:`foh_discretise` sums the Taylor series.
-_PHI_TAYLOR_NORM = 0.5
-
-
-def _phi_functions_taylor(X, rho: float):
-    """e^X, phi_1(X) = sum X^k / (k+1)! and phi_2(X) = sum X^k / (k+2)! of a stack of matrices
-    whose 1-norms are at most ``rho`` <= 1, by their Taylor series.
-
-    With X = A h, Van Loan's exponential holds J_0 = h phi_1(X) and J_1 = h^2 phi_2(X) (Higham,
-    Functions of Matrices, sec. 10.7). The series is cut at the first degree N with
-    rho^(N+1) / (N+1)! < 1e-17 (the remainder of each series is below that times e^rho), i.e.
-    N <= 13 for rho <= 0.5: below the rounding of double precision.
-
-    Parameters
-    ----------
-    X : ndarray, shape (..., d, d)
-    rho : float
-        Upper bound of the 1-norms of X.
-
-    Returns
-    -------
-    expX, phi1, phi2 : ndarray, shape (..., d, d)
-    """
-    eye = np.broadcast_to(np.eye(X.shape[-1]), X.shape)
-    expX, phi1, phi2 = eye + X, eye + X / 2.0, eye / 2.0 + X / 6.0
-    term, k, bound = X, 1, rho * rho / 2.0
-    while bound > 1e-17 and k < 30:
-        k += 1
-        term = (term @ X) / k  # X^k / k!
-        bound *= rho / (k + 1)  # rho^(k+1) / (k+1)!, the first term left out
-        expX = expX + term
-        phi1 = phi1 + term / (k + 1)
-        phi2 = phi2 + term / ((k + 1) * (k + 2))
-    return expX, phi1, phi2
-
-
-def _van_loan_input_block(A, E, h):
-    """exp of [[A, E, 0], [0, 0, I], [0, 0, 0]] h for one system: size d + 2r."""
-    d, r = E.shape
-    M = np.zeros((d + 2 * r, d + 2 * r))
-    M[:d, :d] = A * h
-    M[:d, d : d + r] = E * h
-    M[d : d + r, d + r :] = np.eye(r) * h
-    return M
-
-
-def _split_van_loan(F, d, r, h):
-    """Phi, P, Q from the Van Loan exponential F (..., d + 2r, d + 2r), or from its derivative."""
-    Phi = F[..., :d, :d]
-    Q = F[..., :d, d + r :] / h
-    return Phi, F[..., :d, d : d + r] - Q, Q
-
-
 def foh_discretise_single(A, E, h: float, dA=None, dE=None):
     """First-order-hold discretisation of one (large) system, optionally with exact derivatives.
 
-    Same maps as :func:`foh_discretise` (x_{k+1} = Phi x_k + P g_k + Q g_{k+1}), computed from
-    the input-sized Van Loan block with SciPy's Pade ``expm``; with directions ``dA``, ``dE``
-    the Frechet derivatives of the block exponential (:func:`expm_frechet_directions`) give the
-    exact derivatives of Phi, P and Q, i.e. of the discretised system.
+    Same maps as :func:`foh_discretise` (x_{k+1} = Phi x_k + P g_k + Q g_{k+1}); with directions
+    ``dA``, ``dE`` also the exact derivatives of Phi, P and Q, i.e. of the discretised system,
+    carried through the series and the doublings (:func:`foh_discretise_derivatives`).
 
     Decoupled blocks of A (e.g. the Galerkin terms of each KLE germ of the wind, which never mix
     with the others) are discretised one at a time with only the inputs that reach them: the
@@ -191,32 +94,10 @@ def _ix(rows, cols):
 
 
 def _foh_block(A, E, h, dA=None, dE=None):
-    """:func:`foh_discretise_single` for one coupled block."""
-    d, r = E.shape
+    """:func:`foh_discretise_single` for one coupled block (:func:`foh_discretise_derivatives`)."""
     if dA is None:
-        return _split_van_loan(expm(_van_loan_input_block(A, E, h)), d, r, h)
-    n_p = dA.shape[0]
-    moves_A = np.array([np.any(dA_p) for dA_p in dA], bool)
-    # Phi does not depend on E and P, Q are linear in it, so a direction that moves only E
-    # (e.g. the wind bounds) has dPhi = 0 and (dP, dQ) = the maps applied to dE: extra input
-    # columns of the one exponential instead of a Frechet derivative each.
-    E_all = np.concatenate([E] + [dE[p] for p in np.flatnonzero(~moves_A)], axis=1)
-    M = _van_loan_input_block(A, E_all, h)
-    Phi, P_all, Q_all = _split_van_loan(expm(M), d, E_all.shape[1], h)
-    dPhi, dP, dQ = np.zeros((n_p, d, d)), np.zeros((n_p, d, r)), np.zeros((n_p, d, r))
-    n_input_only = int(np.count_nonzero(~moves_A))
-    dP[~moves_A] = P_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
-    dQ[~moves_A] = Q_all[:, r:].reshape(d, n_input_only, r).transpose(1, 0, 2)
-    moving = np.flatnonzero(moves_A)
-    if moving.size:
-        M = _van_loan_input_block(A, E, h)
-        dM = np.zeros((moving.size,) + M.shape)
-        dM[:, :d, :d] = dA[moving] * h
-        dM[:, :d, d : d + r] = dE[moving] * h
-        dF = expm_frechet_directions(M, dM)
-        dPhi[moving], dP[moving], dQ[moving] = _split_van_loan(dF, d, r, h)
-    return (Phi, P_all[:, :r], Q_all[:, :r]), (dPhi, dP, dQ)
-
+        return foh_discretise(A, E, h)
+    return foh_discretise_derivatives(A, E, h, dA, dE)
 
 
 def lti_response_single(Phi, P, Q, g, x0, derivatives=None, dx0=None):
