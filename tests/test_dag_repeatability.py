@@ -96,6 +96,25 @@ def _step(log, t0, **more):
     return dict(seconds=time.monotonic() - t0, planned=_planned(log), finished=_finished(log), cut=_cut(log), log=log.read_text(), **more)
 
 
+def _ctrl_c(proc, log, every=5.0, presses=12):
+    """Ctrl-C (SIGINT to the run's process group), pressed again every few seconds while Snakemake
+    shows no sign of it, as a user would: a SIGINT that lands while the cluster executor's main
+    thread is inside one of Snakemake's asyncio runs can be lost (seen twice, session 9: the run
+    went on to the end). Returns the exit code and the number of presses."""
+    for press in range(1, presses + 1):
+        os.killpg(proc.pid, signal.SIGINT)
+        deadline = time.monotonic() + every
+        while time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.2)
+        if proc.poll() is not None:
+            return proc.returncode, press
+        text = log.read_text()
+        if "Terminating processes on user request" in text or "KeyboardInterrupt" in text:
+            return proc.wait(timeout=120), press
+    proc.kill()
+    raise AssertionError(f"{log.name}: {presses} Ctrl-C did not stop Snakemake:\n{log.read_text()[-3000:]}")
+
+
 def _unlock_as_told(unlock, wd):
     """The stale-lock step of `make reproduce`; when it stops and names processes, end them as its
     line says (kill PID ...) and run it again. Both answers."""
@@ -136,8 +155,8 @@ def resumed(tmp_path_factory):
     # ... and its log has been quiet for a moment: Snakemake waits on running jobs, as when a user
     # presses Ctrl-C during a long job (see the test below for a Ctrl-C while it schedules).
     _wait(lambda: _finished(log) >= CTRL_C_AFTER and time.time() - log.stat().st_mtime > 1.5, proc, log, timeout=900)
-    os.killpg(proc.pid, signal.SIGINT)
-    steps["cluster"] = _step(log, t0, returncode=proc.wait(timeout=120), locks=sorted((wd / ".snakemake" / "locks").glob("*")))
+    returncode, presses = _ctrl_c(proc, log)
+    steps["cluster"] = _step(log, t0, returncode=returncode, presses=presses, locks=sorted((wd / ".snakemake" / "locks").glob("*")))
 
     # 2. make reproduce; kill -9 once KILL_AFTER jobs have finished and one runs.
     log, t0 = wd / "readme_1.log", time.monotonic()
@@ -155,7 +174,8 @@ def resumed(tmp_path_factory):
     steps["readme_2"] = _step(log, t0, returncode=proc.wait(timeout=900))
     for name in ("cluster", "readme_1", "readme_2"):
         step = steps[name]
-        print(f"{name}: {step['seconds']:.0f} s, {step['finished']} of {step['planned']} planned jobs finished, {step['cut']} cut")
+        print(f"{name}: {step['seconds']:.0f} s, {step['finished']} of {step['planned']} planned jobs finished, {step['cut']} cut"
+              + (f", {step['presses']} Ctrl-C" if "presses" in step else ""))
     for name in ("unlock_1", "unlock_2"):
         print(name, [(a.returncode, a.stderr.strip()) for a in steps[name]])
     return wd, steps

@@ -63,3 +63,12 @@ def test_closed_loop_reaches_set_point_on_the_true_curve():
     assert abs(x[-1, 1, 0] - CAR.lambda_star) < 0.005
     assert x[-1, 0, 0] < 30.0  # braking
     assert np.all(x[:, 1, 0] < 1.0)
+
+
+def test_z95_is_the_normal_quantile():
+    """calibration.Z95 is written as a number so that scipy.stats loads only where it is used."""
+    from scipy.stats import norm
+
+    from uqdrive.wheelslip.calibration import Z95
+
+    assert Z95 == pytest.approx(norm.ppf(0.975), rel=1e-15)

@@ -9,7 +9,6 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
-import emcee
 import numpy as np
 import xarray as xr
 
@@ -27,6 +26,8 @@ def _stretch():
 def _differential_evolution():
     """Differential-evolution proposals with a snooker share, the mix emcee's documentation
     suggests for correlated posteriors; fewer steps per independent sample here than stretch."""
+    import emcee
+
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
 
 
@@ -279,6 +280,8 @@ def sample_ensembles(log_prob: Callable, starts, walkers: int, rng: np.random.Ge
     """
     if moves not in MOVES:
         raise ValueError(f"unknown emcee moves '{moves}'; choose one of {', '.join(MOVES)}")
+    import emcee  # here, not at the top: emcee loads scipy.stats, ~0.8 s of every job's start
+
     initial = []
     for centre in starts:  # the draws of the sequential loop, in its order
         centre = np.asarray(centre, float)

@@ -7,10 +7,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable, Mapping
 
-import emcee
 import numpy as np
-from scipy.stats import beta as beta_dist
-from scipy.stats import norm
 
 from ..numerics.threads import with_single_blas_thread
 from .gp import ArcsineGP, arcsine_kernel, arcsine_kernel_grad_x, arcsine_kernel_grad_xx
@@ -27,7 +24,7 @@ __all__ = [
     "posterior_curves",
 ]
 
-Z95 = norm.ppf(0.975)
+Z95 = 1.959963984540054  # scipy.stats.norm.ppf(0.975) (tests/test_wheelslip.py); scipy.stats loads where it is used
 
 
 def training_data(car: QuarterCar, n: int, region, noise_std: float, rng: np.random.Generator):
@@ -52,6 +49,8 @@ def fit_friction_gp(car: QuarterCar, n: int, region, noise_std: float, restarts:
 def binomial_interval(successes: int, trials: int, level: float = 0.95):
     """Clopper-Pearson interval of a binomial proportion."""
     a = (1 - level) / 2
+    from scipy.stats import beta as beta_dist
+
     lo = beta_dist.ppf(a, successes, trials - successes + 1) if successes > 0 else 0.0
     hi = beta_dist.ppf(1 - a, successes + 1, trials - successes) if successes < trials else 1.0
     return float(lo), float(hi)
@@ -79,6 +78,9 @@ def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walke
     """
     ndim = gp.log_theta_.size
     p0 = gp.log_theta_ + 1e-3 * rng.standard_normal((walkers, ndim))
+    import emcee
+    from scipy.stats import norm
+
     sampler = emcee.EnsembleSampler(walkers, ndim, _log_posterior, args=(gp, prior_std), vectorize=True)
     # emcee draws its moves from a RandomState of its own: seed it from the caller's generator.
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()

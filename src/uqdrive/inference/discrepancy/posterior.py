@@ -37,10 +37,8 @@ from __future__ import annotations
 import time as _time
 from functools import lru_cache
 
-import emcee
 import numpy as np
 from scipy.linalg import solve_triangular
-from scipy.stats import chi2, norm, qmc
 
 from ..bayes import MOVES, MomentLikelihood, chain_dataset
 from .fit import StructureFit
@@ -96,6 +94,8 @@ def gaussian_design(n: int, p: int, spread: float, rng: np.random.Generator):
     -------
     ndarray, shape (n, p)
     """
+    from scipy.stats import norm, qmc
+
     cube = qmc.LatinHypercube(d=p, seed=rng).random(max(n - 1, 1))
     return np.vstack([np.zeros((1, p)), spread * norm.ppf(cube)])[:n]
 
@@ -134,6 +134,8 @@ def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int
     out = []
     for p0 in starts:
         walkers, p = p0.shape
+        import emcee
+
         sampler = emcee.EnsembleSampler(walkers, p, log_prob, moves=MOVES[moves](), vectorize=True)
         sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
         state, tau, converged = p0, np.full(p, np.inf), False
@@ -336,6 +338,8 @@ class AugmentedPosterior:
         centre = self._mode(fit, sel, centre, J, cov)
         n_terms = quadratic_features(np.zeros((1, p))).shape[1]
         n_design = int(self.design or 2 * n_terms + 1)
+        from scipy.stats import chi2
+
         pool_X, pool_Y, history = np.zeros((0, p)), np.zeros((0, self._data.size)), []
         for round_ in range(1, self.rounds + 1):
             self._centre, self._factor_L = centre, np.linalg.cholesky(cov)
