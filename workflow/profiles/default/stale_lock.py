@@ -54,7 +54,8 @@ def main():
     if running:
         shown = "; ".join(f"pid {pid}: {cmd[:80]}" for pid, cmd in running[:4]) + (" ..." if len(running) > 4 else "")
         print(f"uqdrive: {len(running)} Snakemake process(es) still run in this folder ({shown}): a run in progress, "
-              f"or jobs left by a run that was stopped. Let them finish or end them (kill {' '.join(str(p) for p, _ in running)}), "
+              f"or jobs left by a run that was stopped. Let them finish or end them (kill {' '.join(str(p) for p, _ in running)}; "
+              f"kill -9 the ones still there after a minute: a Snakemake told to stop while it selects jobs can hang), "
               f"then run `make reproduce` again" + (f"; `{UNLOCK}` clears the lock by hand." if locks else "."), file=sys.stderr)
         return 2
     if not locks:
