@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 # Two xdist workers share two cores: BLAS threads on top of them only oversubscribe the cores, and
-# OpenBLAS's idle threads spin (measured: the unit tests took 341 CPU-s with them, 275 without).
+# OpenBLAS's idle threads spin (measured: the unit tests took 341 CPU-s with them, 272 without).
 # Set before numpy loads; the CLI and Snakemake subprocesses inherit it (Snakemake sets each job's
 # own count from its rule's `threads`). tests/test_threads.py raises the limit where it needs more.
 for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):

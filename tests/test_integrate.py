@@ -109,7 +109,7 @@ def test_input_only_directions_equal_the_frechet_derivative(direction_scale):
     stiffness) must cost no accuracy: unscaled, it would set the doublings and miss by 1e-11."""
     from scipy.linalg import expm_frechet
 
-    from uqdrive.numerics.discretise import _van_loan_input_block
+    from uqdrive.numerics.adjoint import _van_loan_input_block
 
     def _split_van_loan(F, d, r, h):
         Q = F[..., :d, d + r :] / h

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import expm_frechet
 
-from .discretise import _van_loan_input_block
 from .recursion import reverse_linear_recursion
 
 __all__ = ["backward_recursion", "foh_response_vjp"]
@@ -31,11 +30,23 @@ def backward_recursion(Phi, G):
     return reverse_linear_recursion(Phi, G)
 
 
+def _van_loan_input_block(A, E, h):
+    """Van Loan's block [[A, E, 0], [0, 0, I], [0, 0, 0]] h of one system (size d + 2r): its
+    exponential holds Phi, J_0 E and J_1 E, and its Frechet derivative those maps' derivatives."""
+    d, r = E.shape
+    M = np.zeros((d + 2 * r, d + 2 * r))
+    M[:d, :d] = A * h
+    M[:d, d : d + r] = E * h
+    M[d : d + r, d + r :] = np.eye(r) * h
+    return M
+
+
 def foh_response_vjp(A, E, h: float, Phi, g, X, G):
     """Gradient of a scalar J of the response with respect to the continuous A and E.
 
     The response is x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with the first-order-hold maps of
-    :func:`uqdrive.integrate.foh_discretise_single` (Van Loan block exponential F = exp(M)).
+    :func:`uqdrive.numerics.integrate.foh_discretise_single` (the top row of Van Loan's block
+    exponential F = exp(M)).
     With the adjoint states lambda, dJ/dPhi = sum_k lambda_{k+1} x_k^T, dJ/dP = sum_k
     lambda_{k+1} g_k^T and dJ/dQ = sum_k lambda_{k+1} g_{k+1}^T; these give the cotangent W of F,
     and the adjoint of the Frechet derivative, <W, L(M, D)> = <L(M^T, W), D>, gives dJ/dM in one

@@ -149,7 +149,7 @@ def foh_discretise_batched(A, E, h: float):
 
     x_{k+1} = Phi x_k + P g_k + Q g_{k+1} with Phi = e^{A h}, Q = Gamma_1 / h, P = Gamma_0 - Q,
     the maps of Van Loan's block exponential per member, computed on the b x b blocks by
-    :func:`uqdrive.numerics.integrate.foh_discretise` (scaling and squaring of e^X, phi_1, phi_2:
+    :func:`uqdrive.numerics.discretise.foh_discretise` (scaling and squaring of e^X, phi_1, phi_2:
     the block with its inputs, b + 2 r wide, would cost ((b + 2r) / b)^3 times the arithmetic
     per product), to rounding the maps of the one-system kernel. As in
     :func:`uqdrive.numerics.integrate.foh_discretise_single`, decoupled blocks are discretised one at a

@@ -33,15 +33,13 @@ def foh_discretise(A, E, h: float):
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
-    X = A * h
-    rho = np.abs(X).sum(axis=-2).max() if X.size else 0.0
     # Scaling and squaring of e^{Ah}, J_0 = int_0^h e^{As} ds and J_1 = int_0^h e^{As} (h - s) ds
     # on d x d matrices (Van Loan's 3d x 3d block costs 27 times the arithmetic per product):
     # Taylor series at h / 2^s, then per doubling of the step
     # J_1(2h) = (I + Phi) J_1 + h J_0, J_0(2h) = (I + Phi) J_0, Phi(2h) = Phi^2.
-    s = max(0, int(np.ceil(np.log2(rho / _PHI_TAYLOR_NORM)))) if rho > _PHI_TAYLOR_NORM else 0
+    X, rho, s = _scaled(A, h)
     hs = h / 2.0**s
-    Phi, phi1, phi2 = _phi_functions_taylor(X / 2.0**s, rho / 2.0**s)
+    Phi, phi1, phi2 = _phi_functions_taylor(X, rho)
     J0, J1 = phi1 * hs, phi2 * (hs * hs)
     for _ in range(s):
         J1 = J1 + Phi @ J1 + hs * J0
@@ -54,6 +52,15 @@ def foh_discretise(A, E, h: float):
 
 #: Largest 1-norm of A h / 2^s at which :func:`foh_discretise` sums the Taylor series.
 _PHI_TAYLOR_NORM = 0.5
+
+
+def _scaled(A, h: float):
+    """A h / 2^s, its 1-norm bound and the number s of doublings that bring the norm to at most
+    :data:`_PHI_TAYLOR_NORM` (the largest over a stack)."""
+    X = A * h
+    rho = np.abs(X).sum(axis=-2).max() if X.size else 0.0
+    s = max(0, int(np.ceil(np.log2(rho / _PHI_TAYLOR_NORM)))) if rho > _PHI_TAYLOR_NORM else 0
+    return X / 2.0**s, rho / 2.0**s, s
 
 
 def _phi_functions_taylor(X, rho: float):
@@ -88,16 +95,6 @@ def _phi_functions_taylor(X, rho: float):
     return expX, phi1, phi2
 
 
-def _van_loan_input_block(A, E, h):
-    """exp of [[A, E, 0], [0, 0, I], [0, 0, 0]] h for one system: size d + 2r."""
-    d, r = E.shape
-    M = np.zeros((d + 2 * r, d + 2 * r))
-    M[:d, :d] = A * h
-    M[:d, d : d + r] = E * h
-    M[d : d + r, d + r :] = np.eye(r) * h
-    return M
-
-
 def foh_discretise_derivatives(A, E, h: float, dA, dE):
     """:func:`foh_discretise` of one system with the exact derivatives of Phi, P and Q along
     directions (dA_p, dE_p) of its matrices (forward mode through the series and the doublings).
@@ -128,12 +125,10 @@ def foh_discretise_derivatives(A, E, h: float, dA, dE):
     dA, dE = np.asarray(dA, float), np.asarray(dE, float)
     d, r = E.shape
     n_p = dA.shape[0]
-    X = A * h
-    rho = np.abs(X).sum(axis=-2).max() if X.size else 0.0
-    s = max(0, int(np.ceil(np.log2(rho / _PHI_TAYLOR_NORM)))) if rho > _PHI_TAYLOR_NORM else 0
+    X, rho, s = _scaled(A, h)
     hs = h / 2.0**s
     moving = np.flatnonzero(np.any(dA.reshape(n_p, -1) != 0, axis=1)) if n_p else np.zeros(0, int)
-    (Phi, phi1, phi2), (dPhi, dphi1, dphi2) = _phi_functions_taylor_derivatives(X / 2.0**s, dA[moving] * hs, rho / 2.0**s)
+    (Phi, phi1, phi2), (dPhi, dphi1, dphi2) = _phi_functions_taylor_derivatives(X, dA[moving] * hs, rho)
     J0, J1 = phi1 * hs, phi2 * (hs * hs)
     dJ0, dJ1 = dphi1 * hs, dphi2 * (hs * hs)
     for _ in range(s):
@@ -148,8 +143,9 @@ def foh_discretise_derivatives(A, E, h: float, dA, dE):
     P = J0 @ E - Q
     dQ = (J1 / h) @ dE
     dP = J0 @ dE - dQ
-    dQ[moving] += (dJ1 / h) @ E
-    dP[moving] += dJ0 @ E - (dJ1 / h) @ E
+    dQ_moving = (dJ1 / h) @ E
+    dQ[moving] += dQ_moving
+    dP[moving] += dJ0 @ E - dQ_moving
     dPhi_all = np.zeros((n_p, d, d))
     dPhi_all[moving] = dPhi
     return (Phi, P, Q), (dPhi_all, dP, dQ)

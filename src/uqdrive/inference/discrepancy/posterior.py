@@ -131,11 +131,11 @@ def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int
         "chain" (steps, walkers, p), "log_prob", "tau" (p,), "converged", "burn", "thin",
         "acceptance", "burn_in" (the format :func:`uqdrive.inference.bayes.chain_dataset` reads).
     """
+    import emcee  # here, not at the top: emcee loads scipy.stats, ~0.8 s of every job's start
+
     out = []
     for p0 in starts:
         walkers, p = p0.shape
-        import emcee
-
         sampler = emcee.EnsembleSampler(walkers, p, log_prob, moves=MOVES[moves](), vectorize=True)
         sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
         state, tau, converged = p0, np.full(p, np.inf), False
