@@ -8,7 +8,7 @@ import copy
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from uqdrive.inference.bayes import BoxPrior, MomentLikelihood, log_posterior, log_posterior_batch, log_posteriors, sample_ensembles
@@ -99,11 +99,16 @@ def _prior_draws(config, seed, n):
 
 @settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 2**16))
+@example(seed=2427)
 def test_moments_batch_equals_moments_one_by_one(config, sampler_model, seed):
     """Random parameters in the prior box (admissible or not): the batch flags exactly those
-    where ``moments`` raises, and
-    its moments equal the one-by-one moments to 1e-12 of each state's largest value, on the full
-    grid and observed every 3rd time."""
+    where ``moments`` raises, and its moments equal the one-by-one moments to 1e-11 of each
+    state's largest value, on the full grid and observed every 3rd time.
+
+    The two paths scale and square their exponentials differently (one per block against one of
+    the whole Galerkin matrix), so they agree to rounding only: typically 1e-14, but 1.1e-12 for
+    the variance at seed 2427 (a draw with mu = 0.11, std 0.028: low friction, slow lateral
+    modes that carry the rounding of every step). 1e-11 keeps a 9x margin over that worst measured case."""
     _, thetas = _prior_draws(config, seed, 4)
     truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
     thetas[:2] = truth * (1.0 + 0.1 * np.random.default_rng(seed).standard_normal((2, truth.size)))  # some surely admissible
@@ -119,8 +124,8 @@ def test_moments_batch_equals_moments_one_by_one(config, sampler_model, seed):
         assert batch.admissible[i]
         for got, got3, want in ((batch.mean[i], every3.mean[i], one.mean), (batch.variance[i], every3.variance[i], one.variance)):
             scale = np.abs(want).max(axis=1, keepdims=True)
-            assert np.all(np.abs(got - want) <= 1e-12 * scale)
-            assert np.all(np.abs(got3 - want[:, ::3]) <= 1e-12 * scale)
+            assert np.all(np.abs(got - want) <= 1e-11 * scale)
+            assert np.all(np.abs(got3 - want[:, ::3]) <= 1e-11 * scale)
 
 
 def _likelihood(model, truth, every, N=400, seed=0):
