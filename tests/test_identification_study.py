@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from uqdrive.config import load_config
-from uqdrive.studies.identification import EXPERIMENTS, PAIRED_WITH, guess_stream_index, experiment_plan, measured_data_sets, run_experiment, true_theta, w2_scores
+from uqdrive.studies.experiments import EXPERIMENTS, PAIRED_WITH, guess_stream_index
+from uqdrive.studies.identification import experiment_plan, measured_data_sets, run_experiment, true_theta, w2_scores
 from uqdrive.studies.tables import table_rows, table_scorecard_rows, THESIS_TABLE_6_2, THESIS_TABLE_6_3
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.rng import rng_stream

@@ -22,8 +22,8 @@ from conftest import REPO
 from uqdrive.cli import main
 from uqdrive.config import ConfigError, config_hash, load_config, parse_overrides, restrict_config
 from uqdrive.plots.sweep import sweep_figure
-from uqdrive.studies.sweep import (COLLECTORS, SweepError, collect_targets, expand_points, load_sweep, numeric_axis, parse_sweep,
-                                   point_metrics, summary_dataset, summary_rows)
+from uqdrive.studies.sweep import COLLECTORS, SweepError, collect_targets, expand_points, load_sweep, parse_sweep
+from uqdrive.studies.sweep.summary import numeric_axis, point_metrics, summary_dataset, summary_rows
 from uqdrive.vehicle.montecarlo import ENSEMBLE_SETTINGS, ensemble_hash
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile")]

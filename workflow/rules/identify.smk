@@ -1,8 +1,7 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
-from uqdrive.plots.identification import APPENDIX_B_PLAN
-from uqdrive.studies.identification import experiment_config
+from uqdrive.studies.experiments import APPENDIX_B_PLAN, EXPERIMENTS, experiment_config
 
-ID_EXPERIMENTS = ["basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted"]
+ID_EXPERIMENTS = list(EXPERIMENTS)
 ID_STATS = {
     "lst_normal": f"{OUT}/data/stats_lst_normal.nc",
     "nlst_normal": f"{OUT}/data/stats_nlst_normal.nc",
@@ -23,7 +22,7 @@ ID_INPUTS = {
     "normalised": _NORMAL, "normalised_inverted": _INVERTED,
 }
 #: The ensembles of the Table 6.2 variant without the wind's yaw moment: M_c = 0 (set by
-#: uqdrive.studies.identification.experiment_config, so vehicle.M_c is not read), the rest as
+#: uqdrive.studies.experiments.experiment_config, so vehicle.M_c is not read), the rest as
 #: any ensemble; their statistics come from the rule statistics.
 NO_WIND_MOMENT_KEYS = ("seed", "vehicle.m_base", "vehicle.J0", "vehicle.wheelbase", "vehicle.c_Sf", "vehicle.c_Sr", "vehicle.speed_kmh",
                        "vehicle.g", "tyre", "uncertainty", "wind", "steering", "time", "montecarlo.samples", "montecarlo.spin_threshold")

@@ -13,7 +13,7 @@ wildcard_constraints:
 
 rule sweep_config:
     input:
-        src("studies.sweep"),
+        src("studies.sweep.spec"),
         sweep=lambda w: str(sweep_file(w.sweep)),
         base=lambda w: sweep_base_file(w.sweep),
     output:
@@ -63,7 +63,7 @@ rule sweep_point:
 
 rule sweep_summary:
     input:
-        src("studies.sweep", "plots.sweep"),
+        src("studies.sweep.summary", "plots.sweep"),
         points=lambda w: [f"{SWEEP_DIR}/{w.sweep}/{p.name}/metrics.json" for p in sweep(w.sweep).points],
     output:
         nc=f"{SWEEP_DIR}/{{sweep}}/summary.nc",

@@ -5,7 +5,8 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.studies.identification import experiment_config, guess_stream_index, experiment_plan, measured_data_sets, run_experiment
+from uqdrive.studies.experiments import experiment_config, guess_stream_index
+from uqdrive.studies.identification import experiment_plan, measured_data_sets, run_experiment
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
 

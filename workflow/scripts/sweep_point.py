@@ -14,7 +14,7 @@ from pathlib import Path
 
 from uqdrive.config import load_config, provenance
 from uqdrive.io import atomic_path
-from uqdrive.studies.sweep import point_metrics
+from uqdrive.studies.sweep.summary import point_metrics
 
 p = snakemake.params  # noqa: F821
 Path(p.cache).mkdir(parents=True, exist_ok=True)

@@ -9,7 +9,7 @@ import json
 from uqdrive.io import write_csv_rows, write_dataset
 from uqdrive.plots.figure import save_figure
 from uqdrive.plots.sweep import sweep_figure
-from uqdrive.studies.sweep import summary_dataset, summary_rows
+from uqdrive.studies.sweep.summary import summary_dataset, summary_rows
 
 i, o, p = snakemake.input, snakemake.output, snakemake.params  # noqa: F821
 ds = summary_dataset(p.sweep, [json.loads(open(f).read()) for f in i.points])

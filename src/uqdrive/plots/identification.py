@@ -17,20 +17,12 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 from scipy.stats import norm  # noqa: E402
 
+from ..studies.experiments import APPENDIX_B_PLAN, FIGURE_NAMES, NLST_ESTIMATES  # noqa: E402
 from ..vehicle.single_track import VehicleParameters, magic_formula  # noqa: E402
 
 __all__ = ["NLST_ESTIMATES", "FIGURE_NAMES", "APPENDIX_B_PLAN", "w2_per_run", "w2_against", "distributions", "tyre_curves_estimated", "identification_figures"]
 
 LABELS = {"mu": "friction mu", "l_f": "CoG to front axle l_f [m]", "F_w_mean": "mean side wind [N]"}
-NLST_ESTIMATES = ("NLST-STD", "NLST-INP", "NLST-DST")
-#: File stems of the chapter-6 figures (and the robust-start one) :func:`identification_figures` draws.
-FIGURE_NAMES = tuple(f"fig_6_{k}" for k in range(7, 16)) + ("fig_robust_start",)
-_FOUR = ("LST-STD",) + NLST_ESTIMATES
-#: (experiment, estimate) of Figs B.1-B.13, in order.
-APPENDIX_B_PLAN = tuple(
-    [("basic", e) for e in _FOUR] + [("initial_guess", e) for e in _FOUR]
-    + [("noise", e) for e in NLST_ESTIMATES] + [("inverted", e) for e in NLST_ESTIMATES[1:]]
-)
 
 
 def w2_per_run(ds: xr.Dataset, estimates, title: str):

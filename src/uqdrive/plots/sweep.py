@@ -25,7 +25,7 @@ def _panels(ds: xr.Dataset) -> list[tuple[str, str, list[int]]]:
 
 
 def sweep_figure(ds: xr.Dataset):
-    """Figure of a sweep summary (:func:`uqdrive.studies.sweep.summary_dataset`)."""
+    """Figure of a sweep summary (:func:`uqdrive.studies.sweep.summary.summary_dataset`)."""
     panels, keys = _panels(ds), [str(k) for k in ds["key"].values]
     n_rows, n_cols = max(len(panels), 1), len(keys)
     fig, axes = plt.subplots(n_rows, n_cols, figsize=(4.2 * n_cols + 1.5, 2.3 * n_rows + 0.8), squeeze=False, constrained_layout=True)

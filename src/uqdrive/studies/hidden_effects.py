@@ -30,15 +30,17 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from ..rng import rng_stream
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formula
 from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
 from .manoeuvres import MANOEUVRES, steering_command
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
            "simulate_states", "wind_kle"]
@@ -315,6 +317,8 @@ def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoe
     Variables psi, psi_dot, beta, y (sample, time) and the commanded steering ``delta`` (time),
     coordinate time (s), attribute v_c (m/s); no label, draws, noise level or spin flag.
     """
+    import xarray as xr  # here, not above: the workflow lists the cases while it parses its rules
+
     t, delta, x = simulate_states(config, case, kle=kle)
     y = measure(case, x)
     data_vars = {

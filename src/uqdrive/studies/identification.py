@@ -18,12 +18,12 @@ from ..vehicle.montecarlo import STEERS, TimeGrid
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.statistics import kl_divergence_series
 from ..vehicle.single_track import steering_input
+from .experiments import EXPERIMENTS
 
-__all__ = ["EXPERIMENTS", "MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan", "experiment_config", "guess_stream_index"]
+__all__ = ["MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
-EXPERIMENTS = ("basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted")
 DISTRIBUTIONS = ("mu", "l_f", "F_w_mean")
 
 
@@ -50,15 +50,6 @@ class Estimate:
     noise_aware: bool = False
     starts: int = 0
     state_scale: str | None = None  # None: the config's identification.state_scale
-
-
-#: Variants that start from the same initial guesses as the experiment they vary (paired runs).
-PAIRED_WITH = {"normalised": "basic", "normalised_inverted": "inverted"}
-
-
-def guess_stream_index(name: str) -> int:
-    """Index of the random stream of an experiment's initial guesses (shared by paired variants)."""
-    return EXPERIMENTS.index(PAIRED_WITH.get(name, name))
 
 
 def true_theta(config) -> np.ndarray:
@@ -97,17 +88,6 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
     except ValueError as err:  # a non-physical start is reported, not hidden
         return {"theta": np.full(6, np.nan), "theta_std": np.full(6, np.nan), "cost": np.nan, "n_iter": 0, "converged": False, "message": str(err)}
     return {"theta": est.theta_, "theta_std": est.theta_std_, "cost": est.cost_, "n_iter": est.n_iter_, "converged": est.converged_, "message": est.message_}
-
-
-def experiment_config(config: Mapping[str, Any], name: str) -> dict:
-    """The config an experiment runs with: the no-wind-moment variant sets M_c = 0 (thesis
-    Table 6.2's LST row is reproduced only so; see README)."""
-    import copy
-
-    cfg = copy.deepcopy(dict(config))
-    if name == "no_wind_moment":
-        cfg["vehicle"] = dict(cfg["vehicle"], M_c=0.0)
-    return cfg
 
 
 def physical_start(model: LSTChaosModel, theta0):
