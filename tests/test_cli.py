@@ -153,6 +153,7 @@ def test_identify_default_flags_land_on_the_thesis_values(tmp_path):
     assert est["F_w_mean"] == pytest.approx([-400.0, 400.0], abs=40.0)
 
 
+@pytest.mark.long(8)
 def test_lost_control_is_found_from_the_data(tmp_path, monkeypatch):
     """NLST ensemble (2000 samples, thesis values) with its ``spun`` variable removed: the
     realisations that lost control are found from beta, reported, and excluded, so mu lands

@@ -45,6 +45,7 @@ def _run(args, capsys):
     return code, capsys.readouterr()
 
 
+@pytest.mark.long(7)
 def test_named_effect_repairs_the_model_and_the_model_file_is_used(files, capsys):
     """A 3 deg bank on a step steer (road_bank, phi = 3): named, its angle's 95 % interval holds
     3 deg, the gap at least halves, and model.yaml drives `simulate` and `identify`."""

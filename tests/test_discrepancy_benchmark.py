@@ -39,6 +39,7 @@ def ci_config(config):
     return c
 
 
+@pytest.mark.long(20)
 @pytest.mark.parametrize("name", CI_CASES)
 def test_ci_subset(ci_config, name):
     """300 samples: the thesis' own case (NLST data against the LST) also moves the identified

@@ -198,6 +198,7 @@ def check_valid_result(command: str, out: Path) -> None:
     assert (out / "fit.png").is_file()
 
 
+@pytest.mark.long(10)
 def test_fuzzed_inputs_are_refused_in_one_line_or_give_a_valid_result(base, capsys):
     @seed(20230601)  # reproducible cases, so that the counts the README quotes stay put
     @settings(max_examples=60, deadline=None, database=None, suppress_health_check=list(HealthCheck),

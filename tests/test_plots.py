@@ -26,6 +26,7 @@ def _saved(fig, tmp_path, name):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.long(6)
 def test_all_figures(config, stats, tmp_path):
     kle = kle_dataset(config, kle_from_config(config), np.linspace(0, 10, 101), 3, np.random.default_rng(0))
     _saved(plots.tyre_curves(config["figures"]["tyre_surfaces"]), tmp_path, "2_3")

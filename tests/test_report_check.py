@@ -94,6 +94,7 @@ def test_not_a_report_is_refused(check, tmp_path):
         check.read_report(page)
 
 
+@pytest.mark.long(12)
 @pytest.mark.skipif(not (shutil.which("chromium") or shutil.which("chromium-browser")), reason="needs Debian's chromium")
 def test_chromium_finds_a_figure_that_does_not_decode(tmp_path):
     """A tiny real workflow and its Snakemake report: a JPEG of garbage (which only a browser

@@ -178,6 +178,7 @@ def test_one_hash_whatever_else_the_config_holds(test_config):
     assert config_hash(other) == config_hash(test_config)
 
 
+@pytest.mark.long(8)
 def test_nested_config_overrides_are_typed_and_validated(tmp_path):
     rc, out = _snakemake(["-n", "--config", 'control={"R": 50}', "figures={band_sigmas: 2.0}"], tmp_path)
     assert rc == 0, out[-2000:]
@@ -200,6 +201,8 @@ def finished(tmp_path_factory):
     return wd
 
 
+@pytest.mark.long(20)
+@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
 @pytest.mark.workflow
 def test_a_figure_only_key_schedules_no_data_job(finished):
     rc, out = _snakemake(TARGETS + ["-n", "--config", "figures={band_sigmas: 2.0}"], finished)
@@ -208,6 +211,8 @@ def test_a_figure_only_key_schedules_no_data_job(finished):
     assert "before: {'figures.band_sigmas': 3.0} now: {'figures.band_sigmas': 2.0}" in out
 
 
+@pytest.mark.long(20)
+@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
 @pytest.mark.workflow
 def test_the_spin_policy_schedules_no_ensemble(finished):
     rc, out = _snakemake(TARGETS + ["-n", "--config", "montecarlo={spin_policy: keep}"], finished)
@@ -218,6 +223,8 @@ def test_the_spin_policy_schedules_no_ensemble(finished):
     assert rc == 0 and "Nothing to be done" in out
 
 
+@pytest.mark.long(20)
+@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
 @pytest.mark.workflow
 def test_cli_and_workflow_write_the_same_hash(finished, tmp_path):
     out = tmp_path / "lst.nc"
@@ -243,6 +250,7 @@ def test_every_rule_reads_only_its_keys():
 
 # --- a two-point sweep on the CI config ---------------------------------------------------------
 
+@pytest.mark.long(40)
 @pytest.mark.workflow
 def test_two_point_sweep(tmp_path):
     sweeps = tmp_path / "config" / "sweeps"
