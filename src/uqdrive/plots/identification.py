@@ -15,12 +15,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
-from scipy.stats import norm  # noqa: E402
 
 from ..studies.experiments import APPENDIX_B_PLAN, FIGURE_NAMES, NLST_ESTIMATES  # noqa: E402
 from ..vehicle.single_track import VehicleParameters, magic_formula  # noqa: E402
 
 __all__ = ["NLST_ESTIMATES", "FIGURE_NAMES", "APPENDIX_B_PLAN", "w2_per_run", "w2_against", "distributions", "tyre_curves_estimated", "identification_figures"]
+
+def _normal_pdf(x, mean: float, std: float):
+    """Density of N(mean, std^2) at x (scipy.stats would add 0.8 s to the figure job's start)."""
+    z = (np.asarray(x, float) - mean) / std
+    return np.exp(-0.5 * z * z) / (std * np.sqrt(2.0 * np.pi))
+
 
 LABELS = {"mu": "friction mu", "l_f": "CoG to front axle l_f [m]", "F_w_mean": "mean side wind [N]"}
 
@@ -71,10 +76,10 @@ def distributions(ds: xr.Dataset, estimate: str, title: str):
             a, b = th[r, 2 * j], th[r, 2 * j + 1]
             if not np.all(np.isfinite([a, b])):
                 continue
-            y = norm.pdf(x, a, max(abs(b), 1e-6)) if j < 2 else ((x >= min(a, b)) & (x <= max(a, b))) / max(abs(b - a), 1e-9)
+            y = _normal_pdf(x, a, max(abs(b), 1e-6)) if j < 2 else ((x >= min(a, b)) & (x <= max(a, b))) / max(abs(b - a), 1e-9)
             ax.plot(x, y, color="C0", lw=0.8, alpha=0.7, label="estimates" if r == 0 else None)
         a, b = truth[2 * j], truth[2 * j + 1]
-        y = norm.pdf(x, a, b) if j < 2 else ((x >= a) & (x <= b)) / (b - a)
+        y = _normal_pdf(x, a, b) if j < 2 else ((x >= a) & (x <= b)) / (b - a)
         ax.plot(x, y, "k", lw=2, label="true")
         ax.set(title=LABELS[str(dist)], ylabel="density")
         ax.grid(alpha=0.3)
