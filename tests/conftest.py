@@ -1,5 +1,6 @@
 """Shared fixtures: the repository's configs (validated) and small ensembles, one run of the DAG."""
 
+import concurrent.futures
 import copy
 import os
 import subprocess
@@ -56,9 +57,29 @@ def cfg(config):
 
 
 @pytest.fixture(scope="session")
-def workdir(tmp_path_factory):
+def _background():
+    """One thread for the second DAG run (session end waits for it, should a test not have)."""
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
+        yield pool
+
+
+@pytest.fixture(scope="session")
+def second_run(tmp_path_factory, _background):
+    """The folder of the second DAG run (cluster executor, Ctrl-C, make reproduce, kill -9, make
+    reproduce: tests/dag_runs.py) and the future of what each step did; started, not awaited."""
+    from dag_runs import interrupted_runs
+
+    wd = tmp_path_factory.mktemp("interrupted")
+    return wd, _background.submit(interrupted_runs, wd)
+
+
+@pytest.fixture(scope="session")
+def workdir(request, tmp_path_factory):
     """A folder holding one uninterrupted run of the whole DAG on config/test.yaml (2 cores), shared
-    by tests/test_workflow.py and tests/test_dag_repeatability.py, so the suite pays for it once."""
+    by the tests of the "dag" xdist group, so the suite pays for it once. When the session holds
+    tests of the second run, that run starts first and goes on beside this one."""
+    if any("second_run" in item.fixturenames for item in request.session.items):
+        request.getfixturevalue("second_run")
     wd = tmp_path_factory.mktemp("dag")
     proc = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(wd),
                            "--configfile", str(REPO / "config" / "test.yaml"), "--cores", "2"], capture_output=True, text=True)
@@ -67,13 +88,14 @@ def workdir(tmp_path_factory):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Longest first, so that the two xdist workers finish together: the DAG group (its run takes
-    ~2 min), then the tests marked ``long(seconds)`` by decreasing time, then the rest in file
-    order. (In file order the two-point sweep came last and one core idled for 22 s.)"""
+    """Longest first, so that the two xdist workers finish together: the DAG group (its runs take
+    ~2-3 min; within it the tests of the first run before those that wait for the second), then
+    the tests marked ``long(seconds)`` by decreasing time, then the rest in file order. (In file
+    order the two-point sweep came last and one core idled for 22 s.)"""
     def rank(item):
         group = item.get_closest_marker("xdist_group")
         if group is not None and group.args and group.args[0] == "dag":
-            return (0, 0.0)
+            return (0, float("second_run" in item.fixturenames))
         long = item.get_closest_marker("long")
         return (1, -float(long.args[0])) if long is not None else (2, 0.0)
 

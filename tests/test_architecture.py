@@ -1,9 +1,11 @@
 """The package's layering: imports point one way (edges -> studies -> algorithms -> models ->
 numerics -> foundation), with no cycle, and modules and folders stay small enough to read."""
 
+import ast
+
 import pytest
 
-from uqdrive.dependencies import PACKAGE_ROOT, import_graph, module_closure
+from uqdrive.dependencies import PACKAGE_ROOT, _import_nodes, import_graph, module_closure
 
 # Layer of each top-level part of the package; a module may import its own layer or lower ones.
 LAYERS = {
@@ -98,3 +100,33 @@ def test_rule_dependencies_follow_imports():
     assert "plots/data.py" not in files
     with pytest.raises(KeyError):
         module_closure("no_such_module")
+
+
+def _all_import_nodes(source):
+    return [n for n in ast.walk(ast.parse(source)) if isinstance(n, (ast.Import, ast.ImportFrom))]
+
+
+def test_the_statement_reader_finds_what_a_whole_file_parse_finds():
+    """The import statements read one by one (dependencies._import_nodes, the fast path of every
+    Snakemake start) equal those of a whole-file parse, for every module of the package and for
+    the forms a line-based reader can get wrong."""
+    def dumped(nodes):
+        return sorted(ast.dump(n, include_attributes=False) for n in nodes)
+
+    tricky = '''"""Docstring."""
+from .a import (b,
+    c)  # comment
+import os, uqdrive.x as x
+
+
+def f():
+    from ..d import e
+    if True:
+        import uqdrive.g; y = 1
+from .h import \\
+    i
+'''
+    continued = tricky.index("from .h")  # a backslash continuation: the whole-file fallback
+    for source in [tricky, tricky[:continued], *(p.read_text() for p in sorted(PACKAGE_ROOT.rglob("*.py")))]:
+        assert dumped(_import_nodes(source, "<test>")) == dumped(_all_import_nodes(source))
+    assert len(_import_nodes(tricky, "<test>")) == 5 and len(_import_nodes(tricky[:continued], "<test>")) == 4

@@ -13,29 +13,20 @@
   aside.
 """
 
-import importlib.util
-import os
 import re
-import shlex
-import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
 import xarray as xr
 
 from conftest import REPO
+from dag_runs import CLUSTER_PROFILE, CTRL_C_AFTER
 
 # Every test of the DAG runs on one xdist worker, so the session-scoped `workdir` run happens once.
 pytestmark = [pytest.mark.xdist_group("dag"), pytest.mark.workflow]
 
-TEST_CONFIG = REPO / "config" / "test.yaml"
-CLUSTER_PROFILE = REPO / "workflow" / "profiles" / "cluster-generic-local"
-STALE_LOCK = REPO / "workflow" / "profiles" / "default" / "stale_lock.py"
-#: Jobs finished before each interruption (of the ~70 jobs of config/test.yaml).
-CTRL_C_AFTER, KILL_AFTER = 10, 4
 #: Variables and attributes that hold the wall-clock seconds a step took: they measure the
 #: machine, not the result, and are the only values a rerun may change.
 WALL_CLOCK = {"seconds"}
@@ -43,124 +34,14 @@ WALL_CLOCK = {"seconds"}
 #: Empty: the interrupted, cluster-run and resumed DAG reproduced every value bit for bit.
 TOLERANCES: dict[str, tuple[float, str]] = {}
 
-_spec = importlib.util.spec_from_file_location("stale_lock", STALE_LOCK)
-stale_lock = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(stale_lock)
-
-
-def readme_commands():
-    """What `make reproduce` (README "The two commands") runs before its report, for
-    CONFIG=config/test.yaml CORES=2, as `make -n` prints it: the stale-lock step and Snakemake's
-    arguments (paths made absolute, as the commands run in another folder)."""
-    out = subprocess.run(["make", "-n", "reproduce", "CONFIG=config/test.yaml", "CORES=2"], cwd=REPO, capture_output=True,
-                         text=True, check=True).stdout
-    lines = [shlex.split(line) for line in out.splitlines() if line.strip()]
-    unlock = next(line for line in lines if line[-1].endswith("stale_lock.py"))
-    run = next(line for line in lines if line[0].endswith("bin/snakemake") and "--report" not in line)
-    assert REPO / unlock[-1] == STALE_LOCK and run[1:] == ["--cores", "2", "--configfile", "config/test.yaml"]
-    args = [str(REPO / a) if (REPO / a).is_file() else a for a in run[1:]]
-    return [sys.executable, str(STALE_LOCK)], [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), *args]
-
-
-def _start(cmd, wd, log):
-    """Start cmd in wd in a session of its own with Ctrl-C's default meaning (as a terminal runs a
-    command), output to log. A test run started in the background (`pytest ... &` in a script,
-    nohup) inherits SIGINT ignored, and Python then never turns it into KeyboardInterrupt: the
-    Ctrl-C below would be lost (seen in session 9: the cluster run went on to the end)."""
-    with open(log, "w") as fh:
-        return subprocess.Popen(cmd, cwd=wd, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True,
-                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-
-
-def _finished(log):
-    return log.read_text().count("Finished jobid:")
-
-
-def _planned(log):
-    """Jobs the run set out to do (its "Job stats" total, `all` included)."""
-    return int(re.search(r"^total\s+(\d+)", log.read_text(), re.MULTILINE).group(1))
-
-
-def _wait(condition, proc, log, timeout):
-    start = time.monotonic()
-    while not condition():
-        assert proc.poll() is None, f"{log.name} ended before it could be interrupted:\n{log.read_text()[-3000:]}"
-        assert time.monotonic() - start < timeout, f"timeout waiting in {log.name}:\n{log.read_text()[-3000:]}"
-        time.sleep(0.5)
-
-
-def _cut(log):
-    """Jobs a run started (Snakemake prints each as it starts it, a group job's all at once) but
-    did not finish: the work an interruption throws away."""
-    text = log.read_text()
-    return len(re.findall(r"^\s*(?:local)?rule \w+:$", text, re.MULTILINE)) - text.count("Finished jobid:")
-
-
-def _step(log, t0, **more):
-    return dict(seconds=time.monotonic() - t0, planned=_planned(log), finished=_finished(log), cut=_cut(log), log=log.read_text(), **more)
-
-
-def _unlock_as_told(unlock, wd):
-    """The stale-lock step of `make reproduce`; when it stops and names processes, end them as its
-    line says (kill PID ...) and run it again. Both answers."""
-    answers = [subprocess.run(unlock, cwd=wd, capture_output=True, text=True)]
-    if answers[0].returncode == 2 and (told := re.search(r"\(kill ([\d ]+)[;)]", answers[0].stderr)):
-        pids = [int(p) for p in told.group(1).split()]
-        for sig, wait in ((signal.SIGTERM, 30), (signal.SIGKILL, 30)):  # kill, then kill -9 (as the line says)
-            for pid in pids:
-                try:
-                    os.kill(pid, sig)
-                except ProcessLookupError:
-                    pass
-            end = time.monotonic() + wait
-            while stale_lock.snakemake_processes(wd.resolve()) and time.monotonic() < end:
-                time.sleep(0.5)
-            if not stale_lock.snakemake_processes(wd.resolve()):
-                break
-        answers.append(subprocess.run(unlock, cwd=wd, capture_output=True, text=True))
-    return answers
-
-
-# The second DAG run costs ~3.5-5 CPU-minutes. In CI it took a clean-clone `.ci/run` to 9 min 27 s
-# and 9 min 47 s (two runs, session 8, idle 2-core machine), too close to CI's 10 minutes, so it
-# runs on demand: `pytest -m slow tests/test_dag_repeatability.py`. (Session 8 also found that CI
-# had been running the first DAG twice: pytest 9.2 broke xdist's loadgroup; now pinned.) Session 9:
-# CI without it 8 min 19 s on a slower day (the session-8 commit: 9 min 44 s), so still on demand.
-SECOND_RUN = pytest.mark.slow
-
 
 @pytest.fixture(scope="module")
-def resumed(tmp_path_factory):
-    """The DAG through the cluster executor, Ctrl-C, make reproduce, kill -9, make reproduce: what
-    each step did."""
-    wd = tmp_path_factory.mktemp("interrupted")
-    unlock, readme = readme_commands()
-    steps = {}
-
-    # 1. The cluster path; Ctrl-C once CTRL_C_AFTER jobs have finished.
-    log, t0 = wd / "cluster.log", time.monotonic()
-    proc = _start([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--configfile", str(TEST_CONFIG),
-                   "--workflow-profile", str(CLUSTER_PROFILE)], wd, log)
-    # ... and its log has been quiet for a moment: Snakemake waits on running jobs, as when a user
-    # presses Ctrl-C during a long job (see the test below for a Ctrl-C while it schedules).
-    _wait(lambda: _finished(log) >= CTRL_C_AFTER and time.time() - log.stat().st_mtime > 1.5, proc, log, timeout=900)
-    os.killpg(proc.pid, signal.SIGINT)
-    steps["cluster"] = _step(log, t0, returncode=proc.wait(timeout=120), locks=sorted((wd / ".snakemake" / "locks").glob("*")))
-
-    # 2. make reproduce; kill -9 once KILL_AFTER jobs have finished and one runs.
-    log, t0 = wd / "readme_1.log", time.monotonic()
-    steps["unlock_1"] = _unlock_as_told(unlock, wd)
-    proc = _start(readme, wd, log)
-    _wait(lambda: _finished(log) >= KILL_AFTER and len(stale_lock.snakemake_processes(wd.resolve()) or []) > 1, proc, log, timeout=600)
-    proc.kill()
-    proc.wait()
-    steps["readme_1"] = _step(log, t0, locks=sorted((wd / ".snakemake" / "locks").glob("*")))
-
-    # 3. make reproduce again, to the end.
-    log, t0 = wd / "readme_2.log", time.monotonic()
-    steps["unlock_2"] = _unlock_as_told(unlock, wd)
-    proc = _start(readme, wd, log)
-    steps["readme_2"] = _step(log, t0, returncode=proc.wait(timeout=900))
+def resumed(request, second_run):
+    """What each step of the interrupted runs did (conftest's ``second_run``, which the first run
+    ``workdir`` starts before it runs, so that the two run side by side)."""
+    request.getfixturevalue("workdir")
+    wd, future = second_run
+    steps = future.result()
     for name in ("cluster", "readme_1", "readme_2"):
         step = steps[name]
         print(f"{name}: {step['seconds']:.0f} s, {step['finished']} of {step['planned']} planned jobs finished, {step['cut']} cut")
@@ -169,7 +50,6 @@ def resumed(tmp_path_factory):
     return wd, steps
 
 
-@SECOND_RUN
 def test_the_dag_runs_through_the_cluster_generic_executor_in_group_jobs(resumed):
     _, steps = resumed
     cluster = steps["cluster"]
@@ -190,7 +70,6 @@ def test_the_dag_runs_through_the_cluster_generic_executor_in_group_jobs(resumed
             assert "removed the stale lock" in steps["unlock_1"][-1].stderr, steps["unlock_1"]
 
 
-@SECOND_RUN
 def test_make_reproduce_resumes_after_ctrl_c_and_kill_9_rerunning_only_what_was_cut(resumed):
     _, steps = resumed
     cluster, first, last = steps["cluster"], steps["readme_1"], steps["readme_2"]
@@ -231,8 +110,7 @@ def _differences(first, second, rel):
     return out
 
 
-@SECOND_RUN
-def test_resumed_outputs_equal_the_uninterrupted_run(workdir, resumed):
+def test_resumed_outputs_equal_the_uninterrupted_run(resumed, workdir):
     wd, _ = resumed
     first, second = workdir / "results", wd / "results"
     assert (second / "scorecard.csv").read_bytes() == (first / "scorecard.csv").read_bytes()

@@ -187,49 +187,38 @@ def test_nested_config_overrides_are_typed_and_validated(tmp_path):
     assert not (tmp_path / "results").exists()
 
 
-# --- a finished tiny run: what a changed key reruns ----------------------------------------------
+# --- a finished run (the suite's first DAG run, conftest's `workdir`): what a changed key reruns ---
 
+#: The LST ensemble, its statistics and noise statistics, the KLE and their figures.
 TARGETS = ["results/figures/fig_6_1.png", "results/figures/fig_5_2.png", "results/data/noise_stats_lst.nc"]
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-    """The LST ensemble, its statistics and noise statistics, the KLE and their figures, run."""
-    wd = tmp_path_factory.mktemp("finished")
-    rc, out = _snakemake(["--cores", "2"] + TARGETS, wd)
-    assert rc == 0, out[-3000:]
-    return wd
-
-
-@pytest.mark.long(20)
-@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
+@pytest.mark.xdist_group("dag")  # on the worker that holds the DAG run
 @pytest.mark.workflow
-def test_a_figure_only_key_schedules_no_data_job(finished):
-    rc, out = _snakemake(TARGETS + ["-n", "--config", "figures={band_sigmas: 2.0}"], finished)
+def test_a_figure_only_key_schedules_no_data_job(workdir):
+    rc, out = _snakemake(TARGETS + ["-n", "--config", "figures={band_sigmas: 2.0}"], workdir)
     assert rc == 0, out[-2000:]
     assert _scheduled(out) == {"fig_data_band": 1}
     assert "before: {'figures.band_sigmas': 3.0} now: {'figures.band_sigmas': 2.0}" in out
 
 
-@pytest.mark.long(20)
-@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
+@pytest.mark.xdist_group("dag")  # on the worker that holds the DAG run
 @pytest.mark.workflow
-def test_the_spin_policy_schedules_no_ensemble(finished):
-    rc, out = _snakemake(TARGETS + ["-n", "--config", "montecarlo={spin_policy: keep}"], finished)
+def test_the_spin_policy_schedules_no_ensemble(workdir):
+    rc, out = _snakemake(TARGETS + ["-n", "--config", "montecarlo={spin_policy: keep}"], workdir)
     assert rc == 0, out[-2000:]
     assert _scheduled(out) == {"statistics": 1, "noise_statistics": 1, "fig_data_band": 1}
     assert "now: {'montecarlo.spin_policy': 'keep'}" in out
-    rc, out = _snakemake(["-n"] + TARGETS, finished)
+    rc, out = _snakemake(["-n"] + TARGETS, workdir)
     assert rc == 0 and "Nothing to be done" in out
 
 
-@pytest.mark.long(20)
-@pytest.mark.xdist_group("sweep_finished")  # one worker builds `finished`, not both
+@pytest.mark.xdist_group("dag")  # on the worker that holds the DAG run
 @pytest.mark.workflow
-def test_cli_and_workflow_write_the_same_hash(finished, tmp_path):
+def test_cli_and_workflow_write_the_same_hash(workdir, tmp_path):
     out = tmp_path / "lst.nc"
     assert main(["simulate", "--model", "lst", "--config", TEST_CONFIG, "--out", str(out)]) == 0
-    with xr.open_dataset(out) as cli, xr.open_dataset(finished / "results" / "data" / "ensemble_lst_normal.nc") as wf:
+    with xr.open_dataset(out) as cli, xr.open_dataset(workdir / "results" / "data" / "ensemble_lst_normal.nc") as wf:
         assert cli.attrs["config_hash"] == wf.attrs["config_hash"]
         np.testing.assert_allclose(cli["y"].values, wf["y"].values, rtol=1e-9, atol=1e-12)  # same draws (BLAS may round apart)
 
