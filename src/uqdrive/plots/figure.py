@@ -20,9 +20,14 @@ __all__ = ["save_figure", "state_axes", "time_axis", "label_state"]
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
-    """Save ``fig`` as PNG atomically and close it."""
+    """Save ``fig`` as PNG atomically and close it.
+
+    A figure with a layout engine (constrained layout: every figure of uqdrive's own) already fits
+    its canvas and is saved as it is; one without (corner's) is cropped to what it draws. The crop
+    costs a second layout pass (a fifth of the CPU of the 23 identification figures)."""
+    bbox = None if fig.get_layout_engine() is not None else "tight"
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format="png")
+        fig.savefig(tmp, dpi=dpi, bbox_inches=bbox, format="png")
     plt.close(fig)
 
 

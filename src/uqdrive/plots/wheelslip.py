@@ -58,7 +58,7 @@ def gp_slope(ds: xr.Dataset):
 
 def pole_locations(ds: xr.Dataset):
     """Paper Figs 7/8: mean closed-loop poles, the 95 % arc [zeta-, zeta+] and the true poles."""
-    fig, ax = plt.subplots(figsize=(6, 5), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(3.6, 5.2), constrained_layout=True)  # the equal-aspect axes are tall: no side margins
     w0 = ds.attrs["omega_0"]
     zetas = np.linspace(ds.attrs["zeta_minus"], ds.attrs["zeta_plus"], 100)
     arc = closed_loop_poles(zetas, w0)
