@@ -266,10 +266,10 @@ def test_restarts_are_the_zero_start_then_distinct_random_points(monkeypatch):
 
 
 def test_batched_nll_equals_the_one_point_nll_row_by_row():
-    """The sampler's batched NLL (emcee moves a whole ensemble) equals :meth:`_nll` per row to
-    rounding (rel 1e-10: a Cholesky log-determinant and an LU solve of 9 x 9 matrices of order
-    1), on two inputs with exact points; a row whose covariance is singular gets the penalty
-    while the other rows keep their values."""
+    """The sampler's batched NLL (emcee moves a whole ensemble) equals :meth:`_nll` per row (rel
+    1e-10; it is the same arithmetic per row, stacked covariances included, so in fact exactly),
+    on two inputs with exact points; a row whose covariance is singular gets the penalty while the
+    other rows keep their values."""
     rng = np.random.default_rng(5)
     X, y, exact, gp = _two_input_gp(rng)
     rows = rng.uniform(-2, 2, (7, 5))
@@ -333,3 +333,45 @@ def test_gradient_by_trace_identities_equals_the_textbook_gradient(inputs):
         fd = np.array([(gp._nll(theta + 1e-6 * e) - gp._nll(theta - 1e-6 * e)) / 2e-6 for e in np.eye(theta.size)])
         assert grad == pytest.approx(fd, rel=1e-6, abs=1e-8)
         assert nll == gp._nll(theta)  # one covariance and factor for both paths
+
+
+def test_stacked_kernels_equal_the_kernels_of_each_row():
+    """A stack of (v1, g) gives the stack of covariances, each exactly the one-row value (the same
+    elementwise arithmetic), for the kernel and both derivatives, on two inputs."""
+    rng = np.random.default_rng(6)
+    X1, X2 = rng.normal(size=(4, 2)), rng.normal(size=(3, 2))
+    v1, g = np.exp(rng.uniform(-1, 1, 5)), np.exp(rng.uniform(-2, 2, (5, 3)))
+    for kernel in (arcsine_kernel, arcsine_kernel_grad_x, arcsine_kernel_grad_xx):
+        stack = kernel(X1, X2, v1, g)
+        assert stack.shape == (5, 4, 3)
+        for r in range(5):
+            assert np.array_equal(stack[r], kernel(X1, X2, v1[r], g[r]))
+    assert len({float(k[0, 0]) for k in arcsine_kernel(X1, X2, v1, g)}) == 5  # rows differ
+
+
+@pytest.mark.parametrize("inputs", [1, 2])
+def test_slope_posteriors_equal_refitted_gps(inputs):
+    """slope_posteriors (the emcee mixture's draws) equals predict_slope of a GP fitted to the same
+    data with each row's hyperparameters fixed, exactly (the same arithmetic; rows whose log
+    hyperparameters survive exp/log unchanged), for 20 rows (n = 11 points: stacks of 135 rows
+    and one by one alike) and on two inputs with exact points; a singular row is an error, as
+    in fit."""
+    rng = np.random.default_rng(9)
+    if inputs == 1:
+        x = np.r_[0.0, rng.uniform(0.0, 0.1, 10)]
+        gp = ArcsineGP(restarts=2, rng=rng).fit(x, 0.9 * np.sin(1.9 * np.arctan(20 * x)) + 0.05 * rng.normal(size=11) * (x > 0), noise_free=x == 0)
+        at = 0.15
+    else:
+        *_, gp = _two_input_gp(rng)
+        at = np.array([0.2, -0.3])
+    rows = np.log(np.exp(rng.uniform(-2.0, 2.0, (20, inputs + 3))))
+    mean, variance = gp.slope_posteriors(rows, at, j=inputs - 1)
+    assert mean.shape == variance.shape == (20,)
+    for r, row in enumerate(rows):
+        sub = ArcsineGP(hyperparameters={"v1": np.exp(row[0]), "g": np.exp(row[1:-1]), "v0": np.exp(row[-1])})
+        m, v = sub.fit(gp._X if inputs == 2 else gp._X[:, 0], gp._y, noise_free=gp._noisy == 0).predict_slope(np.atleast_2d(at), j=inputs - 1)
+        assert (mean[r], variance[r]) == (m[0], v[0])
+    assert len(set(mean)) == 20 and np.all(variance > 0)
+    flat = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0], "v0": 1.0}).fit(np.linspace(0.5, 1.0, 12), np.zeros(12), noise_free=np.ones(12, bool))
+    with pytest.raises(np.linalg.LinAlgError):
+        flat.slope_posteriors(np.array([[0.0, 0.0, 0.0, 0.0], [9.0, -9.0, 9.0, -9.0]]), 0.7)

@@ -87,12 +87,10 @@ def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walke
     sampler.run_mcmc(p0, steps, progress=False)
     chain = sampler.get_chain(discard=burn, flat=True)
     pick = chain[rng.choice(chain.shape[0], size=min(draws, chain.shape[0]), replace=False)]
-    means, stds = np.empty(len(pick)), np.empty(len(pick))
-    for i, lt in enumerate(pick):
-        sub = ArcsineGP(hyperparameters={"v1": np.exp(lt[0]), "g": np.exp(lt[1:-1]), "v0": np.exp(lt[-1])})
-        sub.fit(gp._X[:, 0], gp._y, noise_free=gp._noisy == 0)
-        m, v = sub.predict_slope(np.array([x]))
-        means[i], stds[i] = m[0], np.sqrt(max(v[0], 1e-300))
+    # each draw's slope posterior, as a GP refitted with the draw's hyperparameters would give it
+    # (log(exp(.)) rounds the draw as such a GP's log hyperparameters are rounded)
+    means, variances = gp.slope_posteriors(np.log(np.exp(pick)), x)
+    stds = np.sqrt(np.maximum(variances, 1e-300))
 
     def cdf(q):
         return np.mean(norm.cdf((q - means) / stds))

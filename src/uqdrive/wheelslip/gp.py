@@ -29,14 +29,20 @@ def _augment(X):
 
 
 def _parts(X1, X2, g):
-    """u = 2 x~1' G x~2, a = 1 + 2 x~1' G x~1, b = 1 + 2 x~2' G x~2 and z = u / sqrt(a b)."""
+    """u = 2 x~1' G x~2, a = 1 + 2 x~1' G x~1, b = 1 + 2 x~2' G x~2 and z = u / sqrt(a b); a stack
+    of g, shape (..., D + 1), gives a stack of each, (..., n1) and (..., n1, n2)."""
     A, B = _augment(X1), _augment(X2)
-    g = np.asarray(g, float)
+    g = np.asarray(g, float)[..., None, :]  # broadcasts over the points
     u = 2.0 * (A * g) @ B.T
-    a = 1.0 + 2.0 * np.sum(A * A * g, axis=1)
-    b = 1.0 + 2.0 * np.sum(B * B * g, axis=1)
-    root = np.sqrt(np.outer(a, b))
+    a = 1.0 + 2.0 * np.sum(A * A * g, axis=-1)
+    b = 1.0 + 2.0 * np.sum(B * B * g, axis=-1)
+    root = np.sqrt(a[..., :, None] * b[..., None, :])
     return A, B, u, a, b, root, u / root
+
+
+def _w(weights, m):
+    """Weight m of g (shape (D + 1,) or (..., D + 1)), shaped to scale (..., n1, n2) arrays."""
+    return weights[..., m, None, None]
 
 
 def arcsine_kernel(X1, X2, v1: float, g):
@@ -48,48 +54,53 @@ def arcsine_kernel(X1, X2, v1: float, g):
     ----------
     X1 : ndarray, shape (n1,) or (n1, D)
     X2 : ndarray, shape (n2,) or (n2, D)
-    v1 : float
+    v1 : float or ndarray, shape (...)
         Signal scale.
-    g : ndarray, shape (D + 1,)
-        Diagonal of G: bias weight g0, then one weight per input.
+    g : ndarray, shape (D + 1,) or (..., D + 1)
+        Diagonal of G: bias weight g0, then one weight per input; a stack of them (with v1 of
+        the stack's shape) gives a stack of covariances.
 
     Returns
     -------
-    ndarray, shape (n1, n2)
+    ndarray, shape (n1, n2) or (..., n1, n2)
     """
     *_, z = _parts(X1, X2, g)
-    return v1 * np.arcsin(np.clip(z, -1.0, 1.0))
+    return np.asarray(v1, float)[..., None, None] * np.arcsin(np.clip(z, -1.0, 1.0))
 
 
 def _dz_dx1(A, B, a, root, z, g, j):
     """d z / d x1_j (input j, i.e. column j + 1 of the augmented inputs)."""
     m = j + 1
-    return 2.0 * g[m] * B[None, :, m] / root - z * 2.0 * g[m] * A[:, None, m] / a[:, None]
+    return 2.0 * _w(g, m) * B[None, :, m] / root - z * 2.0 * _w(g, m) * A[:, None, m] / a[..., :, None]
 
 
 def _dz_dx2(A, B, b, root, z, g, i):
     m = i + 1
-    return 2.0 * g[m] * A[:, None, m] / root - z * 2.0 * g[m] * B[None, :, m] / b[None, :]
+    return 2.0 * _w(g, m) * A[:, None, m] / root - z * 2.0 * _w(g, m) * B[None, :, m] / b[..., None, :]
 
 
 def arcsine_kernel_grad_x(X1, X2, v1: float, g, j: int = 0):
     """d k(x1, x2) / d x1_j: the covariance of the slope at x1 with the function at x2 (paper 7).
 
+    Parameters and stacks as :func:`arcsine_kernel`.
+
     Returns
     -------
-    ndarray, shape (n1, n2)
+    ndarray, shape (n1, n2) or (..., n1, n2)
     """
     g = np.asarray(g, float)
     A, B, u, a, b, root, z = _parts(X1, X2, g)
-    return v1 * _dz_dx1(A, B, a, root, z, g, j) / np.sqrt(1.0 - z**2)
+    return np.asarray(v1, float)[..., None, None] * _dz_dx1(A, B, a, root, z, g, j) / np.sqrt(1.0 - z**2)
 
 
 def arcsine_kernel_grad_xx(X1, X2, v1: float, g, j: int = 0, i: int = 0):
     """d^2 k(x1, x2) / d x1_j d x2_i: the covariance of two slopes (paper eq. 8).
 
+    Parameters and stacks as :func:`arcsine_kernel`.
+
     Returns
     -------
-    ndarray, shape (n1, n2)
+    ndarray, shape (n1, n2) or (..., n1, n2)
     """
     g = np.asarray(g, float)
     A, B, u, a, b, root, z = _parts(X1, X2, g)
@@ -97,12 +108,12 @@ def arcsine_kernel_grad_xx(X1, X2, v1: float, g, j: int = 0, i: int = 0):
     dz2 = _dz_dx2(A, B, b, root, z, g, i)
     mj, mi = j + 1, i + 1
     d2z = (
-        2.0 * g[mj] * (mj == mi) / root
-        - (2.0 * g[mj] * B[None, :, mj]) * (2.0 * g[mi] * B[None, :, mi]) / (b[None, :] * root)
-        - (2.0 * g[mj] * A[:, None, mj] / a[:, None]) * dz2
+        2.0 * _w(g, mj) * (mj == mi) / root
+        - (2.0 * _w(g, mj) * B[None, :, mj]) * (2.0 * _w(g, mi) * B[None, :, mi]) / (b[..., None, :] * root)
+        - (2.0 * _w(g, mj) * A[:, None, mj] / a[..., :, None]) * dz2
     )
     s = 1.0 - z**2
-    return v1 * (z * dz1 * dz2 / s**1.5 + d2z / np.sqrt(s))
+    return np.asarray(v1, float)[..., None, None] * (z * dz1 * dz2 / s**1.5 + d2z / np.sqrt(s))
 
 
 class ArcsineGP:
@@ -214,12 +225,7 @@ class ArcsineGP:
         ndarray, shape (W,)
             The NLL per row (1e25 where the covariance is not numerically positive definite).
         """
-        rows = np.atleast_2d(np.asarray(log_thetas, float))
-        # covariances in stacks of at most ~16k entries: a stack that leaves the cache costs more
-        # than the Python calls it saves (n = 101, 6 rows: 1.0 ms stacked against 0.7 ms one by one)
-        chunk = max(1, 16384 // self._y.size**2)
-        fs = [f for i in range(0, len(rows), chunk) for f in map(self._factor, self._covariance(rows[i : i + chunk])[0])]
-        return np.array([1e25 if f is None else f[0] for f in fs])
+        return np.array([1e25 if f is None else f[0] for f in self._row_factors(log_thetas)])
 
     def _nll_and_grad(self, log_theta):
         """NLL and its gradient in the log hyperparameters, d nll = -1/2 tr(W dK) with
@@ -245,6 +251,45 @@ class ArcsineGP:
         rz = np.einsum("ij,ij->i", Wd, z)
         grad_g = -v1 * g * (np.einsum("im,im->m", B, C) - (B * B).T @ rz)
         return nll, np.concatenate([[-0.5 * v1 * np.vdot(W, S)], grad_g, [-0.5 * v0 * (np.diag(W) @ self._noisy)]])
+
+    def _row_factors(self, log_thetas):
+        """:meth:`_factor` of each row's covariance, the covariances built in stacks of at most
+        ~16k entries: a stack that leaves the cache costs more than the Python calls it saves
+        (n = 101, 6 rows: 1.0 ms stacked against 0.7 ms one by one)."""
+        rows = np.atleast_2d(np.asarray(log_thetas, float))
+        chunk = max(1, 16384 // self._y.size**2)
+        for i in range(0, len(rows), chunk):
+            yield from map(self._factor, self._covariance(rows[i : i + chunk])[0])
+
+    @with_single_blas_thread
+    def slope_posteriors(self, log_thetas, x, j: int = 0):
+        """Mean and variance of the slope df/dx_j at one input x under each row of hyperparameters:
+        :meth:`predict_slope` of a GP fitted to this GP's data with that row's fixed hyperparameters,
+        with the same arithmetic, but without fitting one GP per row (the emcee mixture's draws).
+
+        Parameters
+        ----------
+        log_thetas : ndarray, shape (R, D + 3)
+            Log hyperparameters [log v1, log g_0..g_D, log v0] per row.
+        x : float or ndarray, shape (D,)
+        j : int
+            Input of the slope.
+
+        Returns
+        -------
+        mean, variance : ndarray, shape (R,)
+        """
+        rows = np.atleast_2d(np.asarray(log_thetas, float))
+        theta = np.exp(rows)
+        xs = np.atleast_2d(np.asarray(x, float))
+        k_star = arcsine_kernel_grad_x(xs, self._X, theta[:, 0], theta[:, 1:-1], j)  # (R, 1, n)
+        k_ss = arcsine_kernel_grad_xx(xs, xs, theta[:, 0], theta[:, 1:-1], j, j)[:, 0, 0]
+        mean, variance = np.empty(len(rows)), np.empty(len(rows))
+        for r, f in enumerate(self._row_factors(rows)):
+            if f is None:
+                raise np.linalg.LinAlgError("the training covariance is not positive definite")
+            mean[r], variance[r] = (a[0] for a in self._posterior(k_star[r], k_ss[r : r + 1], f[1], f[2]))
+        return mean, variance
 
     # tens-by-tens Cholesky factors: OpenBLAS threads make them several times slower (threads.py)
     @with_single_blas_thread
@@ -289,9 +334,12 @@ class ArcsineGP:
         return self
 
     # -- predictions --------------------------------------------------------------------------
-    def _posterior(self, k_star, k_star_star):
-        mean = k_star @ self._alpha
-        v = solve_triangular(self._L, k_star.T, lower=True)
+    def _posterior(self, k_star, k_star_star, L=None, alpha=None):
+        """Posterior mean and variance from cross- and prior covariances, with this GP's factor and
+        alpha = K^-1 y or given ones (L: lower Cholesky factor of K)."""
+        L, alpha = (self._L, self._alpha) if L is None else (L, alpha)
+        mean = k_star @ alpha
+        v = solve_triangular(L, k_star.T, lower=True)
         return mean, k_star_star - np.sum(v * v, axis=0)
 
     def predict(self, X):
