@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
+__all__ = ["STATISTICS", "moment_statistics", "mean_std", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -30,8 +30,18 @@ def moment_statistics(x, index):
     ndarray, shape (2, 4, K)
         [mean, std] per state and time.
     """
-    xs = x[:, :, index]
-    return np.stack([xs.mean(axis=1), xs.std(axis=1, ddof=1)])
+    return mean_std(x[:, :, index])
+
+
+def mean_std(xs):
+    """[mean, std (ddof 1)] over axis 1 of xs (4, n, K), shape (2, 4, K).
+
+    The std is NumPy's given the mean (``mean=``): its own formula without its second sum over
+    the realisations. The order of the sums follows xs's memory layout (a C-contiguous xs sums
+    one realisation after the other, the order :meth:`.fit.StructureFit.statistics` has always had).
+    """
+    mean = xs.mean(axis=1, keepdims=True)
+    return np.stack([mean[:, 0], xs.std(axis=1, ddof=1, mean=mean)])
 
 
 def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):

@@ -216,8 +216,11 @@ class DiscrepancyFinder:
         for start in range(0, self.bootstrap, per_call):
             reps = min(per_call, self.bootstrap - start)
             germs = type(sim.germs).draw(rng, reps * n, sim.germs.kle.shape[1])
-            xb = sim.simulate(base.theta_, base.structure_, germs=germs)[:, :, index]
-            xb = xb + rng.standard_normal(xb.shape) * np.sqrt(noise)[:, None, None]
+            x = sim.simulate(base.theta_, base.structure_, germs=germs)
+            # x[:, :, index] + noise, computed in the noise's array (no copies of x; the same sums)
+            xb = rng.standard_normal((4, x.shape[1], index.size))
+            xb *= np.sqrt(noise)[:, None, None]
+            xb += x[:, :, index[0]:index[-1] + 1] if np.all(np.diff(index) == 1) else x[:, :, index]
             xb = xb.reshape(4, reps, n, -1)
             keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[2]) > spin, axis=-1)
             whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
