@@ -68,6 +68,8 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
            "reason": "the box the random restarts are drawn from, [-4, 3] or [-3, 4] instead of [-3, 3]: a tuning choice (the "
                      "starts stay distinct, spread over both signs and inside the search box, as the tests require)"}
           for m in ("uniform(-(4), 3,", "uniform(-3, (4),")),
+        {"line": "self._posterior(k_star[r], k_ss[r : r + 1], f[1], f[2])", "mutation": "constant 1 -> 2",
+         "reason": "k_ss[r : r + 2] holds one more prior variance, broadcast to a second output entry that `a[0]` never reads"},
         {"line": "self._jitter = 1e-10", "mutation": "constant 1e-10 -> 2e-10",
          "reason": "diagonal regularisation of K; 1e-10 more changes outputs by ~1e-10 relative, below every stated accuracy"},
     ],
