@@ -28,6 +28,8 @@ def _normal_pdf(x, mean: float, std: float):
 
 
 LABELS = {"mu": "friction mu", "l_f": "CoG to front axle l_f [m]", "F_w_mean": "mean side wind [N]"}
+#: Units of a probability density over each identified quantity (mu is dimensionless).
+DENSITY_UNITS = {"mu": "-", "l_f": "1/m", "F_w_mean": "1/N"}
 
 
 def w2_per_run(ds: xr.Dataset, estimates, title: str):
@@ -81,7 +83,8 @@ def distributions(ds: xr.Dataset, estimate: str, title: str):
         a, b = truth[2 * j], truth[2 * j + 1]
         y = _normal_pdf(x, a, b) if j < 2 else ((x >= a) & (x <= b)) / (b - a)
         ax.plot(x, y, "k", lw=2, label="true")
-        ax.set(title=LABELS[str(dist)], ylabel="density")
+        ax.set(title=LABELS[str(dist)], xlabel=LABELS[str(dist)].replace("friction mu", "mu [-]"),
+               ylabel=f"density [{DENSITY_UNITS[str(dist)]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.suptitle(title)
