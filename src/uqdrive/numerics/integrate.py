@@ -259,21 +259,16 @@ def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, 
 
     The stages and the state are updated in place, so a step allocates nothing; for the small
     batches of a discover fit (a few hundred realisations) NumPy's per-call cost, not the
-    arithmetic, is most of a step. Same operations as :func:`rk4_fixed_step` (each sum taken
-    in the same order), so the same numbers for the same ``rhs``.
+    arithmetic, is most of a step. :func:`rk4_fixed_step` is this stepper with a copying
+    right-hand side.
 
     Parameters
     ----------
     rhs : callable
         ``rhs(x, j, out)`` writes dx/dt at time j * h / 2 for the state ``x`` (d, n) into ``out``
         (d, n); it must not keep ``x`` or ``out``.
-    x0 : ndarray, shape (d, n)
-    h : float
-        Step (s).
-    n_steps : int
-        Number of steps; must be a multiple of ``record_every``.
-    record_every : int
-        Store the state every this many steps.
+    x0, h, n_steps, record_every
+        As for :func:`rk4_fixed_step`.
 
     Returns
     -------

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "mean_std", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
+__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -31,6 +31,14 @@ def moment_statistics(x, index):
         [mean, std] per state and time.
     """
     return mean_std(x[:, :, index])
+
+
+def compared_times(x, index):
+    """x[:, :, index] for x (4, n, T): a view when ``index`` is a run of consecutive times (the
+    evenly spaced comparison times at stride 1), else NumPy's copy."""
+    if np.all(np.diff(index) == 1):
+        return x[:, :, index[0]:index[-1] + 1]
+    return x[:, :, index]
 
 
 def mean_std(xs):

@@ -16,7 +16,7 @@ from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, expand_names
 from ...vehicle.noise import estimate_noise_variance
 from ...vehicle.single_track import STATES
-from .band import STATISTICS, NullBand, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan_windows, statistic_scale
+from .band import STATISTICS, NullBand, compared_times, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan_windows, statistic_scale
 from .catchall import smooth_discrepancy
 from .fit import StructureFit
 from .posterior import AugmentedPosterior
@@ -220,7 +220,7 @@ class DiscrepancyFinder:
             # x[:, :, index] + noise, computed in the noise's array (no copies of x; the same sums)
             xb = rng.standard_normal((4, x.shape[1], index.size))
             xb *= np.sqrt(noise)[:, None, None]
-            xb += x[:, :, index[0]:index[-1] + 1] if np.all(np.diff(index) == 1) else x[:, :, index]
+            xb += compared_times(x, index)
             xb = xb.reshape(4, reps, n, -1)
             keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[2]) > spin, axis=-1)
             whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations

@@ -12,7 +12,7 @@ from scipy.optimize import least_squares
 
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
-from .band import mean_std
+from .band import compared_times, mean_std
 
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
 
@@ -169,11 +169,7 @@ class StructureFit:
         # one C-contiguous copy of the compared times (from the simulators' time-major layout):
         # sums over realisations one after the other, as the earlier copies x[:, keep][:, :, index]
         # had them, so the same numbers at a fifth of the cost
-        index = self.index
-        if index.size > 1 and np.all(np.diff(index) == 1):
-            xs = np.ascontiguousarray(x[:, :, index[0]:index[-1] + 1])
-        else:
-            xs = np.ascontiguousarray(x[:, :, index])
+        xs = np.ascontiguousarray(compared_times(x, self.index))
         gain = np.asarray(structure.output_gain, float)[:, None]
         stats = mean_std(xs)
         mean = stats[0] * gain + np.asarray(structure.output_offset, float)[:, None]
