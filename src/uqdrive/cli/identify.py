@@ -22,12 +22,12 @@ import numpy as np
 
 from ..io import DataError, atomic_path, check_spread, read_ensemble
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
-from ..vehicle.chaos import LSTChaosModel
+from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
-__all__ = ["identify_file", "fit_warnings"]
+__all__ = ["identify_file", "fit_warnings", "fit_notes"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 
@@ -73,9 +73,26 @@ def _lost_control(ds, cfg, source: str):
     return ds, spun, in_file
 
 
-def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) -> list[str]:
-    """Why a fit is not to be trusted: the optimiser's own verdict, an estimate on a bound of the
-    box, or the starting point returned unchanged (the cost does not respond to the parameters)."""
+#: What to check when the model does not fit (the misfit is beyond the sampling noise).
+MISFIT_FIX = ("the model does not fit these data: if the vehicle constants are not this car's, check mass (vehicle.m_base), "
+              "yaw inertia (vehicle.J0), cornering stiffness (vehicle.c_Sf, c_Sr), wheelbase and speed; else check the units "
+              "of the states, --m-load, and whether an effect the model lacks is present (uqdrive discover)")
+
+
+def _words(name: str) -> str:
+    """A parameter's name in the user's words: mu_mean -> "mu mean", F_w_mean_low -> "F_w_mean low"."""
+    head, _, tail = name.rpartition("_")
+    return f"{head} {tail}"
+
+
+def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str, standard_errors=None, reference=None, cost=None,
+                 n_runs=None, start_results=None) -> list[str]:
+    """Why a fit is not to be trusted, each with its likely fix: the optimiser's own verdict, an
+    estimate on a bound of the box (a std at its lower bound excepted: that is the answer "no
+    spread", see :func:`fit_notes`), standard errors that are not finite, a misfit beyond its
+    reference distribution under the fitted model (``reference``, a
+    :class:`uqdrive.inference.sampling.MisfitReference`, and the ``cost``), starts that end at
+    different estimates with equally good misfits, or the starting point returned unchanged."""
     out = [] if converged else [f"the optimiser stopped without converging: {message}"]
     theta, theta0 = np.asarray(theta, float), np.asarray(theta0, float)
     if not np.all(np.isfinite(theta)):
@@ -83,11 +100,54 @@ def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) ->
     lo, hi = np.array(bounds, float).T
     tol = 1e-6 * (hi - lo)
     for name, value, a, b, eps in zip(names, theta, lo, hi, tol):
+        if name.endswith("_std") and value <= a + eps:
+            continue
         if value <= a + eps or value >= b - eps:
-            out.append(f"{name} = {value:.6g} ended at the bound {a if value <= a + eps else b:g} of its search box: the data lie "
-                       "outside what the model reaches (check units, v_c and --m-load)")
+            end, bound = ("lower", a) if value <= a + eps else ("upper", b)
+            out.append(f"{name} = {value:.6g} ended at the bound {bound:g} of its search box: {_words(name)} is at the {end} bound "
+                       f"{bound:g} of the search [{a:g}, {b:g}], so the data lie outside what the model reaches; {MISFIT_FIX}")
+    if standard_errors is not None:
+        se = np.asarray(standard_errors, float)
+        std_at_zero = [n.endswith("_std") and v <= a + e for n, v, a, e in zip(names, theta, lo, tol)]
+        bad = [n for n, e, z in zip(names, se, std_at_zero) if not z and not np.isfinite(e)]
+        if bad:
+            out.append(f"the standard errors of {', '.join(_words(n) for n in bad)} are not finite: these data do not determine "
+                       "them (another parameter changes the moments in the same way); use a richer manoeuvre or declare a "
+                       "quantity known (std: 0 in the config's uncertainty section)")
+    if reference is not None and cost is not None and np.isfinite(reference.threshold) and cost > reference.threshold:
+        out.append(f"the misfit is {cost / reference.expected:.3g} times the noise (cost {cost:.4g} against {reference.expected:.4g} "
+                   f"expected from the sampling error of {n_runs} realisations; {reference.level:.0%} threshold {reference.threshold:.4g}, "
+                   f"{reference.threshold / reference.expected:.3g} times the noise): {MISFIT_FIX}")
+    if start_results and standard_errors is not None and reference is not None and np.isfinite(reference.expected):
+        se = np.asarray(standard_errors, float)
+        best = min(c for _, c, _ in start_results)
+        for th, c, _ in start_results:
+            if c > best + reference.expected:
+                continue  # a worse local optimum: the best one was taken
+            gap = np.abs(np.asarray(th) - theta) / se
+            if np.any(np.isfinite(gap) & (gap > 3.0)):
+                i = int(np.nanargmax(np.where(np.isfinite(gap), gap, -np.inf)))
+                out.append(f"starts disagree: another start ends with an equally good misfit at {_words(names[i])} {th[i]:.6g} instead "
+                           f"of {theta[i]:.6g} ({gap[i]:.3g} standard errors apart): the data do not single out one answer; use a "
+                           "richer manoeuvre or declare a quantity known")
+                break
     if np.all(np.abs(theta - theta0) <= 1e-10 * np.maximum(np.abs(theta0), 1.0)):
         out.append("the fit returned its starting point unchanged: the cost does not respond to the parameters (check the data)")
+    return out
+
+
+def fit_notes(names, theta, bounds, upper_bounds) -> list[str]:
+    """Facts about a sound fit worth saying: a std estimated at zero (the lower bound of its
+    search) is the answer "this quantity shows no spread", with a one-sided interval."""
+    out = []
+    lo, hi = np.array(bounds, float).T
+    for name, value, a, b in zip(names, theta, lo, hi):
+        if name.endswith("_std") and value <= a + 1e-6 * (b - a):
+            u = upper_bounds.get(name)
+            quantity = name[: -len("_std")]
+            out.append(f"{quantity} std is estimated at zero (the lower end {a:g} of its search): the data show no spread of {quantity}"
+                       + (f"; one-sided 95 % upper bound {u:.4g}" if u is not None and math.isfinite(u) else "")
+                       + f". If {quantity} is known, declare it with uncertainty.{quantity}.std: 0")
     return out
 
 
@@ -129,46 +189,83 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
                                 wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale,
                                 optimiser=configured_optimiser(cfg))
+    runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in STATES]).astype(float)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
+            est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl), runs=runs)
         except ValueError as exc:  # the model cannot be evaluated at the config's start for these data
             raise DataError(f"{source}: the model cannot follow these data from the config's starting values ({exc}); "
                             "check v_c, the units of the states and the config's uncertainty means") from None
-    th, err = est.theta_, est.theta_std_
-    notes = fit_warnings(th, theta0, est.bounds, model.theta_names, est.converged_, est.message_)
-    converged = bool(est.converged_) and not notes
-    notes += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    summary = _summary(est, model, theta0, m_load, runs.shape[1])
+    summary["warnings"] += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
-        notes.append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
-                     f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
-    summary = {
-        "mu": [_finite(th[0]), _finite(th[1])],
-        "l_f": [_finite(th[2]), _finite(th[3])],
-        "F_w_mean": [_finite(th[4]), _finite(th[5])],
-        "cost": _finite(est.cost_),
-        "converged": converged,
-        "warnings": notes,
-        "iterations": int(est.n_iter_),
+        summary["warnings"].append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
+                                   f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
+    summary.update({
         "cost_function": cost,
         "state_scale": scale,
         "m_load": m_load,
-        "standard_errors": {k: [_finite(err[2 * i]), _finite(err[2 * i + 1])] for i, k in enumerate(UNCERTAIN)},
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
         "spin_threshold": float(cfg["montecarlo"]["spin_threshold"]),
         "n_spun": int(spun.sum()),
         "spun_indices": np.flatnonzero(spun).tolist(),
-        "message": est.message_,
         "measured": source,
-    }
+    })
     if flagged is not None:
         summary["spun_in_file_indices"] = flagged
     _write_outputs(Path(out), stats, est.moments_, summary, overwrite)
     return summary
+
+
+def _summary(est: DistributionEstimator, model: LSTChaosModel, theta0, m_load: float, n_runs: int) -> dict:
+    """The estimate.json fields of a fit: the distributions (known ones at their values), their
+    standard errors and 95 % intervals, the goodness of fit, ``converged`` and the warnings."""
+    names, th, err = model.theta_names, est.theta_, est.theta_std_
+    ref = est.misfit_reference_
+    notes = fit_warnings(th, theta0, est.bounds, names, est.converged_, est.message_, standard_errors=err, reference=ref,
+                         cost=est.cost_, n_runs=n_runs, start_results=est.start_results_)
+    value = dict(zip(names, th.tolist()))
+    se = dict(zip(names, err.tolist()))
+    fixed = {"m_load": m_load, **model.known}
+    pairs = {u: ("mean", "std") if DISTRIBUTIONS[u] == "normal" else ("low", "high") for u in UNCERTAIN}
+    out = {}
+    for u, (a, b) in pairs.items():
+        if u in model.known:
+            out[u] = [model.known[u], 0.0] if b == "std" else [model.known[u], model.known[u]]
+        else:
+            out[u] = [_finite(value[f"{u}_{a}"]), _finite(value[f"{u}_{b}"])]
+    intervals = {}
+    for n in names:
+        if n in est.upper_bounds_:
+            intervals[n] = [0.0, _finite(est.upper_bounds_[n])]
+        elif math.isfinite(se[n]):
+            intervals[n] = [_finite(value[n] - 1.959963984540054 * se[n]), _finite(value[n] + 1.959963984540054 * se[n])]
+        else:
+            intervals[n] = [None, None]
+    gof = None
+    if ref is not None:
+        gof = {"misfit": _finite(est.cost_), "expected": _finite(ref.expected), "ratio": _finite(est.cost_ / ref.expected),
+               "threshold": _finite(ref.threshold), "level": ref.level, "p_value": _finite(ref.p_value(est.cost_)), "dof": _finite(ref.dof),
+               "passed": bool(est.cost_ <= ref.threshold)}
+    return {
+        **out,
+        "cost": _finite(est.cost_),
+        "converged": bool(est.converged_) and not notes,
+        "warnings": notes,
+        "notes": fit_notes(names, th, est.bounds, est.upper_bounds_),
+        "iterations": int(est.n_iter_),
+        "fixed": fixed,
+        "standard_errors": {u: [0.0, 0.0] if u in model.known else [_finite(se[f"{u}_{a}"]), _finite(se[f"{u}_{b}"])]
+                            for u, (a, b) in pairs.items()},
+        "intervals_95": intervals,
+        "goodness_of_fit": gof,
+        "starts": [{"estimate": [_finite(x) for x in t], "cost": _finite(c), "converged": ok} for t, c, ok in est.start_results_],
+        "message": est.message_,
+    }
 
 
 def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) -> None:

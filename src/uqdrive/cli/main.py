@@ -128,14 +128,25 @@ def _identify(args) -> None:
 
         s = identify_with_model(config, args.measured, args.model, args.out)
         print(f"wrote {Path(args.out) / 'estimate.json'}: mu N({s['mu'][0]:.4f}, {s['mu'][1]:.4f}), l_f N({s['l_f'][0]:.4f}, "
-              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}")
+              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}"
+              f" ({'converged' if s['converged'] else 'DID NOT CONVERGE, see the warnings'})")
+        _report_warnings(s)
         return
     summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, args.out,
                             state_scale=args.state_scale, overwrite=args.force)
-    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see warnings in estimate.json"
+    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see the warnings"
     fmt = lambda v, n: tuple(None if x is None else round(x, n) for x in v)  # noqa: E731
     print(f"wrote {Path(args.out) / 'estimate.json'}: mu N{fmt(summary['mu'], 4)}, l_f N{fmt(summary['l_f'], 4)}, "
           f"F_w_mean U{fmt(summary['F_w_mean'], 1)} ({state}, {summary['iterations']} iterations, {summary['n_spun']} lost control)")
+    _report_warnings(summary)
+
+
+def _report_warnings(summary) -> None:
+    """Every warning of a fit on stderr (through the warnings main() prints), every note on stdout."""
+    for note in summary.get("notes", []):
+        print(f"note: {note}")
+    for message in summary.get("warnings", []):
+        warnings.warn(message, UserWarning, stacklevel=2)
 
 
 def _add_config(sub) -> None:

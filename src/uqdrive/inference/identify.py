@@ -13,6 +13,7 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
+from .sampling import misfit_reference, run_influence, sandwich_covariance
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -202,7 +203,19 @@ class DistributionEstimator:
         Estimate; standard deviations reported as |sigma|.
     cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
     theta_std_ : ndarray
-        Gauss-Newton standard errors (see :meth:`fit`).
+        Standard errors: from the sampling error of the measured statistics (sandwich) when
+        :meth:`fit` is given the realisations, else the Gauss-Newton ones (see :meth:`_fit`).
+        NaN for a std estimated at its lower bound (see ``upper_bounds_``).
+    gauss_newton_std_ : ndarray
+        The Gauss-Newton standard errors s^2 (J'J)^-1 (residuals taken as independent).
+    upper_bounds_ : dict
+        With the realisations: name -> one-sided 95 % upper bound of each std estimated at its
+        lower bound (a std "at zero"), from the sandwich variance of its square.
+    misfit_reference_ : MisfitReference or None
+        With the realisations: the distribution of the cost at the optimum if the model is right
+        (:func:`uqdrive.inference.sampling.misfit_reference`).
+    start_results_ : list of (theta, cost, success)
+        Each start's local optimum (the first is the given start's), theta with |sigma|.
     """
 
     def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
@@ -260,15 +273,21 @@ class DistributionEstimator:
         J, g, _ = out
         return J / self._J0, g * self._scale / self._J0
 
-    def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
+    def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None, runs=None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
 
+        ``runs`` (n_states, n, T), optional: the realisations the statistics were computed from;
+        with them the standard errors account for the sampling error of the statistics
+        (sandwich) and the misfit gets its reference distribution (goodness of fit).
         See :meth:`_fit` for the error bars. The model's matrices are small (tens of states), where
         BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
         runs with one BLAS thread, as scikit-learn does with threadpoolctl.
         """
         with single_blas_thread():
-            return self._fit(measured_mean, measured_std, theta0, context)
+            self._fit(measured_mean, measured_std, theta0, context)
+            if runs is not None:
+                self._sampling_errors(np.asarray(runs, float))
+            return self
 
     def _fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
@@ -292,6 +311,7 @@ class DistributionEstimator:
         self._scale = np.where(np.abs(theta0) > 1e-8, np.abs(theta0), 1.0)
         starts = [theta0] + self._global_candidates()
         best, n_iter, n_eval = None, 0, 0
+        self.start_results_ = []
         lo, hi = np.array(self.bounds, float).T
         box = list(zip(lo / self._scale, hi / self._scale))
 
@@ -302,6 +322,7 @@ class DistributionEstimator:
             res = local(np.clip(start, lo, hi) / self._scale)
             n_iter += res.nit
             n_eval += res.nfev
+            self.start_results_.append((self._absolute_std(res.x * self._scale), float(res.fun * self._J0), bool(res.success)))
             if best is None or res.fun < best.fun:
                 best = res
         success, message = bool(best.success), str(best.message)
@@ -323,15 +344,52 @@ class DistributionEstimator:
         self.message_ = message
         if not self.converged_:
             warnings.warn(f"identification did not converge: {self.message_}", RuntimeWarning, stacklevel=2)
-        for i, name in enumerate(self.model.theta_names):
-            if name.endswith("_std"):
-                theta[i] = abs(theta[i])  # the cost is even in sigma (FACTS)
+        theta = self._absolute_std(theta)
         self.theta_ = theta
         self.cost_ = float(final[0]) if final is not None else float("nan")
         self.n_iter_, self.n_eval_ = int(n_iter), int(n_eval)
         self.moments_ = final[2] if final is not None else None
         self.theta_std_ = self._gauss_newton_std(self.model.moments(theta, gradient=True)) if final is not None else np.full(theta.size, np.nan)
+        self.gauss_newton_std_ = self.theta_std_
+        self.upper_bounds_, self.misfit_reference_ = {}, None
         return self
+
+    def _absolute_std(self, theta):
+        theta = np.array(theta, float)
+        for i, name in enumerate(self.model.theta_names):
+            if name.endswith("_std"):
+                theta[i] = abs(theta[i])  # the cost is even in sigma (FACTS)
+        return theta
+
+    def at_zero(self) -> list[int]:
+        """Indices of the stds estimated at the lower bound of their box (the data show no
+        spread of that parameter)."""
+        lo, hi = np.array(self.bounds, float).T
+        return [i for i, name in enumerate(self.model.theta_names)
+                if name.endswith("_std") and self.theta_[i] <= lo[i] + 1e-6 * (hi[i] - lo[i])]
+
+    def _sampling_errors(self, runs) -> None:
+        """Sandwich standard errors and the misfit's reference from the realisations ``runs``.
+
+        A std at the lower bound of its box is a boundary estimate: its moments depend on
+        sigma^2, so its column of the Jacobian is taken in v = sigma^2 (d r / d v = d r / d sigma
+        / (2 sigma), finite as sigma -> 0); its upper bound is sqrt(v + 1.645 se(v)), one-sided 95 %.
+        """
+        if self.moments_ is None:
+            return
+        if runs.ndim != 3 or runs.shape[0] != self._mean.shape[0] or runs.shape[2] != self._mean.shape[1]:
+            raise ValueError(f"runs must have shape (n_states, n, T) = ({self._mean.shape[0]}, n, {self._mean.shape[1]}), got {runs.shape}")
+        _, jac = self._weighted_residuals(self.model.moments(self.theta_, gradient=True), jacobian=True)
+        zero = self.at_zero()
+        for i in zero:
+            jac[:, i] /= 2.0 * max(self.theta_[i], 1e-300)
+        influence = run_influence(runs, self._w)
+        cov = sandwich_covariance(jac, influence)
+        se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if np.all(np.isfinite(cov)) else np.full(self.theta_.size, np.nan)
+        self.upper_bounds_ = {self.model.theta_names[i]: float(np.sqrt(self.theta_[i] ** 2 + 1.6448536269514722 * se[i])) for i in zero}
+        se[zero] = np.nan
+        self.theta_std_ = se
+        self.misfit_reference_ = misfit_reference(jac, influence, self.rng)
 
     def _global_candidates(self):
         if self.starts <= 0:

@@ -19,6 +19,7 @@ from ..numerics.integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
 from ..numerics.threads import with_single_blas_thread
 from .single_track import VehicleParameters, lst_matrices, steering_input
+from .uncertainty import known_quantities
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
 
@@ -99,6 +100,9 @@ class LSTChaosModel:
     steer : {"normal", "inverted"}
     fixed : mapping, optional
         Values of fixed parameters (default: the config means; the mean wind's midpoint).
+        A quantity the config declares known (``std: 0``, ``low == high``,
+        :func:`uqdrive.vehicle.uncertainty.known_quantities`) is fixed at its value whether or
+        not ``uncertain`` names it: it has no germ and no entries in ``theta``.
     delta : ndarray, shape (T,), optional
         Measured steering angle on the output grid (rad); overrides (5.5)/(5.7) and ``steer``.
 
@@ -132,7 +136,9 @@ class LSTChaosModel:
             raise ValueError(f"unknown uncertain parameter(s) {unknown}; choose from {list(DISTRIBUTIONS)}")
         if order < 0:
             raise ValueError(f"PCE order must be non-negative, got {order}")
-        self.uncertain = tuple(uncertain)
+        known = known_quantities(config)
+        self.known = {u: v for u, v in known.items() if u in uncertain}
+        self.uncertain = tuple(u for u in uncertain if u not in known)
         unc = config["uncertainty"]
         defaults = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
                     "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
@@ -173,10 +179,12 @@ class LSTChaosModel:
 
     @staticmethod
     def theta_from_config(config: Mapping[str, Any], uncertain: Sequence[str]) -> np.ndarray:
-        """The config's true distribution parameters in ``theta`` order."""
+        """The config's true distribution parameters in ``theta`` order (the quantities the
+        config declares known are left out, as the model leaves them out of ``theta``)."""
         unc = config["uncertainty"]
+        known = known_quantities(config)
         out = []
-        for u in uncertain:
+        for u in (u for u in uncertain if u not in known):
             d = unc[u]
             out += [d["mean"], d["std"]] if DISTRIBUTIONS[u] == "normal" else [d["low"], d["high"]]
         return np.array(out, float)
