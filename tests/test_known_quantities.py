@@ -105,3 +105,35 @@ def test_a_std_at_zero_is_an_answer_not_a_failure(tmp_path, capsys):
     assert est["converged"] is True and not any("outside what the model reaches" in w for w in est["warnings"])
     assert any("l_f std is estimated at zero" in n for n in est["notes"])
     assert "note: l_f std is estimated at zero" in capsys.readouterr().out
+
+
+def test_discover_baseline_holds_a_known_quantity(config):
+    """StructureFit with l_f known (index 2, 3 fixed): the fit moves mu and the wind only, l_f
+    stays at its value with a std of exactly 0, its Jacobian columns are zero, and the free
+    parameters reach the truth of exact model data (the model's own statistics at the truth, 24
+    realisations on common random numbers: exact to the optimiser's tolerance, 1e-3 relative)
+    from 10 % away. Held at a wrong l_f (1.45 m), the fit stays there and the misfit grows."""
+    from uqdrive.inference.discrepancy.band import statistic_scale
+    from uqdrive.inference.discrepancy.fit import StructureFit, known_theta
+    from uqdrive.vehicle.augmented import AugmentedSimulator
+    from uqdrive.vehicle.effects import ModelStructure
+
+    c = copy.deepcopy(config)
+    c["uncertainty"]["l_f"]["std"] = 0.0
+    assert known_theta(c) == {2: 1.55, 3: 0.0}
+    t = np.arange(301) * 0.01
+    delta = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 2.0)
+    sim = AugmentedSimulator.drawn(c, t, delta, 25.0, 24, np.random.default_rng(11), stride=4)
+    index = np.arange(1, sim.output_time.size)
+    truth = np.array([1.0, 0.2, 1.55, 0.0, -400.0, 400.0])
+    noise = np.full(4, 1e-8)
+    measured = StructureFit(sim, index, noise).statistics(truth, ModelStructure())
+    x = sim.simulate(truth, ModelStructure())
+    scale = statistic_scale(x, index) + 1e-6
+    start = truth * [1.1, 1.1, 1.0, 1.0, 1.1, 0.9]
+    fit = StructureFit(sim, index, noise, fixed=known_theta(c)).fit(measured, scale, start)
+    assert fit.theta_[2] == 1.55 and fit.theta_[3] == 0.0
+    assert np.all(fit.jacobian_[:, 2:4] == 0.0) and np.all(np.any(fit.jacobian_[:, [0, 1, 4, 5]] != 0.0, axis=0))
+    assert fit.theta_[[0, 1, 4, 5]] == pytest.approx(truth[[0, 1, 4, 5]], rel=1e-3)
+    held = StructureFit(sim, index, noise, fixed={2: 1.45, 3: 0.0}).fit(measured, scale, start)
+    assert held.theta_[2] == 1.45 and held.chi2_ > 100 * max(fit.chi2_, 1e-6)  # held at a wrong value: not moved to the truth

@@ -17,8 +17,9 @@ from ..inference.discrepancy import DiscrepancyFinder
 from ..io import DataError, read_ensemble
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
+from ..vehicle.uncertainty import known_quantities
 
-__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "write_outputs"]
+__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "baseline_warnings", "write_outputs"]
 
 #: Fewer realisations give moment statistics too noisy for a calibrated verdict.
 MIN_SAMPLES = 50
@@ -71,9 +72,27 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
-    verdict = dict(finder.verdict_, measured=str(measured))
+    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
+                   fixed=known_quantities(config))
     write_outputs(finder, verdict, out)
     return verdict
+
+
+def baseline_warnings(finder: DiscrepancyFinder, config: Mapping[str, Any]) -> list[str]:
+    """Warnings of the baseline fit, in the words of ``uqdrive identify``: the optimiser did not
+    converge, or a distribution parameter (a std at zero excepted) sits at a bound of its search
+    box. (Whether the baseline fits the data at all is the verdict's question.)"""
+    from ..inference.discrepancy.fit import THETA_BOUNDS, known_theta
+    from ..vehicle.augmented import THETA_NAMES
+    from .identify import fit_warnings
+
+    base = finder.baseline_
+    u = config["uncertainty"]
+    theta0 = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], u["F_w_mean"]["low"], u["F_w_mean"]["high"]]
+    free = [i for i in range(len(THETA_NAMES)) if i not in known_theta(config)]
+    pick = lambda seq: [seq[i] for i in free]  # noqa: E731
+    out = fit_warnings(pick(base.theta_), pick(theta0), pick(THETA_BOUNDS), pick(THETA_NAMES), bool(base.success_), base.message_)
+    return [f"baseline fit: {w}" for w in out]
 
 
 def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:

@@ -27,7 +27,7 @@ from ..vehicle.montecarlo import spin_mask
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
-__all__ = ["identify_file", "fit_warnings", "fit_notes"]
+__all__ = ["identify_file", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 
@@ -120,10 +120,9 @@ def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str, st
                    f"{reference.threshold / reference.expected:.3g} times the noise): {MISFIT_FIX}")
     if start_results and standard_errors is not None and reference is not None and np.isfinite(reference.expected):
         se = np.asarray(standard_errors, float)
-        best = min(c for _, c, _ in start_results)
-        for th, c, _ in start_results:
-            if c > best + reference.expected:
-                continue  # a worse local optimum: the best one was taken
+        for th, c, ok in start_results:
+            if not ok or c > cost + reference.expected:
+                continue  # a worse local optimum (or a stop short of one): the best one was taken
             gap = np.abs(np.asarray(th) - theta) / se
             if np.any(np.isfinite(gap) & (gap > 3.0)):
                 i = int(np.nanargmax(np.where(np.isfinite(gap), gap, -np.inf)))
@@ -268,9 +267,15 @@ def _summary(est: DistributionEstimator, model: LSTChaosModel, theta0, m_load: f
     }
 
 
-def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) -> None:
+def write_outputs(out: Path, summary: dict, figure, overwrite: bool = True) -> None:
+    """estimate.json and fit.png (drawn by ``figure(path)``) into ``out``, all or nothing."""
+    _write_outputs(Path(out), None, None, summary, overwrite, figure)
+
+
+def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, figure=None) -> None:
     """Create ``out`` (and missing parents) and write fit.png, then estimate.json; on any failure
-    or interruption remove what this call created."""
+    or interruption remove what this call created. ``figure(path)`` draws fit.png (default: the
+    chaos model's moments against ``stats``)."""
     created = []
     try:
         for folder in [*reversed(out.parents), out]:
@@ -278,7 +283,7 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) ->
                 folder.mkdir()
                 created.append(folder)
         with atomic_path(out / "fit.png", overwrite) as tmp:
-            _figure(stats, moments, tmp)
+            (figure or (lambda path: _figure(stats, moments, path)))(tmp)
         created.append(out / "fit.png")
         with atomic_path(out / "estimate.json", overwrite) as tmp:
             tmp.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
@@ -295,18 +300,33 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) ->
 
 
 def _figure(stats, moments, path):
+    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments."""
+    model = None if moments is None else (moments.mean, moments.std)
+    fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path)
+
+
+def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std"):
+    """fit.png: measured mean +- 3 std per state (band) and the model's (lines).
+
+    Parameters
+    ----------
+    time : ndarray, shape (T,)
+    measured_mean, measured_std : ndarray, shape (4, T)
+    model : tuple of two ndarrays (4, T), or None
+        The identified model's mean and std.
+    path : path of the PNG
+    """
     from ..plots.figure import save_figure, state_axes
 
-    fig, axes = state_axes(title="Identified model (PCE) vs measured ensemble: mean +- 3 std")
-    t = stats["time"].values
+    fig, axes = state_axes(title=title)
     for i, (ax, state) in enumerate(zip(axes, STATES)):
-        m, s = stats["mean"].values[i], stats["std"].values[i]
-        ax.fill_between(t, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
-        ax.plot(t, m, color="C0")
-        if moments is not None:
-            ax.plot(t, moments.mean[i], "C3--", label="identified")
-            ax.plot(t, moments.mean[i] + 3 * moments.std[i], "C3:", lw=0.8)
-            ax.plot(t, moments.mean[i] - 3 * moments.std[i], "C3:", lw=0.8)
+        m, s = measured_mean[i], measured_std[i]
+        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
+        ax.plot(time, m, color="C0")
+        if model is not None:
+            ax.plot(time, model[0][i], "C3--", label="identified")
+            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8)
+            ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
         ax.set_title(state)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)

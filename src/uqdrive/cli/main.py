@@ -215,6 +215,7 @@ def _discover(args) -> None:
     v = discover_file(config, args.measured, candidates, out, posterior=args.posterior)
     print(f"wrote {out / 'verdict.json'}: effect {v['effect']}" + (f" (ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
           + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
+    _report_warnings(v)
 
 
 SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config)

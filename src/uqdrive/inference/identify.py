@@ -13,7 +13,7 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
-from .sampling import misfit_reference, run_influence, sandwich_covariance
+from .sampling import run_influence, sampling_errors
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -209,11 +209,9 @@ class DistributionEstimator:
     gauss_newton_std_ : ndarray
         The Gauss-Newton standard errors s^2 (J'J)^-1 (residuals taken as independent).
     upper_bounds_ : dict
-        With the realisations: name -> one-sided 95 % upper bound of each std estimated at its
-        lower bound (a std "at zero"), from the sandwich variance of its square.
+        With the realisations: name -> one-sided 95 % upper bound of each std at zero.
     misfit_reference_ : MisfitReference or None
-        With the realisations: the distribution of the cost at the optimum if the model is right
-        (:func:`uqdrive.inference.sampling.misfit_reference`).
+        With the realisations: the cost's distribution at the optimum if the model is right.
     start_results_ : list of (theta, cost, success)
         Each start's local optimum (the first is the given start's), theta with |sigma|.
     """
@@ -369,27 +367,16 @@ class DistributionEstimator:
                 if name.endswith("_std") and self.theta_[i] <= lo[i] + 1e-6 * (hi[i] - lo[i])]
 
     def _sampling_errors(self, runs) -> None:
-        """Sandwich standard errors and the misfit's reference from the realisations ``runs``.
-
-        A std at the lower bound of its box is a boundary estimate: its moments depend on
-        sigma^2, so its column of the Jacobian is taken in v = sigma^2 (d r / d v = d r / d sigma
-        / (2 sigma), finite as sigma -> 0); its upper bound is sqrt(v + 1.645 se(v)), one-sided 95 %.
-        """
+        """Sandwich standard errors and the misfit's reference from the realisations ``runs``
+        (:func:`uqdrive.inference.sampling.sampling_errors`; a std at zero gets a one-sided bound)."""
         if self.moments_ is None:
             return
         if runs.ndim != 3 or runs.shape[0] != self._mean.shape[0] or runs.shape[2] != self._mean.shape[1]:
             raise ValueError(f"runs must have shape (n_states, n, T) = ({self._mean.shape[0]}, n, {self._mean.shape[1]}), got {runs.shape}")
         _, jac = self._weighted_residuals(self.model.moments(self.theta_, gradient=True), jacobian=True)
         zero = self.at_zero()
-        for i in zero:
-            jac[:, i] /= 2.0 * max(self.theta_[i], 1e-300)
-        influence = run_influence(runs, self._w)
-        cov = sandwich_covariance(jac, influence)
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if np.all(np.isfinite(cov)) else np.full(self.theta_.size, np.nan)
-        self.upper_bounds_ = {self.model.theta_names[i]: float(np.sqrt(self.theta_[i] ** 2 + 1.6448536269514722 * se[i])) for i in zero}
-        se[zero] = np.nan
-        self.theta_std_ = se
-        self.misfit_reference_ = misfit_reference(jac, influence, self.rng)
+        self.theta_std_, upper, self.misfit_reference_ = sampling_errors(jac, run_influence(runs, self._w), self.theta_, zero, self.rng)
+        self.upper_bounds_ = {self.model.theta_names[i]: u for i, u in upper.items()}
 
     def _global_candidates(self):
         if self.starts <= 0:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["RunInfluence", "run_influence", "sandwich_covariance", "MisfitReference", "misfit_reference"]
+__all__ = ["RunInfluence", "run_influence", "sandwich_covariance", "MisfitReference", "misfit_reference", "sampling_errors"]
 
 
 @dataclass(frozen=True)
@@ -60,8 +60,9 @@ def run_influence(runs, weights) -> RunInfluence:
     ----------
     runs : ndarray, shape (n_states, n, T)
         The realisations the statistics are computed from (after the spin policy).
-    weights : ndarray, shape (n_states, T)
-        Weights w of the cost (5.25); the influences are multiplied by sqrt(w).
+    weights : ndarray, shape (n_states, T), or a pair of them
+        Weights w of the cost (5.25); the influences are multiplied by sqrt(w). A pair
+        (w_mean, w_std) weighs the mean's and the std's residuals differently.
 
     Returns
     -------
@@ -72,11 +73,12 @@ def run_influence(runs, weights) -> RunInfluence:
     x = np.asarray(runs, float)
     d = x - x.mean(axis=1, keepdims=True)
     s = x.std(axis=1, ddof=1, keepdims=True)
-    sw = np.sqrt(np.asarray(weights, float))[:, None, :]
+    w_mean, w_std = weights if isinstance(weights, (tuple, list)) else (weights, weights)
+    sw_mean, sw_std = (np.sqrt(np.asarray(w, float))[:, None, :] for w in (w_mean, w_std))
     safe = np.where(s > 0, s, 1.0)
     infl_std = np.where(s > 0, (d**2 - s**2) / (2.0 * safe), 0.0)
     infl_std -= infl_std.mean(axis=1, keepdims=True)  # sums to zero like the mean's
-    return RunInfluence(sw * d, sw * infl_std)
+    return RunInfluence(sw_mean * d, sw_std * infl_std)
 
 
 def _pseudo_inverse(jac):
@@ -187,3 +189,41 @@ def misfit_reference(jac, influence: RunInfluence, rng: np.random.Generator, dra
     scale = variance / (2.0 * expected)
     dof = expected / scale
     return MisfitReference(expected, variance, scale, dof, level, float(scale * stats.chi2.ppf(level, dof)))
+
+
+def sampling_errors(jac, influence: RunInfluence, theta, at_zero, rng: np.random.Generator):
+    """Standard errors, one-sided bounds of stds at zero and the misfit's reference of a fit.
+
+    A std estimated at the lower bound of its box is a boundary estimate: the moments depend on
+    sigma^2, so its column of the Jacobian is taken in v = sigma^2 (d r / d v = d r / d sigma /
+    (2 sigma), finite as sigma -> 0), and its one-sided 95 % upper bound is sqrt(v + 1.645 se(v)).
+
+    Parameters
+    ----------
+    jac : ndarray, shape (2 n_states T, p)
+        Jacobian of the weighted residuals at the estimate (copied, not changed).
+    influence : RunInfluence
+    theta : ndarray, shape (p,)
+        The estimate.
+    at_zero : sequence of int
+        Indices of the stds at the lower bound of their box.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    se : ndarray, shape (p,)
+        Sandwich standard errors (NaN at ``at_zero`` and where J is rank deficient).
+    upper : dict
+        index -> one-sided 95 % upper bound of each std at zero.
+    reference : MisfitReference
+    """
+    jac = np.array(jac, float)
+    theta = np.asarray(theta, float)
+    zero = list(at_zero)
+    for i in zero:
+        jac[:, i] /= 2.0 * max(abs(theta[i]), 1e-300)
+    cov = sandwich_covariance(jac, influence)
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if np.all(np.isfinite(cov)) else np.full(theta.size, np.nan)
+    upper = {i: float(np.sqrt(theta[i] ** 2 + 1.6448536269514722 * se[i])) for i in zero}
+    se[zero] = np.nan
+    return se, upper, misfit_reference(jac, influence, rng)

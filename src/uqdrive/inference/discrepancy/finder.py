@@ -18,7 +18,7 @@ from ...vehicle.noise import estimate_noise_variance
 from ...vehicle.single_track import STATES
 from .band import STATISTICS, NullBand, compared_times, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan_windows, statistic_scale
 from .catchall import smooth_discrepancy
-from .fit import StructureFit
+from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .separate import suggest_input
 
@@ -155,7 +155,7 @@ class DiscrepancyFinder:
             if self.log is not None:
                 self.log(f"discover: {stage} done in {stages[stage]:.1f} s{detail}")
 
-        base = StructureFit(sim, index, noise, spin).fit(self.measured_, self.scale_, theta0)
+        base = StructureFit(sim, index, noise, spin, fixed=known_theta(self.config)).fit(self.measured_, self.scale_, theta0)
         lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
         self.baseline_ = base
         self.band_ = band = self._null_band(sim, base, n, index, noise, spin, ratio)
@@ -262,7 +262,8 @@ class DiscrepancyFinder:
         return out
 
     def _joint(self, sim, theta_start, name, start, index, noise, spin, n):
-        f = StructureFit(self._sim_for(sim, name), index, noise, spin, effect=EFFECTS[name], max_nfev=25 if self._nonlinear(name) else 60)
+        f = StructureFit(self._sim_for(sim, name), index, noise, spin, effect=EFFECTS[name], max_nfev=25 if self._nonlinear(name) else 60,
+                         fixed=known_theta(self.config))
         return f.fit(self.measured_, self._scale_for(name, n), theta_start, effect_start=start)
 
     # -- verdict ------------------------------------------------------------------------------
