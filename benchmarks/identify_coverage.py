@@ -4,7 +4,7 @@ cover the truth, with the 99 % binomial band of the replicate count, the spread 
 over the mean standard error, and the misfit test's pass rate. Prints a Markdown table
 (docs/identification.md carries its numbers).
 
-    python benchmarks/identify_coverage.py [REPLICATES] [SAMPLES ...]
+    python benchmarks/identify_coverage.py [REPLICATES] [DT] [SAMPLES ...]
 """
 
 import sys
@@ -14,13 +14,14 @@ from uqdrive.config import load_config
 from uqdrive.studies.identification import coverage_study, coverage_table
 
 
-def main(replicates: int = 200, samples=(300, 1000)):
+def main(replicates: int = 200, dt: float = 0.05, samples=(300, 1000)):
     config = load_config(None)
+    print(f"{replicates} replicates on a {dt} s grid")
     print("| runs | parameter | coverage 95 % | 99 % band | spread / SE |")
     print("|---|---|---|---|---|")
     for n in samples:
         t0 = time.perf_counter()
-        table = coverage_table(coverage_study(config, replicates, n, dt=0.1))
+        table = coverage_table(coverage_study(config, replicates, n, dt=dt))
         for row in table.itertuples():
             spread = "" if row.spread_over_se != row.spread_over_se else f"{row.spread_over_se:.3f}"
             print(f"| {n} | {row.parameter} | {row.coverage_95:.3f} | [{row.band_lo:.3f}, {row.band_hi:.3f}] | {spread} |")
@@ -28,5 +29,5 @@ def main(replicates: int = 200, samples=(300, 1000)):
 
 
 if __name__ == "__main__":
-    args = [int(a) for a in sys.argv[1:]]
-    main(args[0] if args else 200, tuple(args[1:]) or (300, 1000))
+    args = sys.argv[1:]
+    main(int(args[0]) if args else 200, float(args[1]) if len(args) > 1 else 0.05, tuple(int(a) for a in args[2:]) or (300, 1000))

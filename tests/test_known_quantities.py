@@ -91,9 +91,9 @@ def test_a_std_at_zero_is_an_answer_not_a_failure(tmp_path, capsys):
     search; that is the answer "no spread" (a note with a one-sided bound that contains 0), not
     the "data lie outside what the model reaches" failure. (The sample's l_f spread is 0, but
     the estimate is not always at the bound: the sampling error of the other parameters' spread
-    can ask for a small l_f std, e.g. 0.017 on the 0.05 s grid; on the 0.02 s grid with this
-    seed it is at the bound.)"""
-    (tmp_path / "known.yaml").write_text(yaml.safe_dump(_coarse(l_f_std=0.0, dt=0.02)))
+    can ask for a small l_f std, e.g. 0.016 with the wind spread of +-400 N; with a known mean
+    wind of 100 N in the data, on the 0.02 s grid and this seed, it is at the bound.)"""
+    (tmp_path / "known.yaml").write_text(yaml.safe_dump(_coarse(l_f_std=0.0, wind={"low": 100.0, "high": 100.0}, dt=0.02)))
     (tmp_path / "free.yaml").write_text(yaml.safe_dump(_coarse(l_f_std=0.2, dt=0.02)))
     data, out = tmp_path / "fixed_lf.nc", tmp_path / "est"
     assert main(["simulate", "--model", "lst", "--samples", "400", "--config", str(tmp_path / "known.yaml"), "--out", str(data)]) == 0
