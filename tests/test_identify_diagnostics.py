@@ -147,3 +147,25 @@ def test_the_wrong_car_is_not_converged_and_the_warning_names_the_vehicle_consta
     assert any("times the noise" in w and "yaw inertia" in w for w in bad["warnings"])
     err = capsys.readouterr().err
     assert "uqdrive: warning: the misfit is" in err
+
+
+def test_discover_baseline_at_the_mu_bound_is_a_warning(config):
+    """discover's baseline at mu mean = 3.0 (the upper end of its box) is a warning in the verdict's
+    words; inside the box, or with a std at zero, there is none; a known l_f is not checked."""
+    import copy
+    from types import SimpleNamespace
+
+    from uqdrive.cli.discover import baseline_warnings
+
+    def finder(theta, success=True):
+        return SimpleNamespace(baseline_=SimpleNamespace(theta_=np.array(theta, float), success_=success, message_="stopped"))
+
+    inside = [1.1, 0.2, 1.5, 0.0, -380.0, 410.0]
+    assert baseline_warnings(finder(inside), config) == []
+    w = baseline_warnings(finder([3.0, 0.2, 1.5, 0.2, -380.0, 410.0]), config)
+    assert len(w) == 1 and w[0].startswith("baseline fit: ") and "mu mean is at the upper bound 3 of the search" in w[0]
+    assert "without converging: stopped" in baseline_warnings(finder(inside, success=False), config)[0]
+    known = copy.deepcopy(config)
+    known["uncertainty"]["l_f"]["std"] = 0.0
+    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.0, -380.0, 410.0]), known) == []  # l_f at 2.5 = its bound, but known
+    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.1, -380.0, 410.0]), config) != []
