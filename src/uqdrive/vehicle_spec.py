@@ -274,5 +274,12 @@ def read_vehicle_file(reference: str | Path, check_schema: Callable[[dict, str],
         raise ConfigError(f"vehicle file '{where}' must hold a mapping of keys (see config/vehicles/thesis.yaml)")
     label = f"vehicle file '{where}': key '{{}}'"
     check_schema(spec, label)
+    for quantity, keys in (("the centre-of-gravity position", ("cg_to_front_axle", "front_axle_load_share")),
+                           ("the cornering stiffness", ("cornering_stiffness", "magic_formula"))):
+        given = [k for k in keys if k in spec]
+        if len(given) != 1:
+            raise ConfigError(f"vehicle file '{where}': " + (f"keys '{given[0]}' and '{given[1]}' both give {quantity}; keep one of them"
+                                                             if given else f"key '{keys[0]}' is missing; give {quantity} as "
+                                                             + " or ".join(f"'{k}' ({ENGINEERING_KEYS[k][0]})" for k in keys)))
     check_car(spec, label.format)
     return name, spec
