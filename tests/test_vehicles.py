@@ -201,6 +201,7 @@ def _car_file(tmp_path, **changes):
 BAD_VEHICLES = {
     "unknown name": (lambda tmp: "mustang", ["unknown vehicle 'mustang'", "rajamani_sedan", "uqdrive vehicles"]),
     "negative mass": (lambda tmp: _car_file(tmp, mass=-1573.0), ["key 'mass' (kg)", "> 0"]),
+    "mass not finite": (lambda tmp: _car_file(tmp, mass=float("nan")), ["key 'mass' is nan", "finite number"]),
     "l_f outside": (lambda tmp: _car_file(tmp, cg_to_front_axle=2.9), ["key 'cg_to_front_axle' = 2.9 m", "wheelbase 2.68 m"]),
     "both forms": (lambda tmp: _car_file(tmp, magic_formula={a: {"B": 9.0, "C": 1.9, "E": 0.97} for a in ("front", "rear")}),
                    ["'cornering_stiffness' and 'magic_formula'", "keep one"]),

@@ -100,18 +100,18 @@ def _key(path) -> str:
     return ".".join(str(p) for p in path) or "<top level>"
 
 
-def _check_leaves(node, path=()) -> None:
+def _check_leaves(node, path=(), where: str = "config key '{}'") -> None:
     """Mapping keys are names and every number is finite (YAML .nan and .inf parse as floats)."""
     if isinstance(node, Mapping):
         for k, v in node.items():
             if not isinstance(k, str):
-                raise ConfigError(f"config key '{_key(path + (k,))}' is not a name; write keys as text")
-            _check_leaves(v, path + (k,))
+                raise ConfigError(f"{where.format(_key(path + (k,)))} is not a name; write keys as text")
+            _check_leaves(v, path + (k,), where)
     elif isinstance(node, list):
         for i, v in enumerate(node):
-            _check_leaves(v, path + (i,))
+            _check_leaves(v, path + (i,), where)
     elif isinstance(node, float) and not math.isfinite(node):
-        raise ConfigError(f"config key '{_key(path)}' is {node}; give a finite number")
+        raise ConfigError(f"{where.format(_key(path))} is {node}; give a finite number")
 
 
 _FIXES = {
@@ -225,7 +225,7 @@ def read_vehicle_file(reference: str | Path) -> tuple[str, dict]:
 
 
 def _check_vehicle_schema(spec: dict, label: str) -> None:
-    _check_leaves(spec)
+    _check_leaves(spec, where=label)
     error = best_match(_vehicle_validator().iter_errors(spec))
     if error is not None:
         raise _schema_error(error, label)
