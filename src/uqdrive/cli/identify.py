@@ -24,6 +24,7 @@ from ..io import DataError, atomic_path, check_spread, read_ensemble
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
+from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
@@ -185,10 +186,13 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale,
-                                optimiser=configured_optimiser(cfg))
     runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in STATES]).astype(float)
+    # Measurement noise inflates the measured std: the model's variance gets the noise variance
+    # estimated from the data (order-4 differences leave the smooth signal out).
+    noise = np.array([estimate_noise_variance(runs[i], order=4) for i in range(runs.shape[0])])
+    est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
+                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale, optimiser=configured_optimiser(cfg),
+                                noise_variance=noise)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -206,6 +210,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "cost_function": cost,
         "state_scale": scale,
         "m_load": m_load,
+        "noise_variance": {state: float(v) for state, v in zip(STATES, noise)},
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,

@@ -196,6 +196,9 @@ class DistributionEstimator:
     optimiser : {"lbfgsb", "gauss_newton"}
         Local optimiser, see :data:`OPTIMISERS`: quasi-Newton with the adjoint gradient (the
         thesis' method class) or trust-region Gauss-Newton with forward sensitivities.
+    noise_variance : ndarray, shape (n_states,), optional
+        Variance of white measurement noise in the data, added to the model's variance before
+        its std is compared with the measured one (default: none).
 
     Attributes
     ----------
@@ -203,21 +206,19 @@ class DistributionEstimator:
         Estimate; standard deviations reported as |sigma|.
     cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
     theta_std_ : ndarray
-        Standard errors: from the sampling error of the measured statistics (sandwich) when
-        :meth:`fit` is given the realisations, else the Gauss-Newton ones (see :meth:`_fit`).
-        NaN for a std estimated at its lower bound (see ``upper_bounds_``).
+        Standard errors: sandwich (sampling error of the statistics) when :meth:`fit` is given the
+        realisations (NaN for a std at zero), else Gauss-Newton (see :meth:`_fit`).
     gauss_newton_std_ : ndarray
         The Gauss-Newton standard errors s^2 (J'J)^-1 (residuals taken as independent).
-    upper_bounds_ : dict
-        With the realisations: name -> one-sided 95 % upper bound of each std at zero.
-    misfit_reference_ : MisfitReference or None
-        With the realisations: the cost's distribution at the optimum if the model is right.
+    upper_bounds_, misfit_reference_ : dict, MisfitReference or None
+        With the realisations: one-sided 95 % upper bound of each std at zero (by name), and the
+        cost's distribution at the optimum if the model is right.
     start_results_ : list of (theta, cost, success)
         Each start's local optimum (the first is the given start's), theta with |sigma|.
     """
 
     def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
-                 state_scale: str = "none", optimiser: str = "lbfgsb"):
+                 state_scale: str = "none", optimiser: str = "lbfgsb", noise_variance=None):
         if cost.lower() not in COSTS:
             raise ValueError(f"unknown cost '{cost}'; choose one of {', '.join(COSTS)}")
         if state_scale.lower() not in STATE_SCALES:
@@ -232,6 +233,8 @@ class DistributionEstimator:
         self.starts = int(starts)
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.max_iter = int(max_iter)
+        self.noise_variance = noise_variance
+        self._nv = 0.0 if noise_variance is None else np.asarray(noise_variance, float)[:, None]
 
     # -- objective --------------------------------------------------------------------------
     def _objective(self, theta, gradient=True):
@@ -245,7 +248,7 @@ class DistributionEstimator:
                 r = self.model.moments(theta, gradient=gradient)
         except (ValueError, np.linalg.LinAlgError):
             return None
-        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        std = np.sqrt(np.maximum(r.variance + self._nv, 1e-300))
         em, es = r.mean - self._mean, std - self._std
         if not (np.all(np.isfinite(em)) and np.all(np.isfinite(es))):
             return None
@@ -274,12 +277,9 @@ class DistributionEstimator:
     def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None, runs=None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
 
-        ``runs`` (n_states, n, T), optional: the realisations the statistics were computed from;
-        with them the standard errors account for the sampling error of the statistics
-        (sandwich) and the misfit gets its reference distribution (goodness of fit).
-        See :meth:`_fit` for the error bars. The model's matrices are small (tens of states), where
-        BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
-        runs with one BLAS thread, as scikit-learn does with threadpoolctl.
+        ``runs`` (n_states, n, T), optional: the realisations behind the statistics, for sandwich
+        standard errors and the misfit's reference (goodness of fit). The model's matrices are
+        small, where BLAS threads only add overhead, so the fit runs with one BLAS thread.
         """
         with single_blas_thread():
             self._fit(measured_mean, measured_std, theta0, context)
@@ -360,8 +360,7 @@ class DistributionEstimator:
         return theta
 
     def at_zero(self) -> list[int]:
-        """Indices of the stds estimated at the lower bound of their box (the data show no
-        spread of that parameter)."""
+        """Indices of the stds estimated at the lower bound of their box (no spread)."""
         lo, hi = np.array(self.bounds, float).T
         return [i for i, name in enumerate(self.model.theta_names)
                 if name.endswith("_std") and self.theta_[i] <= lo[i] + 1e-6 * (hi[i] - lo[i])]
@@ -399,7 +398,7 @@ class DistributionEstimator:
     def _weighted_residuals(self, r, jacobian: bool = False):
         """Residuals of (5.25), sqrt(w) [mean error, std error] flattened (n,), and with
         ``jacobian`` their derivative (n, p) from the model's sensitivities."""
-        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        std = np.sqrt(np.maximum(r.variance + self._nv, 1e-300))
         sw = np.sqrt(self._w)
         res = np.concatenate([(sw * (r.mean - self._mean)).ravel(), (sw * (std - self._std)).ravel()])
         if not jacobian:
