@@ -15,7 +15,7 @@ from ..config import config_hash, restrict_config
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
-from .single_track import STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
+from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
 
 __all__ = [
     "MODELS",
@@ -189,7 +189,8 @@ def ensemble_hash(config: Mapping[str, Any], samples: int, seed: int, chunk: int
     """:func:`uqdrive.config.config_hash` of what an ensemble depends on: the settings it reads
     and its effective size, seed and chunk (an override of ``samples`` or ``seed`` counts), so the
     CLI and the workflow write the same hash for the same ensemble, whatever else their configs hold."""
-    settings = {"settings": restrict_config(config, ENSEMBLE_SETTINGS), "samples": int(samples), "seed": int(seed)}
+    keys = ENSEMBLE_SETTINGS + (("montecarlo.speed_profile",) if config["montecarlo"].get("speed_profile") else ())
+    settings = {"settings": restrict_config(config, keys), "samples": int(samples), "seed": int(seed)}
     if chunk is not None:
         settings["chunk"] = int(chunk)
     return config_hash(settings)
@@ -245,21 +246,35 @@ def simulate_ensemble(
     st = config["steering"]
     delta_max = np.deg2rad(st["delta_max_deg"])
 
+    from .speed import configured_speed, lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
+
     refine = 1 if model == "lst" else 2
     t_fine = grid.fine(refine)
     delta_fine = steering_input(t_fine, delta_max, st["period"], STEERS[steer])
     f_fine = kle.eigenfunctions(t_fine)
-    simulate = simulate_lst if model == "lst" else simulate_nlst
-    x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+    speed_fine = configured_speed(config, t_fine)
+    if speed_fine is None:
+        simulate = simulate_lst if model == "lst" else simulate_nlst
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+    else:
+        simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, speed_fine, config["wind"]["gust_yaw_moment"])
 
     t = grid.output
+    speed = np.full(t.size, float(p.v_c)) if speed_fine is None else configured_speed(config, t)
+    wind = draws["F_w_mean"][:, None] + coeffs @ kle.eigenfunctions(t)
+    delta_out = steering_input(t, delta_max, st["period"], STEERS[steer])
+    a_y = lateral_acceleration(model, x, p, delta_out, wind, speed)
     threshold = config["montecarlo"]["spin_threshold"]
     spun = spin_mask(x[2], threshold)
     data_vars = {
         name: (("sample", "time"), x[i], {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
         for i, name in enumerate(STATES)
     }
-    data_vars["delta"] = ("time", steering_input(t, delta_max, st["period"], STEERS[steer]), {"units": "rad", "long_name": "front steering angle"})
+    data_vars["a_y"] = (("sample", "time"), a_y, {"units": A_Y_UNIT, "long_name": "lateral acceleration at the centre of gravity"})
+    data_vars["delta"] = ("time", delta_out, {"units": "rad", "long_name": "front steering angle"})
+    if speed_fine is not None:
+        data_vars["v"] = ("time", speed, {"units": "m/s", "long_name": "vehicle speed"})
     units = {"mu": "1", "m_load": "kg", "l_f": "m", "F_w_mean": "N"}
     for name, value in draws.items():
         data_vars[name] = ("sample", value, {"units": units[name], "long_name": f"drawn {name}"})
@@ -269,7 +284,7 @@ def simulate_ensemble(
         "title": f"uqdrive Monte Carlo ensemble ({model.upper()}, {steer} steering)",
         "model": model,
         "steer": steer,
-        "v_c": float(p.v_c),
+        **({"v_c": float(p.v_c)} if speed_fine is None else {}),
         "noise_A": 0.0,
         "n_spun": int(spun.sum()),
         "spin_threshold": float(threshold),
