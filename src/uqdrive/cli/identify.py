@@ -20,8 +20,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..io import DataError, atomic_path, check_spread, read_ensemble
+from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
+from ..vehicle.channels import CHANNEL_UNITS, ChannelChaosModel
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
@@ -41,7 +42,8 @@ def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
     cfg = copy.deepcopy(dict(config))
     dt = float(t[1] - t[0])
     cfg["time"] = {"t_end": float(t[-1]), "dt": dt, "step": dt}
-    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=float(ds.attrs["v_c"]) * 3.6)
+    v = float(ds.attrs["v_c"]) if "v" not in ds else float(np.ravel(ds["v"].values)[0])
+    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=v * 3.6)
     return cfg
 
 
@@ -62,6 +64,13 @@ def _dst_divergence(cfg, delta):
 def _lost_control(ds, cfg, source: str):
     """Spin flags from the data, the file's own flags (or None) and the dataset carrying the former."""
     threshold = float(cfg["montecarlo"]["spin_threshold"])
+    if "beta" not in ds:  # no side slip recorded: lost control cannot be told from the data
+        in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
+        spun = np.zeros(ds.sizes["sample"], bool) if in_file is None else in_file
+        ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": "lost control, from the file's flags"}))
+        mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+        check_spread(ds, source, mask)
+        return ds, spun, None
     spun = spin_mask(ds["beta"].values, threshold)
     in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
     ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad), from the data"}))
@@ -91,6 +100,22 @@ def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) ->
     return out
 
 
+def _channel_notes(cfg, ds, channels, speed) -> list[str]:
+    """What the recorded channels cannot answer: parameters they cannot separate, lost control
+    without beta, unit conversions, runs at different speeds."""
+    from ..inference.identifiability import unidentifiable_parameters
+
+    out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
+           f"not determined by the data; record {hint}" for p, hint in unidentifiable_parameters(cfg, channels, UNCERTAIN).items()]
+    if "beta" not in channels:
+        out.append("without beta, lost control cannot be detected from the data: every run is used (drop spun runs before)")
+    if ds.attrs.get("conversions"):
+        out.append(str(ds.attrs["conversions"]))
+    if speed is not None and ds["v"].ndim == 2 and np.ptp(ds["v"].values, axis=0).max() > 0.01 * float(speed.min()):
+        out.append("the runs' speed profiles differ by more than 1 %: the model follows their mean profile")
+    return out
+
+
 def _finite(x):
     """JSON-safe number: non-finite values become null."""
     x = float(x)
@@ -110,10 +135,16 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     """
     source = str(measured)
     ds = read_ensemble(measured)
+    check_run_count(ds.sizes["sample"], source, "identify")
+    channels = present_channels(ds)
+    speed = speed_profile(ds)
+    if cost == "dst" and (channels != STATES or speed is not None):
+        raise DataError(f"{source}: the DST cost compares the LST and NLST states at constant speed; this file has channels "
+                        f"{', '.join(channels)}{' and a changing speed' if speed is not None else ''}: use --cost std or inp")
     cfg = _model_config(config, ds, source)
     policy = cfg["montecarlo"]["spin_policy"]
     ds, spun, in_file = _lost_control(ds, cfg, source)
-    stats = ensemble_statistics(ds, policy)
+    stats = ensemble_statistics(ds, policy, channels)
     scale = state_scale or configured_state_scale(cfg)
     try:
         state_weights(scale, stats["mean"].values, stats["std"].values)
@@ -124,6 +155,8 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
     model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
+    if channels != STATES or speed is not None:
+        model = ChannelChaosModel(model, channels, speed)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
@@ -140,6 +173,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     notes = fit_warnings(th, theta0, est.bounds, model.theta_names, est.converged_, est.message_)
     converged = bool(est.converged_) and not notes
     notes += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    notes += _channel_notes(cfg, ds, channels, speed)
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
         notes.append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
@@ -156,6 +190,8 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "state_scale": scale,
         "m_load": m_load,
         "standard_errors": {k: [_finite(err[2 * i]), _finite(err[2 * i + 1])] for i, k in enumerate(UNCERTAIN)},
+        "channels": list(channels),
+        "speed": "constant" if speed is None else f"profile {float(speed.min()):.4g}-{float(speed.max()):.4g} m/s",
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
@@ -200,9 +236,13 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) ->
 def _figure(stats, moments, path):
     from ..plots.figure import save_figure, state_axes
 
-    fig, axes = state_axes(title="Identified model (PCE) vs measured ensemble: mean +- 3 std")
+    channels = [str(c) for c in stats["state"].values]
+    fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
+                           title="Identified model (PCE) vs measured ensemble: mean +- 3 std")
     t = stats["time"].values
-    for i, (ax, state) in enumerate(zip(axes, STATES)):
+    for ax in axes[len(channels):]:
+        ax.set_visible(False)
+    for i, (ax, state) in enumerate(zip(axes, channels)):
         m, s = stats["mean"].values[i], stats["std"].values[i]
         ax.fill_between(t, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
         ax.plot(t, m, color="C0")
@@ -210,7 +250,7 @@ def _figure(stats, moments, path):
             ax.plot(t, moments.mean[i], "C3--", label="identified")
             ax.plot(t, moments.mean[i] + 3 * moments.std[i], "C3:", lw=0.8)
             ax.plot(t, moments.mean[i] - 3 * moments.std[i], "C3:", lw=0.8)
-        ax.set_title(state)
+        ax.set_title(state if state in STATES else f"{state} [{CHANNEL_UNITS[state]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     save_figure(fig, path)

@@ -24,7 +24,9 @@ from typing import Sequence
 
 import numpy as np
 
+from ..numerics.discretise import foh_discretise, foh_discretise_derivatives_batched
 from ..numerics.integrate import foh_discretise_single, lti_response_single
+from ..numerics.recursion import decoupled_blocks
 from ..numerics.threads import with_single_blas_thread
 from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, lateral_acceleration_map
 
@@ -58,6 +60,33 @@ class ChannelMoments:
     @property
     def std(self) -> np.ndarray:
         return np.sqrt(np.maximum(self.variance, 0.0))
+
+
+def _phi(v, v_dot):
+    """The functions of the speed the single-track matrices are linear in: [1, 1/v, 1/v^2, v, v_dot/v]."""
+    return np.array([1.0, 1.0 / v, 1.0 / v**2, v, v_dot / v])
+
+
+def _blockwise_foh(A, E, h, dA=None, dE=None):
+    """FOH maps of a stack of systems (U, N, N) (with derivatives along (U, p, N, N)) by the
+    decoupled blocks of their common pattern (the Galerkin terms with and without the wind's
+    linear germ never mix): the exponentials are of the blocks' size."""
+    U, N, r = E.shape
+    pattern = np.any(A != 0, axis=0) | (np.any(dA != 0, axis=(0, 1)) if dA is not None else False)
+    Phi, P, Q = np.zeros((U, N, N)), np.zeros((U, N, r)), np.zeros((U, N, r))
+    dPhi = dP = dQ = None
+    if dA is not None:
+        n_p = dA.shape[1]
+        dPhi, dP, dQ = np.zeros((U, n_p, N, N)), np.zeros((U, n_p, N, r)), np.zeros((U, n_p, N, r))
+    for b in decoupled_blocks(pattern):
+        ix = np.ix_(b, b)
+        if dA is None:
+            Phi[:, b[:, None], b], P[:, b], Q[:, b] = foh_discretise(A[:, b[:, None], b], E[:, b], h)
+            continue
+        (Pb, Pp, Qb), (dPb, dPp, dQb) = foh_discretise_derivatives_batched(A[:, b[:, None], b], E[:, b], h, dA[:, :, b[:, None], b], dE[:, :, b])
+        Phi[(slice(None),) + ix], P[:, b], Q[:, b] = Pb, Pp, Qb
+        dPhi[(slice(None), slice(None)) + ix], dP[:, :, b], dQ[:, :, b] = dPb, dPp, dQb
+    return Phi, P, Q, dPhi, dP, dQ
 
 
 def _check_speed(speed, time) -> np.ndarray | None:
@@ -154,27 +183,56 @@ class ChannelChaosModel:
             return lti_response_single(*maps, m.inputs, x0, dmaps)
         return self._ltv_response(values, dvalues, gradient)
 
+    def _speed_basis(self, system, values, dvalues, gradient):
+        """Galerkin matrices of ``system`` as a combination sum_i phi_i(v, v_dot) M_i.
+
+        The single-track matrices are linear in phi = [1, 1/v, 1/v^2, v, v_dot/v] (:data:`_PHI`),
+        so the node matrices at five speeds determine the M_i, projected once (the projector is
+        linear) instead of at every step; a sixth speed checks the decomposition.
+        """
+        m, pr, states = self.model, self.model.projector, self.model.expanded_states
+        lo, hi = float(self.speed.min()), float(self.speed.max())
+        span = max(hi - lo, 0.5 * lo)
+        probes = [(lo + span * a, b) for a, b in ((0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (0.25, 1.0), (0.75, -1.0), (0.4, 0.5))]
+        Phi = np.array([_phi(v, vd) for v, vd in probes])  # (6, 5)
+        inv = np.linalg.inv(Phi[:5])
+
+        def project(mats):
+            A, E, F = mats
+            return pr.matrix(A, states), np.concatenate([pr.input_matrix(E, states), pr.linear_input_matrix(F, states)], axis=-1)
+
+        at = [project(system(values, v=v, v_dot=vd)) for v, vd in probes]
+        basis = [np.einsum("ij,j...->i...", inv, np.stack([a[k] for a in at[:5]])) for k in range(2)]
+        for k in range(2):
+            check = np.tensordot(Phi[5], basis[k], axes=1)
+            if not np.allclose(check, at[5][k], rtol=1e-9, atol=1e-12 * np.abs(at[5][k]).max()):
+                raise RuntimeError("the single-track matrices are not linear in [1, 1/v, 1/v^2, v, v_dot/v]")
+        if not gradient:
+            return basis, None
+        dat = [project(m._system_derivatives(values, dvalues, system=partial(system, v=v, v_dot=vd))) for v, vd in probes[:5]]
+        dbasis = [np.einsum("ij,j...->i...", inv, np.stack([a[k] for a in dat])) for k in range(2)]
+        return basis, dbasis
+
     def _ltv_response(self, values, dvalues, gradient):
         """x_k+1 = Phi_k x_k + P_k g_k + Q_k g_k+1 with each step's maps at its mean speed."""
-        m, pr, states = self.model, self.model.projector, self.model.expanded_states
+        m = self.model
         v, g, dt = self.speed, m.inputs, m.dt
-        K, N = v.size - 1, states.size
+        K, N = v.size - 1, m.expanded_states.size
+        (A_b, E_b), d = self._speed_basis(m._system, values, dvalues, gradient)
+        # steps at the same speed and slope (the constant parts of a profile) share their maps
+        keys = np.column_stack([0.5 * (v[1:] + v[:-1]), np.diff(v) / dt])
+        unique, which = np.unique(keys, axis=0, return_inverse=True)
+        phis = np.array([_phi(*key) for key in unique])  # (U, 5)
+        A_pce, E_pce = np.tensordot(phis, A_b, axes=1), np.tensordot(phis, E_b, axes=1)
+        dA_pce = np.tensordot(phis, d[0], axes=1) if gradient else None
+        dE_pce = np.tensordot(phis, d[1], axes=1) if gradient else None
+        Phi, P, Q, dPhi, dP, dQ = _blockwise_foh(A_pce, E_pce, dt, dA_pce, dE_pce)
         X = np.zeros((K + 1, N))
         S = np.zeros((K + 1, len(self.theta_names), N)) if gradient else None
-        for k in range(K):
-            v_mid, v_dot = 0.5 * (v[k] + v[k + 1]), (v[k + 1] - v[k]) / dt
-            A, E, F = m._system(values, v_mid, v_dot)
-            A_pce = pr.matrix(A, states)
-            E_pce = np.concatenate([pr.input_matrix(E, states), pr.linear_input_matrix(F, states)], axis=-1)
-            if not gradient:
-                Phi, P, Q = foh_discretise_single(A_pce, E_pce, dt)
-            else:
-                dA, dE, dF = m._system_derivatives(values, dvalues, system=partial(m._system, v=v_mid, v_dot=v_dot))
-                dA_pce = pr.matrix(dA, states)
-                dE_pce = np.concatenate([pr.input_matrix(dE, states), pr.linear_input_matrix(dF, states)], axis=-1)
-                (Phi, P, Q), (dPhi, dP, dQ) = foh_discretise_single(A_pce, E_pce, dt, dA_pce, dE_pce)
-                S[k + 1] = S[k] @ Phi.T + dPhi @ X[k] + dP @ g[k] + dQ @ g[k + 1]
-            X[k + 1] = Phi @ X[k] + P @ g[k] + Q @ g[k + 1]
+        for k, u in enumerate(np.ravel(which)):
+            if gradient:
+                S[k + 1] = S[k] @ Phi[u].T + dPhi[u] @ X[k] + dP[u] @ g[k] + dQ[u] @ g[k + 1]
+            X[k + 1] = Phi[u] @ X[k] + P[u] @ g[k] + Q[u] @ g[k + 1]
         return X, S
 
     def _a_y(self, values, dvalues, X, S, gradient):
@@ -190,10 +248,15 @@ class ChannelChaosModel:
         T = X.shape[0]
         Y = np.empty((T, self._beta_rows.size))
         dY = np.empty((T, S.shape[1], self._beta_rows.size)) if gradient else None
+        system = lambda vals, v, v_dot: self._output_system(vals, v)  # noqa: E731 (a_y does not depend on v_dot)
+        (C_b, D_b), d = self._speed_basis(system, values, dvalues, gradient)
+        rows = self._beta_rows
         for k in range(T):
-            Cy, Dy, dCy, dDy = self._output_map(values, dvalues, self._output_speed[k], gradient)
+            phi = _phi(self._output_speed[k], 0.0)
+            Cy, Dy = np.tensordot(phi, C_b[:, rows], axes=1), np.tensordot(phi, D_b[:, rows], axes=1)
             Y[k] = Cy @ X[k] + Dy @ g[k]
             if gradient:
+                dCy, dDy = np.tensordot(phi, d[0][:, :, rows], axes=1), np.tensordot(phi, d[1][:, :, rows], axes=1)
                 dY[k] = S[k] @ Cy.T + dCy @ X[k] + dDy @ g[k]
         return Y, dY
 
