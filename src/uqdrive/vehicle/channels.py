@@ -62,9 +62,12 @@ class ChannelMoments:
         return np.sqrt(np.maximum(self.variance, 0.0))
 
 
-def _phi(v, v_dot):
-    """The functions of the speed the single-track matrices are linear in: [1, 1/v, 1/v^2, v, v_dot/v]."""
-    return np.array([1.0, 1.0 / v, 1.0 / v**2, v, v_dot / v])
+def _phi(v, v_dot, v0=1.0):
+    """The functions of the speed the single-track matrices are linear in, [1, 1/v, 1/v^2, v,
+    v_dot/v], each scaled by a power of the reference speed v0 (m/s) so that they are of order
+    one (a well-conditioned basis)."""
+    r = v / v0
+    return np.array([1.0, 1.0 / r, 1.0 / r**2, r, v_dot / v])
 
 
 def _blockwise_foh(A, E, h, dA=None, dE=None):
@@ -130,6 +133,7 @@ class ChannelChaosModel:
         self.speed = _check_speed(speed, self.time)
         self._constant_speed = float(model.vehicle.v_c) if self.speed is None else None
         self._output_speed = self.speed
+        self._v0 = None if self.speed is None else float(np.mean(self.speed))
         state, term = np.divmod(model.expanded_states, model.projector.n_terms)
         self._beta_rows = np.flatnonzero(state == 2)
         self._a_y_mean = int(np.flatnonzero(term[self._beta_rows] == 0)[0])
@@ -191,10 +195,9 @@ class ChannelChaosModel:
         linear) instead of at every step; a sixth speed checks the decomposition.
         """
         m, pr, states = self.model, self.model.projector, self.model.expanded_states
-        lo, hi = float(self.speed.min()), float(self.speed.max())
-        span = max(hi - lo, 0.5 * lo)
-        probes = [(lo + span * a, b) for a, b in ((0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (0.25, 1.0), (0.75, -1.0), (0.4, 0.5))]
-        Phi = np.array([_phi(v, vd) for v, vd in probes])  # (6, 5)
+        v0 = self._v0
+        probes = [(v0 * a, v0 * b) for a, b in ((0.5, 0.0), (1.0, 0.0), (2.0, 0.0), (0.75, 1.0), (1.5, -1.0), (1.2, 0.5))]
+        Phi = np.array([_phi(v, vd, v0) for v, vd in probes])  # (6, 5)
         inv = np.linalg.inv(Phi[:5])
 
         def project(mats):
@@ -222,7 +225,7 @@ class ChannelChaosModel:
         # steps at the same speed and slope (the constant parts of a profile) share their maps
         keys = np.column_stack([0.5 * (v[1:] + v[:-1]), np.diff(v) / dt])
         unique, which = np.unique(keys, axis=0, return_inverse=True)
-        phis = np.array([_phi(*key) for key in unique])  # (U, 5)
+        phis = np.array([_phi(*key, self._v0) for key in unique])  # (U, 5)
         A_pce, E_pce = np.tensordot(phis, A_b, axes=1), np.tensordot(phis, E_b, axes=1)
         dA_pce = np.tensordot(phis, d[0], axes=1) if gradient else None
         dE_pce = np.tensordot(phis, d[1], axes=1) if gradient else None
@@ -252,7 +255,7 @@ class ChannelChaosModel:
         (C_b, D_b), d = self._speed_basis(system, values, dvalues, gradient)
         rows = self._beta_rows
         for k in range(T):
-            phi = _phi(self._output_speed[k], 0.0)
+            phi = _phi(self._output_speed[k], 0.0, self._v0)
             Cy, Dy = np.tensordot(phi, C_b[:, rows], axes=1), np.tensordot(phi, D_b[:, rows], axes=1)
             Y[k] = Cy @ X[k] + Dy @ g[k]
             if gradient:
