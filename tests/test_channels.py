@@ -3,6 +3,7 @@ lateral acceleration a_y; units checked (a_y in g converted); the identifiabilit
 set; identification from the yaw rate and the lateral acceleration only."""
 
 import copy
+import json
 import re
 
 import numpy as np
@@ -206,3 +207,20 @@ def test_bad_channels_on_the_command_line(tmp_path, capsys, corrupt, needle):
     before = files_under(tmp_path)
     refused(capsys, main(["identify", str(bad), "--config", str(config), "--out", str(tmp_path / "out")]), needle)
     assert files_under(tmp_path) == before
+
+
+def test_identify_warns_when_the_channels_cannot_identify_a_parameter(tmp_path, monkeypatch):
+    """The rank test's verdict reaches estimate.json's warnings (no channel subset leaves mu, l_f
+    or the mean wind open at the default car, so the test's verdict is stood in for)."""
+    import uqdrive.inference.identifiability as ident
+
+    cfg = tiny_config()
+    ds = simulate_ensemble(cfg, "lst", samples=12, seed=1).drop_vars(["psi", "beta", "y"])
+    write_dataset(ds, tmp_path / "imu.nc")
+    asked = []
+    monkeypatch.setattr(ident, "unidentifiable_parameters", lambda c, ch, p: asked.append(ch) or {"l_f": "beta"})
+    out = identify_file(cfg, tmp_path / "imu.nc", "std", None, 0, tmp_path / "est")
+    assert asked == [("psi_dot", "a_y")]
+    assert any(w.startswith("l_f cannot be identified from the channels psi_dot, a_y") for w in out["warnings"])
+    on_disk = json.loads((tmp_path / "est" / "estimate.json").read_text())
+    assert on_disk["warnings"] == out["warnings"] and on_disk["channels"] == ["psi_dot", "a_y"]

@@ -105,8 +105,10 @@ def _channel_notes(cfg, ds, channels, speed) -> list[str]:
     without beta, unit conversions, runs at different speeds."""
     from ..inference.identifiability import unidentifiable_parameters
 
+    # the four states identify every parameter fitted here (thesis sec. 5.3.1): the test is for subsets
+    open_ = {} if channels == STATES else unidentifiable_parameters(cfg, channels, UNCERTAIN)
     out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
-           f"not determined by the data; record {hint}" for p, hint in unidentifiable_parameters(cfg, channels, UNCERTAIN).items()]
+           f"not determined by the data; record {hint}" for p, hint in open_.items()]
     if "beta" not in channels:
         out.append("without beta, lost control cannot be detected from the data: every run is used (drop spun runs before)")
     if ds.attrs.get("conversions"):
