@@ -224,3 +224,6 @@ def test_identify_warns_when_the_channels_cannot_identify_a_parameter(tmp_path, 
     assert any(w.startswith("l_f cannot be identified from the channels psi_dot, a_y") for w in out["warnings"])
     on_disk = json.loads((tmp_path / "est" / "estimate.json").read_text())
     assert on_disk["warnings"] == out["warnings"] and on_disk["channels"] == ["psi_dot", "a_y"]
+    # the sampling error of 12 runs: std / sqrt(n) and std / sqrt(2 (n - 1))
+    sd = out["mu"][1]
+    assert out["sampling_errors"]["mu"] == pytest.approx([sd / np.sqrt(12), sd / np.sqrt(22)], rel=1e-12)

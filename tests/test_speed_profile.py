@@ -16,7 +16,7 @@ from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.noise import add_noise
 from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed
-from uqdrive.vehicle.speed import speed_ramp
+from uqdrive.vehicle.channels import speed_ramp
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 RAMP = {"start_kmh": 70.0, "end_kmh": 50.0, "t_start": 0.5, "duration": 3.0}  # 29 % slower

@@ -31,6 +31,8 @@ from ..vehicle.single_track import STATES
 __all__ = ["identify_file", "fit_warnings"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
+#: Below this many runs the sampling error of the runs' own distribution is named in a warning.
+FEW_RUNS = 100
 
 
 def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
@@ -118,6 +120,18 @@ def _channel_notes(cfg, ds, channels, speed) -> list[str]:
     return out
 
 
+def _sampling_errors(theta, n: int) -> dict:
+    """Sampling errors of the normal parameters' mean and std from n runs, std / sqrt(n) and
+    std / sqrt(2 (n - 1)): how far the runs' own distribution is from the population's."""
+    out = {}
+    for i, k in enumerate(UNCERTAIN):
+        if k == "F_w_mean":  # uniform: its interval, not a mean and std
+            continue
+        sd = abs(float(theta[2 * i + 1]))
+        out[k] = [_finite(sd / math.sqrt(n)), _finite(sd / math.sqrt(2 * max(n - 1, 1)))]
+    return out
+
+
 def _finite(x):
     """JSON-safe number: non-finite values become null."""
     x = float(x)
@@ -176,6 +190,11 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     converged = bool(est.converged_) and not notes
     notes += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
     notes += _channel_notes(cfg, ds, channels, speed)
+    n_used = int(stats.attrs["n_used"])
+    sampling = _sampling_errors(th, n_used)["mu"]
+    if n_used < FEW_RUNS and sampling[0] is not None and err[0] < sampling[0] / 3:
+        notes.append(f"with {n_used} runs the runs' own mean of mu is uncertain by about {sampling[0]:.2g} (std / sqrt(n)), "
+                     f"more than the fit's standard error {err[0]:.2g}: read mu's mean as +- {sampling[0]:.2g} (sampling_errors)")
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
         notes.append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
@@ -192,6 +211,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "state_scale": scale,
         "m_load": m_load,
         "standard_errors": {k: [_finite(err[2 * i]), _finite(err[2 * i + 1])] for i, k in enumerate(UNCERTAIN)},
+        "sampling_errors": _sampling_errors(th, int(stats.attrs["n_used"])),
         "channels": list(channels),
         "speed": "constant" if speed is None else f"profile {float(speed.min()):.4g}-{float(speed.max()):.4g} m/s",
         "samples": int(ds.sizes["sample"]),

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..vehicle.speed import speed_ramp
+from ..vehicle.channels import speed_ramp
 
 __all__ = ["MANOEUVRES", "SPEED_PROFILES", "braking_in_turn", "braking_in_turn_speed", "chirp", "double_lane_change", "slalom",
            "speed_command", "steering_command", "step_steer"]

@@ -15,7 +15,9 @@ from ..config import config_hash, restrict_config
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
-from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
+from .channels import configured_speed, lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lst_matrices, make_nlst_rhs,
+                           steering_input, wind_yaw_moment)
 
 __all__ = [
     "MODELS",
@@ -74,22 +76,6 @@ def kle_from_config(config: Mapping[str, Any]) -> KarhunenLoeve:
 def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
     """Coefficients c (n, n_c) with F_w(t) = F_w_mean + c @ f(t), from (5.1) and (5.21)."""
     return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
-
-
-def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
-    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
-    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
-
-
-def gust_input_column(W, gust_yaw_moment: bool):
-    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
-    if gust_yaw_moment:
-        return W
-    W = np.array(W, copy=True)
-    W[..., 1] = 0.0
-    return W
 
 
 def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
@@ -245,8 +231,6 @@ def simulate_ensemble(
     coeffs = _wind_modes(kle, config["wind"]["sigma"], xi_wind)
     st = config["steering"]
     delta_max = np.deg2rad(st["delta_max_deg"])
-
-    from .speed import configured_speed, lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
 
     refine = 1 if model == "lst" else 2
     t_fine = grid.fine(refine)

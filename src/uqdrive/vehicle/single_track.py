@@ -20,6 +20,10 @@ __all__ = [
     "nlst_rhs",
     "make_nlst_rhs",
     "steering_input",
+    "lateral_acceleration_map",
+    "lst_matrices_at_speed",
+    "gust_input_column",
+    "wind_yaw_moment",
 ]
 
 #: State vector x = [psi, psi_dot, beta, y] of (5.3)/(5.4).
@@ -341,3 +345,19 @@ def lst_matrices_at_speed(p: VehicleParameters, v, v_dot=0.0):
     if v_dot:
         A[..., 2, 2] -= v_dot / v
     return A, B, W
+
+
+def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
+    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
+    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
+
+
+def gust_input_column(W, gust_yaw_moment: bool):
+    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
+    if gust_yaw_moment:
+        return W
+    W = np.array(W, copy=True)
+    W[..., 1] = 0.0
+    return W
