@@ -3,7 +3,7 @@ the channel set: all channels (psi, psi_dot, beta, y, a_y), an IMU only (psi_dot
 while braking (psi_dot, a_y with the speed falling 80 -> 50 km/h, the braking_in_turn speed).
 
 Data: LST ensembles of the default car (slalom (5.5), 4 s on a 0.05 s grid, no gusts) with 1 %
-noise (5.6), REPLICATES seeds per cell; the fit starts at mu N(0.8, 0.3), away from the truth
+noise (5.6), --replicates seeds per cell (default 2); the fit starts at mu N(0.8, 0.3), away from the truth
 N(1.0, 0.2) of the config. Error = |estimate - config truth| averaged over the replicates (the
 sampling error of n runs, 0.2 / sqrt(n) for the mean, is part of it); SE = the mean reported
 standard error. Prints a Markdown table (docs/data_schema.md holds a copy).
@@ -61,7 +61,7 @@ def one(cfg, channels, braking, n, seed, folder):
 
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("--replicates", type=int, default=3)
+    parser.add_argument("--replicates", type=int, default=2)
     parser.add_argument("--counts", default="10,20,40,100,1000")
     args = parser.parse_args()
     counts = [int(c) for c in args.counts.split(",")]

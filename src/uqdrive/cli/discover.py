@@ -74,6 +74,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
                         "(identify handles a speed profile)")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
+    if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
         config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
