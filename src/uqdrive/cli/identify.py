@@ -31,7 +31,7 @@ from ..vehicle.single_track import STATES
 __all__ = ["identify_file", "fit_warnings"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
-#: Below this many runs the sampling error of the runs' own distribution is named in a warning.
+#: Below this many runs the sampling error of the runs' own distribution is named in the estimate's notes.
 FEW_RUNS = 100
 
 
@@ -192,8 +192,9 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     notes += _channel_notes(cfg, ds, channels, speed)
     n_used = int(stats.attrs["n_used"])
     sampling = _sampling_errors(th, n_used)["mu"]
+    info = []  # facts to read the estimate by, not failures (those are the warnings)
     if n_used < FEW_RUNS and sampling[0] is not None and err[0] < sampling[0] / 3:
-        notes.append(f"with {n_used} runs the runs' own mean of mu is uncertain by about {sampling[0]:.2g} (std / sqrt(n)), "
+        info.append(f"with {n_used} runs the runs' own mean of mu is uncertain by about {sampling[0]:.2g} (std / sqrt(n)), "
                      f"more than the fit's standard error {err[0]:.2g}: read mu's mean as +- {sampling[0]:.2g} (sampling_errors)")
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
@@ -206,6 +207,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "cost": _finite(est.cost_),
         "converged": converged,
         "warnings": notes,
+        "notes": info,
         "iterations": int(est.n_iter_),
         "cost_function": cost,
         "state_scale": scale,
