@@ -14,15 +14,16 @@ import numpy as np
 import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
-from ..io import DataError, read_ensemble
+from ..io import MIN_RUNS, DataError, check_run_count, present_channels, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
 from ..vehicle.uncertainty import known_quantities
 
 __all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "baseline_warnings", "write_outputs"]
 
-#: Fewer realisations give moment statistics too noisy for a calibrated verdict.
-MIN_SAMPLES = 50
+#: Fewer realisations give moment statistics too noisy for a verdict; the null band is bootstrapped
+#: at the data's own run count, so it widens as the runs get fewer.
+MIN_SAMPLES = MIN_RUNS
 
 #: Manoeuvres (uqdrive.studies.manoeuvres) among which the verdict names the input that would
 #: separate ambiguous candidates: slow and fast slaloms, steps, a chirp, a lane change.
@@ -64,11 +65,18 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     """
     names = _checked_candidates(candidates)
     ds = read_ensemble(measured)
-    n = ds.sizes["sample"]
-    if n < MIN_SAMPLES:
-        raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
+    check_run_count(ds.sizes["sample"], str(measured), "discover")
+    missing = [c for c in ("psi", "psi_dot", "beta", "y") if c not in present_channels(ds)]
+    if missing:
+        raise DataError(f"{measured}: discover compares all four states and this file lacks {', '.join(missing)}; without them "
+                        "the candidate effects cannot be told apart: use identify for a channel subset, or record the missing channels")
+    if speed_profile(ds) is not None:
+        raise DataError(f"{measured}: discover models a constant speed and 'v' changes during the runs; give runs at one speed "
+                        "(identify handles a speed profile)")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
+    if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
         config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}

@@ -20,8 +20,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..io import DataError, atomic_path, check_spread, read_ensemble
+from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
+from ..vehicle.channels import CHANNEL_UNITS, ChannelChaosModel
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
 from ..vehicle.noise import estimate_noise_variance
@@ -31,6 +32,8 @@ from ..vehicle.single_track import STATES
 __all__ = ["identify_file", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
+#: Below this many runs the sampling error of the runs' own distribution is named in the estimate's notes.
+FEW_RUNS = 100
 
 
 def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
@@ -42,7 +45,8 @@ def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
     cfg = copy.deepcopy(dict(config))
     dt = float(t[1] - t[0])
     cfg["time"] = {"t_end": float(t[-1]), "dt": dt, "step": dt}
-    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=float(ds.attrs["v_c"]) * 3.6)
+    v = float(ds.attrs["v_c"]) if "v" not in ds else float(np.ravel(ds["v"].values)[0])
+    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=v * 3.6)
     return cfg
 
 
@@ -63,6 +67,13 @@ def _dst_divergence(cfg, delta):
 def _lost_control(ds, cfg, source: str):
     """Spin flags from the data, the file's own flags (or None) and the dataset carrying the former."""
     threshold = float(cfg["montecarlo"]["spin_threshold"])
+    if "beta" not in ds:  # no side slip recorded: lost control cannot be told from the data
+        in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
+        spun = np.zeros(ds.sizes["sample"], bool) if in_file is None else in_file
+        ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": "lost control, from the file's flags"}))
+        mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+        check_spread(ds, source, mask)
+        return ds, spun, None
     spun = spin_mask(ds["beta"].values, threshold)
     in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
     ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad), from the data"}))
@@ -151,6 +162,36 @@ def fit_notes(names, theta, bounds, upper_bounds) -> list[str]:
     return out
 
 
+def _channel_notes(cfg, ds, channels, speed) -> list[str]:
+    """What the recorded channels cannot answer: parameters they cannot separate, lost control
+    without beta, unit conversions, runs at different speeds."""
+    from ..inference.identifiability import unidentifiable_parameters
+
+    # the four states identify every parameter fitted here (thesis sec. 5.3.1): the test is for subsets
+    open_ = {} if channels == STATES else unidentifiable_parameters(cfg, channels, UNCERTAIN)
+    out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
+           f"not determined by the data; record {hint}" for p, hint in open_.items()]
+    if "beta" not in channels:
+        out.append("without beta, lost control cannot be detected from the data: every run is used (drop spun runs before)")
+    if ds.attrs.get("conversions"):
+        out.append(str(ds.attrs["conversions"]))
+    if speed is not None and ds["v"].ndim == 2 and np.ptp(ds["v"].values, axis=0).max() > 0.01 * float(speed.min()):
+        out.append("the runs' speed profiles differ by more than 1 %: the model follows their mean profile")
+    return out
+
+
+def _sampling_errors(theta, n: int) -> dict:
+    """Sampling errors of the normal parameters' mean and std from n runs, std / sqrt(n) and
+    std / sqrt(2 (n - 1)): how far the runs' own distribution is from the population's."""
+    out = {}
+    for i, k in enumerate(UNCERTAIN):
+        if k == "F_w_mean":  # uniform: its interval, not a mean and std
+            continue
+        sd = abs(float(theta[2 * i + 1]))
+        out[k] = [_finite(sd / math.sqrt(n)), _finite(sd / math.sqrt(2 * max(n - 1, 1)))]
+    return out
+
+
 def _finite(x):
     """JSON-safe number: non-finite values become null."""
     x = float(x)
@@ -170,10 +211,16 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     """
     source = str(measured)
     ds = read_ensemble(measured)
+    check_run_count(ds.sizes["sample"], source, "identify")
+    channels = present_channels(ds)
+    speed = speed_profile(ds)
+    if cost == "dst" and (channels != STATES or speed is not None):
+        raise DataError(f"{source}: the DST cost compares the LST and NLST states at constant speed; this file has channels "
+                        f"{', '.join(channels)}{' and a changing speed' if speed is not None else ''}: use --cost std or inp")
     cfg = _model_config(config, ds, source)
     policy = cfg["montecarlo"]["spin_policy"]
     ds, spun, in_file = _lost_control(ds, cfg, source)
-    stats = ensemble_statistics(ds, policy)
+    stats = ensemble_statistics(ds, policy, channels)
     scale = state_scale or configured_state_scale(cfg)
     try:
         state_weights(scale, stats["mean"].values, stats["std"].values)
@@ -184,9 +231,11 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
     model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
+    if channels != STATES or speed is not None:
+        model = ChannelChaosModel(model, channels, speed)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in STATES]).astype(float)
+    runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in channels]).astype(float)
     # Measurement noise inflates the measured std: the model's variance gets the noise variance
     # estimated from the data (order-4 differences leave the smooth signal out).
     noise = np.array([estimate_noise_variance(runs[i], order=4) for i in range(runs.shape[0])])
@@ -202,6 +251,14 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
                             "check v_c, the units of the states and the config's uncertainty means") from None
     summary = _summary(est, model, theta0, m_load, runs.shape[1])
     summary["warnings"] += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    summary["warnings"] += _channel_notes(cfg, ds, channels, speed)
+    n_used = int(stats.attrs["n_used"])
+    sampling = _sampling_errors([v for u in UNCERTAIN for v in summary[u]], n_used)
+    se_mu = summary["standard_errors"]["mu"][0]
+    if n_used < FEW_RUNS and sampling["mu"][0] is not None and se_mu is not None and se_mu < sampling["mu"][0] / 3:
+        summary["notes"].append(f"with {n_used} runs the runs' own mean of mu is uncertain by about {sampling['mu'][0]:.2g} "
+                                f"(std / sqrt(n)), more than the fit's standard error {se_mu:.2g}: read mu's mean as "
+                                f"+- {sampling['mu'][0]:.2g} (sampling_errors)")
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
         summary["warnings"].append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
@@ -210,7 +267,10 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
         "cost_function": cost,
         "state_scale": scale,
         "m_load": m_load,
-        "noise_variance": {state: float(v) for state, v in zip(STATES, noise)},
+        "noise_variance": {state: float(v) for state, v in zip(channels, noise)},
+        "sampling_errors": sampling,
+        "channels": list(channels),
+        "speed": "constant" if speed is None else f"profile {float(speed.min()):.4g}-{float(speed.max()):.4g} m/s",
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
@@ -307,24 +367,36 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, fi
 def _figure(stats, moments, path):
     """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments."""
     model = None if moments is None else (moments.mean, moments.std)
-    fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path)
+    fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path,
+               channels=[str(c) for c in stats["state"].values])
 
 
-def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std"):
-    """fit.png: measured mean +- 3 std per state (band) and the model's (lines).
+def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std",
+               channels=STATES):
+    """fit.png: measured mean +- 3 std per channel (band) and the model's (lines).
 
     Parameters
     ----------
     time : ndarray, shape (T,)
-    measured_mean, measured_std : ndarray, shape (4, T)
-    model : tuple of two ndarrays (4, T), or None
+        Output times (s).
+    measured_mean, measured_std : ndarray, shape (C, T)
+        Measured mean and std of each channel, in the channel's SI unit.
+    model : tuple of two ndarrays (C, T), or None
         The identified model's mean and std.
     path : path of the PNG
+    title : str
+        Figure title.
+    channels : sequence of str, length C
+        The channels' names, in the order of the rows.
     """
     from ..plots.figure import save_figure, state_axes
 
-    fig, axes = state_axes(title=title)
-    for i, (ax, state) in enumerate(zip(axes, STATES)):
+    channels = list(channels)
+    fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
+                           title=title)
+    for ax in axes[len(channels):]:
+        ax.set_visible(False)
+    for i, (ax, state) in enumerate(zip(axes, channels)):
         m, s = measured_mean[i], measured_std[i]
         ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
         ax.plot(time, m, color="C0")
@@ -332,7 +404,7 @@ def fit_figure(time, measured_mean, measured_std, model, path, title="Identified
             ax.plot(time, model[0][i], "C3--", label="identified")
             ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8)
             ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
-        ax.set_title(state)
+        ax.set_title(state if state in STATES else f"{state} [{CHANNEL_UNITS[state]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     save_figure(fig, path)

@@ -17,7 +17,7 @@ from ..config import config_hash
 from ..inference.discrepancy.band import moment_statistics, statistic_scale
 from ..inference.discrepancy.fit import StructureFit
 from ..inference.sampling import run_influence, sampling_errors
-from ..io import DataError, read_ensemble
+from ..io import DataError, check_run_count, read_ensemble, speed_profile
 from ..rng import rng_stream
 from ..vehicle.augmented import AugmentedSimulator
 from ..vehicle.effects import ModelStructure, structure_from_effects
@@ -90,6 +90,13 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
 
     structure, dist = load_model(path)
     ds = read_ensemble(measured)
+    check_run_count(ds.sizes["sample"], str(measured), "identify")
+    missing = [s for s in STATES if s not in ds]
+    if missing or speed_profile(ds) is not None:
+        raise DataError(f"{measured}: identify --model simulates all four states at one speed and this file "
+                        f"{'lacks ' + ', '.join(missing) if missing else 'has a changing v'}: identify it without --model")
+    if "v_c" not in ds.attrs:
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
     x = np.stack([np.asarray(ds[s].values, float) for s in STATES])
     thr = config["montecarlo"]["spin_threshold"]
     spun = spin_mask(x[2], thr)

@@ -18,7 +18,7 @@ from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
 from ..numerics.threads import with_single_blas_thread
-from .single_track import VehicleParameters, lst_matrices, steering_input
+from .single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed, steering_input
 from .uncertainty import known_quantities
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
@@ -247,19 +247,21 @@ class LSTChaosModel:
         if np.any(values["l_f"] <= 0.0) or np.any(values["l_f"] >= self.vehicle.wheelbase):
             raise ValueError("l_f must stay inside (0, wheelbase) at every quadrature node")
 
-    def _system(self, values):
+    def _system(self, values, v=None, v_dot=0.0):
         """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the linear germs'
-        signals (the mean wind's germ, then the KLE germs)."""
+        signals (the mean wind's germ, then the KLE germs); at the vehicle's speed, or at the
+        speed ``v`` (m/s) changing at ``v_dot`` (m/s^2) (:func:`lst_matrices_at_speed`)."""
         p = replace(self.vehicle, mu=values["mu"], m_load=values["m_load"], l_f=values["l_f"])
-        A, B, W = lst_matrices(p)
+        A, B, W = lst_matrices(p) if v is None else lst_matrices_at_speed(p, v, v_dot)
         E = np.stack([B, W * values["F_w_mean"][:, None]], axis=-1)
         gusts = gust_input_column(W, self.gust_yaw_moment)[:, :, None] * self.wind_scale
         F = np.concatenate([W[:, :, None] * values["F_w_half"][:, None, None]] * len(self.input_germs) + [gusts], axis=-1)
         return A, E, F
 
-    def _system_derivatives(self, values, dvalues):
+    def _system_derivatives(self, values, dvalues, system=None):
         """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter, all
-        parameters in one evaluation of the vehicle matrices (stacked along the node axis)."""
+        parameters in one evaluation of the vehicle matrices (stacked along the node axis);
+        ``system`` (default :meth:`_system`) maps node values to the matrices differentiated."""
         moving = [name for name in dvalues if np.any(dvalues[name])]
         n_theta, Q = len(self.theta_names), self.projector.nodes.shape[0]
         if not moving:
@@ -273,7 +275,7 @@ class LSTChaosModel:
         weights = np.stack([dvalues[name] for name in moving])  # (n_moving, n_theta, Q)
         return tuple(
             np.einsum("kpq,kq...->pq...", weights, (x.imag / _STEP).reshape((len(moving), Q) + x.shape[1:]))
-            for x in self._system(shifted)
+            for x in (system or self._system)(shifted)
         )
 
     def expanded_system(self, theta):
