@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from uqdrive.config import ConfigError
-from uqdrive.vehicle.four_wheel import PHI, R, TH, VX, VY, FourWheelCar, simulate_four_wheel
-from uqdrive.vehicle.four_wheel_tyre import cornering_stiffness, lateral_force, peak_force
+from uqdrive.vehicle.four_wheel.model import PHI, R, TH, VX, VY, FourWheelCar, simulate_four_wheel
+from uqdrive.vehicle.four_wheel.tyre import cornering_stiffness, lateral_force, peak_force
 
 V = 70.0 / 3.6
 M = 1884.0  # kg, m_base + the 100 kg load of every run below

@@ -3,7 +3,7 @@ Magic-Formula tyres, tyre relaxation, roll steer and a drive force from a speed-
 controller, vectorised over realisations and integrated by fixed-step RK4.
 
 It is the "reality" of the four-wheel discovery benchmark, so it shares no right-hand side with
-the single-track models under test (:mod:`.single_track`, :mod:`.augmented`); only the RK4
+the single-track models under test (:mod:`uqdrive.vehicle.single_track`, :mod:`uqdrive.vehicle.augmented`); only the RK4
 stepper and the car's constants are common.
 
 Equations (body frame x forward, y left, yaw rate r counter-clockwise; wheel i = FL, FR, RL, RR
@@ -51,9 +51,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..numerics.integrate import rk4_fixed_step
-from .car import require
-from .four_wheel_tyre import cornering_stiffness, friction_ellipse, lateral_force, peak_force
+from ...numerics.integrate import rk4_fixed_step
+from ..car import require
+from .tyre import cornering_stiffness, friction_ellipse, lateral_force, peak_force
 
 __all__ = ["FourWheelCar", "FourWheelRHS", "simulate_four_wheel", "N_STATES"]
 

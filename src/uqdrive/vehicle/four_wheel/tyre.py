@@ -1,4 +1,4 @@
-"""Load-dependent Magic-Formula tyre of the four-wheel reality (:mod:`uqdrive.vehicle.four_wheel`),
+"""Load-dependent Magic-Formula tyre of the four-wheel reality (:mod:`uqdrive.vehicle.four_wheel.model`),
 written apart from the single-track model's tyre.
 
 Per wheel, with the normalised load increment dfz = (F_z - F_z0) / F_z0 (Pacejka, *Tyre and
