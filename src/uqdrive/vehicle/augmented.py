@@ -13,10 +13,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..numerics.integrate import lti_foh_response, rk4_fixed_step_into
+from ..numerics.integrate import lti_foh_response
 from .effects import ModelStructure
 from .single_track import VehicleParameters, lst_matrices
-from .track_extended import ExtendedSingleTrackRHS, compliance_gain, uses_chassis_terms
+from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
 from .track_rk4 import integrate_single_track
 from .uncertainty import kle_nystrom
 
@@ -283,10 +283,7 @@ class AugmentedSimulator:
         so a realisation's last bits depend on the product it was computed in (and on nothing
         else: the RK4 is element-wise); see :meth:`simulate_many`.
         """
-        max_step = _RK4_MAX_STEP
-        if getattr(s, "relaxation_length", 0) > 0:  # the slip lag's time constant sigma / v, |h lambda| <= 1
-            max_step = min(max_step, float(s.relaxation_length) / float(p.v_c))
-        sub = max(1, int(np.ceil(self.dt / max_step - 1e-9)))
+        sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, p.v_c, _RK4_MAX_STEP) - 1e-9)))
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)
@@ -301,22 +298,9 @@ class AugmentedSimulator:
         F_w_half += wind
         E = self.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature
         if uses_chassis_terms(s):
-            return self._rk4_chassis(p, wind, s, E, delta_half, F_w_half, h, n_steps, sub * self.stride)
+            return integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
-
-
-    def _rk4_chassis(self, p, wind, s, E, delta_half, F_w_half, h, n_steps, record_every):
-        """:meth:`_rk4` with the chassis effects' right-hand side (:mod:`.track_extended`)."""
-        from .car import require
-
-        h_t = (0.0, 1.0)
-        if s.load_sensitivity != 0:
-            purpose = "the effect lateral_load_transfer"
-            h_t = (require(self.config, "cg_height", purpose), require(self.config, "track_width", purpose))
-        rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, *h_t)
-        out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, wind.size)), h, n_steps, record_every)
-        return out[:, :4].transpose(1, 2, 0)
 
 
 def ensemble_moments(x, spin_threshold: float | None = None):

@@ -30,11 +30,15 @@ understeers). Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - 
 
 from __future__ import annotations
 
+from typing import Any, Mapping
+
 import numpy as np
 
+from ..numerics.integrate import rk4_fixed_step_into
+from .car import require
 from .single_track import VehicleParameters
 
-__all__ = ["ExtendedSingleTrackRHS", "compliance_gain", "uses_chassis_terms"]
+__all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "compliance_gain", "integrate_chassis", "uses_chassis_terms"]
 
 
 def uses_chassis_terms(s) -> bool:
@@ -42,6 +46,12 @@ def uses_chassis_terms(s) -> bool:
     transfer, relaxation, or compliance steer)."""
     return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
                 or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0))
+
+
+def chassis_max_step(s, v: float, max_step: float) -> float:
+    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag)."""
+    sigma = float(getattr(s, "relaxation_length", 0.0))
+    return min(max_step, sigma / float(v)) if sigma > 0 else max_step
 
 
 def compliance_gain(K_deg_per_g, g: float = 9.81):
@@ -136,3 +146,17 @@ class ExtendedSingleTrackRHS:
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
         out[2] = (fc + F[1] + F_w) * cos_b * self.inv_mv - psi_dot + self.a_v
         out[3] = self.v * np.sin(psi + self.k * beta)  # as SingleTrackRHS's course kinematics
+
+
+def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
+                      n_steps: int, record_every: int):
+    """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
+    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track`, plus the config
+    whose vehicle section gives cg_height and track_width to the lateral load transfer."""
+    h_t = (0.0, 1.0)
+    if np.any(np.asarray(s.load_sensitivity) != 0):
+        purpose = "the effect lateral_load_transfer"
+        h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
+    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t)
+    out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
+    return out[:, :4].transpose(1, 2, 0)
