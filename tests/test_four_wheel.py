@@ -134,3 +134,20 @@ def test_side_slip_and_position_outputs_are_consistent():
     dY = v * np.sin(x[0] + beta)
     Y = np.concatenate([[0.0], np.cumsum(0.5 * (dY[1:] + dY[:-1]) * 0.01)])
     assert np.abs(Y - x[4]).max() < 1e-3 * np.abs(x[4]).max()
+
+
+def test_case_files_follow_the_data_schema_and_carry_no_label(config):
+    """A short case: valid in the data schema, the same file from the same seed, nothing in it
+    that names the reality's constants or the case."""
+    from uqdrive.io import validate_ensemble
+    from uqdrive.studies.four_wheel_cases import FourWheelCase, generate
+
+    cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}}
+    case = FourWheelCase("fw_probe", "slalom", 0.5, {"period": 2.0}, samples=8, seed=3, t_end=1.0)
+    ds = generate(cfg, case, 3.0)
+    validate_ensemble(ds, "four-wheel case")
+    assert set(ds.data_vars) == {"psi", "psi_dot", "beta", "y", "a_y", "delta"}
+    assert "fw_probe" not in str(ds.attrs) and not any(k in ds.attrs for k in ("effect", "label", "car"))
+    assert np.array_equal(generate(cfg, case, 3.0).psi_dot.values, ds.psi_dot.values)
+    with pytest.raises(ValueError, match="level"):
+        FourWheelCase("x", "step", 1.2)
