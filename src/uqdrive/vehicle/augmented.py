@@ -263,7 +263,7 @@ class AugmentedSimulator:
     def _exact(self, p, wind, coeffs, delta, s: ModelStructure):
         A, B, W = lst_matrices(p)
         A = A.copy()
-        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta)
+        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
         if s.compliance_steer:  # delta - K a_y with a_y = v psi_dot
             A[:, :, 1] -= B * (compliance_gain(s.compliance_steer, p.g) * p.v_c)
         W_gust = W.copy()
