@@ -263,12 +263,12 @@ class AugmentedSimulator:
     def _exact(self, p, wind, coeffs, delta, s: ModelStructure):
         A, B, W = lst_matrices(p)
         A = A.copy()
-        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        if s.compliance_steer:  # delta - K a_y with a_y = v psi_dot
-            A[:, :, 1] -= B * (compliance_gain(s.compliance_steer, p.g) * p.v_c)
+        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta)
         W_gust = W.copy()
         if not self.gust_yaw_moment:
             W_gust[:, 1] = 0.0
+        if s.compliance_steer:  # delta - K a_y with a_y = v psi_dot: a feedback of psi_dot through B
+            A[:, :, 1] -= B * (compliance_gain(s.compliance_steer, p.g) * p.v_c)
         const = W * wind[:, None]
         const[:, 2] += s.lateral_acceleration / p.v_c
         E = np.concatenate([B[:, :, None], const[:, :, None], W_gust[:, :, None] * coeffs[:, None, :]], axis=2)
