@@ -22,7 +22,7 @@ import yaml
 
 from uqdrive.config import load_config
 from uqdrive.io import write_dataset
-from uqdrive.studies.four_wheel_cases import amplitude_for, case_label, four_wheel_cases, generate, steady_limit
+from uqdrive.studies.four_wheel import amplitude_for, case_label, four_wheel_cases, generate, steady_limit
 from uqdrive.vehicle.four_wheel import FourWheelCar
 
 CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m, a 1.8 t saloon's (the four-wheel car's defaults)

@@ -140,7 +140,7 @@ def test_case_files_follow_the_data_schema_and_carry_no_label(config):
     """A short case: valid in the data schema, the same file from the same seed, nothing in it
     that names the reality's constants or the case."""
     from uqdrive.io import validate_ensemble
-    from uqdrive.studies.four_wheel_cases import FourWheelCase, generate
+    from uqdrive.studies.four_wheel import FourWheelCase, generate
 
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}}
     case = FourWheelCase("fw_probe", "slalom", 0.5, {"period": 2.0}, samples=8, seed=3, t_end=1.0)

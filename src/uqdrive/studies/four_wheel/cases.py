@@ -16,12 +16,12 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
-from ..rng import rng_stream
-from ..vehicle.four_wheel import FourWheelCar, simulate_four_wheel
-from ..vehicle.four_wheel.model import PSI, R, VX, VY, Y
-from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
-from .hidden_effects import wind_kle
-from .manoeuvres import MANOEUVRES, steering_command
+from ...rng import rng_stream
+from ...vehicle.four_wheel import FourWheelCar, simulate_four_wheel
+from ...vehicle.four_wheel.model import PSI, R, VX, VY, Y
+from ...vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
+from ..hidden_effects import wind_kle
+from ..manoeuvres import MANOEUVRES, steering_command
 
 if TYPE_CHECKING:
     import xarray as xr
