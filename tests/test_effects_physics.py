@@ -177,3 +177,19 @@ def test_zero_sized_chassis_effects_leave_the_model_bit_identical(config):
         ref = sim.simulate(THETA, base)
         for name, values in (("longitudinal_load_transfer", [0.0]), ("lateral_load_transfer", [0.6, 0.0]), ("compliance_steer", [0.0])):
             assert np.array_equal(sim.simulate(THETA, effect(name).augment(base, values)), ref), name
+
+
+def test_chassis_loads_stay_physical_when_a_realisation_spins(config):
+    """A spinning realisation (psi_dot 1 rad/s, beta 0.5 rad) with the strongest transfer the
+    search allows (h = 1.5 m, p_Dz = -1, chi_f = 1): the inner wheels lift and carry nothing,
+    no axle's effective load turns negative (a negative peak reverses the tyre force and the
+    integration diverges, stopping a discover fit), and a 10 deg step stays finite."""
+    from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
+
+    s = _saturating(longitudinal_load_transfer=[1.5], lateral_load_transfer=[1.0, -1.0])
+    p = VehicleParameters.from_config(config, mu=1.0, l_f=1.55, v_c=V)
+    rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.zeros(3), np.zeros((3, 1)), True, np.zeros(1), H, T_W)
+    P = rhs.axle_loads(np.array([1.0]), np.array([0.5]))
+    assert np.all(np.isfinite(P)) and np.all(P >= 0.0)
+    sim, _ = _simulator(config, lambda t: np.deg2rad(10.0) * (t >= 0.2), t_end=4.0)
+    assert np.all(np.isfinite(sim.simulate([1.0, 0.0, 1.55, 0.0, 0.0, 0.0], s)))

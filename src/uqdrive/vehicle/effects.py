@@ -244,7 +244,7 @@ EFFECTS: dict[str, Effect] = {
         "grows with psi_dot * beta: the yaw-rate gain and beta change where the side slip is large, "
         "nothing in straight driving; stronger with a saturating tyre"),
     "lateral_load_transfer": LateralLoadTransfer(
-        "lateral_load_transfer", ("chi_f", "p_Dz"), ("-", "-"), ((0.0, 1.0), (-1.0, 0.5)), (0.55, -0.1),
+        "lateral_load_transfer", ("chi_f", "p_Dz"), ("-", "-"), ((0.0, 1.0), (-1.0, 0.0)), (0.55, -0.1),
         "load moved from the inner to the outer wheels, m a_y h / t split chi_f : 1 - chi_f front : rear, "
         "with a load-sensitive tyre peak mu F_z (1 + p_Dz dfz): the axle's force falls by p_Dz (dF / F_z0)^2",
         "psi_dot and beta peaks change quadratically in the lateral acceleration (none at small a_y); "

@@ -22,7 +22,9 @@ single-track force with the load F_zi replaced by
 
     P_i = (1 - p_Dz) F_zi + p_Dz (F_zi^2 / 2 + 2 dF_i^2) / F_z0,i,
 
-so that with p_Dz < 0 the lateral transfer lowers the axle's force by p_Dz (dF_i / F_z0,i)^2 of it.
+so that with p_Dz < 0 the lateral transfer lowers the axle's force by p_Dz (dF_i / F_z0,i)^2 of it
+(computed per wheel, so that a lifted wheel, dF_i > F_zi / 2, carries nothing and no peak turns
+negative: a spinning realisation stays finite).
 Compliance steer turns the front wheels by -K a_y (a_y = v psi_dot, its steady value; positive K
 understeers). Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
 (Pacejka sec. 7.2), two extra states.
@@ -112,10 +114,14 @@ class ExtendedSingleTrackRHS:
         a = self.v * psi_dot
         a_x, a_y = -a * np.sin(beta), a * np.cos(beta)
         shift = self.m * a_x * self.h_x / self.L
-        F_z = self.static + np.stack([-shift, shift])
+        F_z = np.maximum(self.static + np.stack([-shift, shift]), 0.0)  # an axle cannot pull the road
         dF = self.lateral_arm * (self.m * a_y)
         F0 = 0.5 * self.static
-        return (1.0 - self.p_Dz) * F_z + self.p_Dz * (0.5 * F_z**2 + 2.0 * dF**2) / F0
+        # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
+        P = 0.0
+        for w in (np.maximum(0.5 * F_z - dF, 0.0), np.maximum(0.5 * F_z + dF, 0.0)):
+            P = P + w * np.maximum(1.0 + self.p_Dz * (w - F0) / F0, 0.0)
+        return P
 
     def steady_slip(self, x, j: int):
         """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle."""
