@@ -22,7 +22,11 @@
 # * slurmctld's link to slurmdbd ignores AuthInfo=socket= unless AccountingStoragePass names the
 #   munge socket as well;
 # * no systemd/cgroups: ProctrackType=proctrack/linuxproc, TaskPlugin=task/none;
-# * every wait is bounded by wall-clock seconds (a failing sacctmgr call alone takes ~2 s).
+# * every wait is bounded by wall-clock seconds (a failing sacctmgr call alone takes ~2 s);
+# * snakemake-executor-plugin-slurm-jobstep drops every SLURM_* variable, SLURM_CONF too, before
+#   the srun inside a job, and srun then finds no config: /etc/slurm/slurm.conf, where Slurm's
+#   commands look first, is made a link to this cluster's slurm.conf (only where that path is free;
+#   `stop` removes the link). Slurm's commands then need no SLURM_CONF either.
 set -euo pipefail
 
 DIR=${UQDRIVE_SLURM_DIR:-${TMPDIR:-/tmp}/uqdrive-slurm}
@@ -32,6 +36,7 @@ PARTITION=debug
 PORT_BASE=${UQDRIVE_SLURM_PORT_BASE:-6817}   # slurmctld, slurmd, slurmdbd: this and the next two
 WAIT=${UQDRIVE_SLURM_WAIT:-60}               # seconds each daemon may take to answer
 PACKAGES=(munge slurm-wlm slurmctld slurmd slurm-client slurmdbd mariadb-server)
+ETC_CONF=/etc/slurm/slurm.conf
 DAEMONS=(munged mariadbd slurmdbd slurmctld slurmd)   # start order; stop goes backwards
 
 say() { echo "slurm_cluster: $*" >&2; }
@@ -159,11 +164,17 @@ cmd_start() {
         return 0
     fi
     ((running == 0)) || { say "some daemons of an earlier start still run: stopping them first"; cmd_stop; }
+    if [ -e "$ETC_CONF" ] || [ -L "$ETC_CONF" ]; then
+        [ "$(readlink "$ETC_CONF")" = "$DIR/etc/slurm.conf" ] ||
+            die "$ETC_CONF exists and is not this cluster's: on a machine with a Slurm of its own, use that Slurm"
+    fi
     local t0=$SECONDS
     mkdir -p "$DIR"/{etc,munge,log,pids,run,spool/ctld,spool/d,mysql}
     chmod 755 "$DIR" "$DIR/munge"
     export SLURM_CONF=$DIR/etc/slurm.conf
     write_configs
+    mkdir -p "$(dirname "$ETC_CONF")"
+    ln -sfn "$DIR/etc/slurm.conf" "$ETC_CONF"
 
     # munge: its own key and socket.
     [ -s "$DIR/munge/munge.key" ] || { dd if=/dev/urandom of="$DIR/munge/munge.key" bs=1024 count=1 status=none; }
@@ -222,6 +233,7 @@ cmd_stop() {
         fi
         rm -f "$DIR/pids/$d"
     done
+    [ "$(readlink "$ETC_CONF" 2> /dev/null)" = "$DIR/etc/slurm.conf" ] && rm -f "$ETC_CONF"
     say "stopped (state and logs kept in $DIR)"
 }
 
