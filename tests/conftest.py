@@ -115,11 +115,9 @@ def pytest_collection_modifyitems(config, items):
 def pytest_terminal_summary(terminalreporter, config):
     """The Slurm run's wall time (tests/test_slurm.py writes it below the session's temporary
     folder, an xdist worker's included), in the summary whatever the capture settings."""
-    from _pytest.tmpdir import TempPathFactory
-
-    try:
-        base = TempPathFactory.from_config(config, _ispytest=True).getbasetemp()
-    except Exception:  # no temporary folder was made
+    factory = getattr(config, "_tmp_path_factory", None)
+    if factory is None or factory._basetemp is None:  # no temporary folder was made
         return
+    base = factory._basetemp
     for found in sorted(base.rglob("slurm_wall_time.txt")):
         terminalreporter.write_line(found.read_text().strip())

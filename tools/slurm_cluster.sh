@@ -129,6 +129,8 @@ AccountingStorageType=accounting_storage/slurmdbd
 AccountingStorageHost=localhost
 AccountingStoragePort=$((PORT_BASE + 2))
 AccountingStoragePass=$munge_socket
+# sacct's Comment column: the plugin writes each job's group or rule there.
+AccountingStoreFlags=job_comment
 JobCompType=jobcomp/none
 KillWait=10
 $node NodeAddr=127.0.0.1 State=UNKNOWN
