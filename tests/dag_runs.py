@@ -122,10 +122,10 @@ def slurm_unreachable():
 
 def slurm_command():
     """The Slurm run as docs/cluster.md gives it (the profile sizes jobs to the partition's
-    nodes), the config being config/test.yaml; the same command resumes a stopped run.
-    --slurm-keep-successful-logs: the tests read every job's log."""
+    nodes), the config being config/test.yaml; the same command resumes a stopped run. Targets
+    may follow (the last option takes one value)."""
     return [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--configfile", str(TEST_CONFIG),
-            "--workflow-profile", str(SLURM_PROFILE), "--slurm-keep-successful-logs"]
+            "--workflow-profile", str(SLURM_PROFILE)]
 
 
 def slurm_jobids(log_text):

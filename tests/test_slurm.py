@@ -154,7 +154,7 @@ def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_w
     broken = tmp_path / "broken.yaml"
     broken.write_text(yaml.safe_dump(config, sort_keys=False))  # key order: Snakemake compares params as written
     targets = ["results/figures/fig_2_3.png", "results/data/kle.nc"]
-    command = slurm_command()  # ends with a flag: targets may follow
+    command = slurm_command()
     failed = subprocess.run([str(broken) if a == str(TEST_CONFIG) else a for a in command] + targets, cwd=tmp_path,
                             capture_output=True, text=True, timeout=900)
     out = failed.stdout + failed.stderr

@@ -171,6 +171,9 @@ cmd_start() {
             die "$ETC_CONF exists and is not this cluster's: on a machine with a Slurm of its own, use that Slurm"
     fi
     local t0=$SECONDS
+    # Each start is a new cluster: job ids from 1 and an empty accounting database (a job left in
+    # the state of a cluster that was killed would run again, and its id would repeat in sacct).
+    rm -rf "${DIR:?}"/{etc,log,pids,run,spool,mysql}
     mkdir -p "$DIR"/{etc,munge,log,pids,run,spool/ctld,spool/d,mysql}
     chmod 755 "$DIR" "$DIR/munge"
     export SLURM_CONF=$DIR/etc/slurm.conf
@@ -187,7 +190,7 @@ cmd_start() {
 
     # MariaDB for slurmdbd: its socket only, no network port.
     export MYSQL_UNIX_PORT=$DIR/run/mysqld.sock
-    if [ ! -d "$DIR/mysql/mysql" ]; then
+    if [ ! -d "$DIR/mysql/mysql" ]; then  # always, as the folder is new
         mariadb-install-db --no-defaults --datadir="$DIR/mysql" --user=root --auth-root-authentication-method=normal \
             --skip-test-db > "$DIR/log/mariadb-install.log" 2>&1 || die "mariadb-install-db failed: $DIR/log/mariadb-install.log"
     fi
