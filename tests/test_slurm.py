@@ -96,7 +96,7 @@ def test_the_dag_runs_on_slurm_in_group_jobs_through_ctrl_c_and_scancel(slurm_ru
     second = runs["slurm_2"]
     jobid = second["did"]
     assert second["returncode"] != 0
-    assert f"SLURM-job '{jobid}' failed, SLURM status is: 'CANCELLED" in second["log"], second["log"][-3000:]
+    assert f"SLURM-job '{jobid}' failed, SLURM status is: 'CANCELLED'" in second["log"], second["log"][-3000:]
     log = re.search(rf"(\S+/{jobid}\.log)", second["log"])
     assert log and (wd / log.group(1)).is_file(), second["log"][-3000:]
     assert runs["slurm_3"]["returncode"] == 0, runs["slurm_3"]["log"][-3000:]
@@ -175,12 +175,12 @@ def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_w
 
 # --- the profile's sizing, with stand-ins for sinfo and scontrol (no cluster needed) ---
 
-def _profile_with(tmp_path, sinfo, accounting="accounting_storage/slurmdbd", partition=None):
+def _profile_with(tmp_path, sinfo, accounting="accounting_storage/slurmdbd", partition=None, min_job_age="300 sec"):
     """The slurm profile as Snakemake reads it (YTE), with sinfo printing ``sinfo`` lines."""
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir(exist_ok=True)
     (bin_dir / "sinfo").write_text(f"#!/bin/sh\ncat <<'EOF'\n{sinfo}\nEOF\n")
-    (bin_dir / "scontrol").write_text(f"#!/bin/sh\necho 'AccountingStorageType   = {accounting}'\n")
+    (bin_dir / "scontrol").write_text(f"#!/bin/sh\necho 'AccountingStorageType   = {accounting}'\necho 'MinJobAge               = {min_job_age}'\n")
     for tool in ("sinfo", "scontrol"):
         (bin_dir / tool).chmod(0o755)
     text = (SLURM_PROFILE / "config.yaml").read_text()
@@ -202,15 +202,20 @@ def test_the_profile_sizes_group_jobs_to_the_largest_node_of_the_partition(tmp_p
     done = _profile_with(tmp_path, "2 7800 batch*\n2 7800 batch*\n8 64000 batch*\n64 512000 bigmem")
     assert done.returncode == 0, done.stderr
     assert "'cores': '8'" in done.stdout and "'resources': ['mem_mb=64000']" in done.stdout, done.stdout
-    assert "'slurm-status-command': 'sacct'" in done.stdout and "'slurm-init-seconds-before-status-checks': '5'" in done.stdout
+    assert "'slurm-status-command': 'squeue'" in done.stdout and "'slurm-init-seconds-before-status-checks': '5'" in done.stdout
     done = _profile_with(tmp_path, "2 7800 batch*\n64 512000 bigmem", partition="bigmem")
     assert "'cores': '64'" in done.stdout and "mem_mb=512000" in done.stdout and "slurm_partition='bigmem'" in done.stdout, done.stdout
 
 
-def test_without_accounting_the_profile_asks_squeue(tmp_path):
-    """sacct fails on every query where no slurmdbd keeps accounting, and the run would wait for
-    ever: the profile reads AccountingStorageType and asks squeue there."""
-    done = _profile_with(tmp_path, "2 24000 debug*", accounting="accounting_storage/none")
+def test_the_profile_asks_squeue_unless_squeue_forgets_ended_jobs_before_the_next_check(tmp_path):
+    """Without accounting sacct fails on every query, and with sacct plugin 2.8.0 reads a job
+    cancelled by hand ("CANCELLED by 0") as running: either way the run waits for ever. squeue keeps
+    an ended job MinJobAge seconds; the plugin's checks come up to 180 s apart: sacct below 300 s."""
+    done = _profile_with(tmp_path, "2 24000 debug*", accounting="accounting_storage/none", min_job_age="30 sec")
+    assert "'slurm-status-command': 'squeue'" in done.stdout, done.stdout + done.stderr
+    done = _profile_with(tmp_path, "2 24000 debug*", min_job_age="30 sec")
+    assert "'slurm-status-command': 'sacct'" in done.stdout, done.stdout + done.stderr
+    done = _profile_with(tmp_path, "2 24000 debug*", min_job_age="300 sec")
     assert "'slurm-status-command': 'squeue'" in done.stdout, done.stdout + done.stderr
 
 
