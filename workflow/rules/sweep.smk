@@ -24,7 +24,7 @@ rule sweep_config:
         + ", ".join(f"{k} = {v}" for k, v in {**sweep(w.sweep).fixed, **sweep(w.sweep).point(w.point).values}.items()),
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "sweep"
     log:
