@@ -44,6 +44,7 @@ class ObservabilityResult:
 
     @property
     def unidentifiable(self) -> list:
+        """Parameters whose removal keeps the rank: those the outputs cannot distinguish."""
         return [n for n, r in self.removal_rank.items() if r == self.rank]
 
 

@@ -26,7 +26,10 @@ class MomentModel(Protocol):
 
     theta_names: tuple
 
-    def moments(self, theta, gradient: bool = False): ...
+    def moments(self, theta, gradient: bool = False):
+        """Mean and variance of the states, shape (4, T) each in the states' units, at the
+        distribution parameters ``theta`` (shape (n_theta,), ``theta_names`` order); with
+        ``gradient`` also their derivatives, shape (n_theta, 4, T)."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,8 @@ COSTS: dict[str, Callable] = {"std": _std, "inp": _inp, "dst": _dst}
 
 
 def cost_weights(name: str, ctx: WeightContext, shape) -> np.ndarray:
+    """Weights of the cost (5.25) by the registered scheme ``name`` (STD, INP, DST: ``COSTS``), broadcast
+    to ``shape`` (n_states, T); an unknown name raises ValueError listing the known ones."""
     try:
         scheme = COSTS[name.lower()]
     except KeyError:

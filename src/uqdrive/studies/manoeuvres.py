@@ -88,7 +88,7 @@ def double_lane_change(t, amplitude_deg: float = 2.0, t_start: float = 1.0, dura
     return sign * out
 
 
-#: Manoeuvre name -> function(t, **params) returning the steering angle (rad).
+#: Manoeuvre name -> function(t, ``**params``) returning the steering angle (rad).
 MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
     "slalom": slalom,
     "step": step_steer,

@@ -75,6 +75,7 @@ class Deviation:
     evidence: str
 
     def explains(self, quantity: str) -> bool:
+        """Whether this deviation covers the scorecard row ``quantity`` (a full match of one pattern)."""
         return any(re.fullmatch(p, quantity) for p in self.rows)
 
 

@@ -68,6 +68,7 @@ class Germs:
 
     @property
     def n(self) -> int:
+        """Number of realisations."""
         return int(self.mu.size)
 
     def head(self, n: int) -> "Germs":

@@ -59,6 +59,7 @@ class ChaosMoments:
 
     @property
     def std(self) -> np.ndarray:
+        """Standard deviation, shape (4, T), in each state's unit (negative round-off variance -> 0)."""
         return np.sqrt(np.maximum(self.variance, 0.0))
 
     @functools.cached_property

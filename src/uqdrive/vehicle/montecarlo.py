@@ -44,19 +44,23 @@ class TimeGrid:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "TimeGrid":
+        """The grid of the config's ``time`` section (t_end, dt, step in s)."""
         t = config["time"]
         return cls(t["t_end"], t["dt"], t["step"])
 
     @property
     def n_out(self) -> int:
+        """Number of output intervals, t_end / dt."""
         return int(round(self.t_end / self.dt))
 
     @property
     def substeps(self) -> int:
+        """Integration steps per output interval, dt / step."""
         return int(round(self.dt / self.step))
 
     @property
     def output(self) -> np.ndarray:
+        """Output times, shape (n_out + 1,) (s)."""
         return np.arange(self.n_out + 1) * self.dt
 
     def fine(self, refine: int = 1) -> np.ndarray:

@@ -48,6 +48,7 @@ class ParameterDistribution:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "ParameterDistribution":
+        """The distributions of the config's ``uncertainty`` section."""
         u = config["uncertainty"]
         return cls(
             mu=(u["mu"]["mean"], u["mu"]["std"]),
@@ -120,6 +121,7 @@ class KarhunenLoeve:
 
     @property
     def n_modes(self) -> int:
+        """Number of KLE modes kept."""
         return int(self.eigenvalues.size)
 
     @property
