@@ -27,7 +27,7 @@ reproduce: $(PYTHON)
 	@echo "report: results/report.html, scorecard: results/scorecard.csv"
 
 # make sweep SWEEP=config/sweeps/NAME.yaml: every point into results/sweeps/NAME/<point>/, then
-# results/sweeps/NAME/summary.{nc,csv,png}, then the report (README "Sweeping a config value").
+# results/sweeps/NAME/summary.{nc,csv,png}, then the report (docs/workflow.md, "Changing and sweeping config values").
 # The target comes first: --configfile takes every word after it as a config file.
 .PHONY: sweep
 sweep: $(PYTHON)

@@ -41,7 +41,7 @@ def _start(cmd, wd, log):
     """Start cmd in wd in a session of its own with Ctrl-C's default meaning (as a terminal runs a
     command), output to log. A test run started in the background (`pytest ... &` in a script,
     nohup) inherits SIGINT ignored, and Python then never turns it into KeyboardInterrupt: the
-    Ctrl-C below would be lost (seen in session 9: the cluster run went on to the end)."""
+    Ctrl-C below would be lost (the cluster run would go on to its end)."""
     with open(log, "w") as fh:
         return subprocess.Popen(cmd, cwd=wd, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -100,10 +100,10 @@ def interrupted_runs(wd):
     """The DAG through the cluster executor, Ctrl-C, make reproduce, kill -9, make reproduce, in
     folder ``wd``: what each step did.
 
-    Part of CI since session 11 (issue 15): it costs ~2 CPU-minutes and runs in a thread beside
-    the first run (conftest's ``workdir``), so that its waits (the cluster executor's status
-    checks, Snakemake's starts, the interruptions) overlap the first run's work. Sessions 8-9 ran
-    the two one after the other, and CI took 9.5-9.8 min with it then."""
+    Part of CI: it costs ~2 CPU-minutes and runs in a thread beside the first run (conftest's
+    ``workdir``), so that its waits (the cluster executor's status checks, Snakemake's starts,
+    the interruptions) overlap the first run's work; one after the other, the two took CI to
+    9.5-9.8 min."""
     unlock, readme = readme_commands()
     steps = {}
 

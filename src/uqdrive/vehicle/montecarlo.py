@@ -88,7 +88,7 @@ def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
 
 def gust_input_column(W, gust_yaw_moment: bool):
     """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see docs/reproduction.md, "Wind yaw moment")."""
     if gust_yaw_moment:
         return W
     W = np.array(W, copy=True)
