@@ -30,8 +30,9 @@ class ObservabilityResult:
     removal_rank : dict
         Rank after deleting each column; an unchanged rank means that variable's
         identifiability cannot be guaranteed.
-    singular_values : ndarray
-    null_vector : ndarray
+    singular_values : ndarray, shape (8,)
+        Singular values of the column-scaled O_NL, largest first.
+    null_vector : ndarray, shape (8,)
         Right singular vector of the smallest singular value (in column-scaled units): the
         direction along which the output does not change.
     """

@@ -203,10 +203,10 @@ class DistributionEstimator:
 
     Attributes
     ----------
-    theta_ : ndarray
-        Estimate; standard deviations reported as |sigma|.
+    theta_ : ndarray, shape (n_theta,)
+        Estimate in ``model.theta_names`` order, in the parameters' units; standard deviations reported as |sigma|.
     cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
-    theta_std_ : ndarray
+    theta_std_ : ndarray, shape (n_theta,)
         Gauss-Newton standard errors (see :meth:`fit`).
     """
 

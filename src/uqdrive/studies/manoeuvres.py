@@ -21,7 +21,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Parameters
     ----------
-    t : array_like
+    t : array_like, shape (T,)
         Time (s).
     amplitude_deg : float
         Amplitude A (deg).
@@ -34,7 +34,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -47,7 +47,7 @@ def step_steer(t, amplitude_deg: float = 2.0, t_start: float = 1.0, ramp: float 
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -61,7 +61,7 @@ def chirp(t, amplitude_deg: float = 2.0, f0: float = 0.1, f1: float = 1.5, durat
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -76,7 +76,7 @@ def double_lane_change(t, amplitude_deg: float = 2.0, t_start: float = 1.0, dura
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)

@@ -321,7 +321,7 @@ class LSTChaosModel:
         Parameters
         ----------
         thetas : ndarray, shape (B, n_theta)
-            Distribution parameters in ``theta_names`` order.
+            Distribution parameters in ``theta_names`` order, each in its parameter's units.
         every : int, optional
             Moments at ``time[::every]`` only (up to the last multiple): the same discretised
             model observed less often, with less work.

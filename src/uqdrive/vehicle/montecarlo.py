@@ -114,7 +114,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     wind_coeffs : ndarray, shape (n, n_c)
         Wind mode coefficients (N), see (5.1), (5.21).
     eigenfunctions : ndarray, shape (n_c, n_fine)
-        KLE eigenfunctions on the fine grid.
+        KLE eigenfunctions on the fine grid (-): the gusts are ``wind_coeffs @ eigenfunctions`` (N).
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -144,9 +144,11 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     delta_half : ndarray, shape (2 n_fine - 1,)
         Steering angle on the half-step grid (rad).
     wind_mean : ndarray, shape (n,)
+        Mean side wind per realisation (N).
     wind_coeffs : ndarray, shape (n, n_c)
+        Wind mode coefficients (N), as for :func:`simulate_lst`.
     eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid.
+        KLE eigenfunctions on the half-step grid (-), as ``eigenfunctions`` of :func:`simulate_lst`.
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -176,7 +178,9 @@ def spin_mask(beta, threshold: float):
     Parameters
     ----------
     beta : ndarray, shape (n, n_time)
+        Side-slip angle of each realisation (rad).
     threshold : float
+        |beta| (rad) above which a realisation lost control.
 
     Returns
     -------
@@ -298,6 +302,7 @@ def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str
     Parameters
     ----------
     draws : mapping of str to ndarray, shape (n,)
+        Parameter values per realisation: mu (-), m_load (kg), l_f (m), F_w_mean (N).
 
     Returns
     -------

@@ -80,8 +80,7 @@ def squared_exponential_covariance(t1, t2, Tc: float):
 
     Parameters
     ----------
-    t1 : ndarray, shape (n1,)
-    t2 : ndarray, shape (n2,)
+    t1, t2 : ndarray, shape (n1,) and (n2,)
         Times (s).
     Tc : float
         Correlation time constant (s).
