@@ -309,7 +309,7 @@ def _signals_exit_cleanly():
 
 def main(argv: list[str] | None = None) -> int:
     """Run the `uqdrive` command line on ``argv`` (``sys.argv[1:]`` if None); return the exit status
-    (0 done, 2 refused input, 130 interrupted)."""
+    (0 done, 2 refused input, 128 + N interrupted by signal N)."""
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as exc:  # --help (0) or a refused flag (2, one line already printed)
