@@ -46,7 +46,7 @@ test: $(PYTHON)
 # make docs: the documentation site into docs/_build/html (open docs/_build/html/index.html).
 # Warnings are errors; --keep-going lists all of them before failing. tests/test_docs.py runs the
 # same build (SPHINX_BUILD below) inside make test, so CI builds the site on every run.
-SPHINX_BUILD = -m sphinx -b html -W --keep-going -q
+SPHINX_BUILD = -m sphinx -b html -W --keep-going -q -j auto
 .PHONY: docs
 docs: $(PYTHON)
 	$(INSTALL_LOCK)
