@@ -183,7 +183,7 @@ class DistributionEstimator:
     Parameters
     ----------
     model : MomentModel
-        E.g. :class:`uqdrive.pce_vehicle.LSTChaosModel`; may be any model with the protocol.
+        E.g. :class:`uqdrive.vehicle.chaos.LSTChaosModel`; may be any model with the protocol.
     cost : {"std", "inp", "dst"}
         Weight scheme, see :data:`COSTS`.
     bounds : sequence of (low, high), optional
