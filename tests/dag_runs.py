@@ -47,7 +47,7 @@ def _start(cmd, wd, log):
     """Start cmd in wd in a session of its own with Ctrl-C's default meaning (as a terminal runs a
     command), output to log. A test run started in the background (`pytest ... &` in a script,
     nohup) inherits SIGINT ignored, and Python then never turns it into KeyboardInterrupt: the
-    Ctrl-C below would be lost (seen in session 9: the cluster run went on to the end)."""
+    Ctrl-C below would be lost (the cluster run would go on to its end)."""
     with open(log, "w") as fh:
         return subprocess.Popen(cmd, cwd=wd, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -186,7 +186,7 @@ def interrupted_runs(wd, slurm=False):
     that job's error and Slurm log); the same command again, to the end. Without Slurm: make
     reproduce to the end.
 
-    Part of CI since issue 15: it runs in a thread beside the first run (conftest's ``workdir``), so
+    Part of CI: it runs in a thread beside the first run (conftest's ``workdir``), so
     that its waits (status checks, Snakemake's starts, the interruptions) overlap the first run's
     work. Run one after the other, CI took 9.5-9.8 min."""
     unlock, readme = readme_commands()

@@ -363,7 +363,7 @@ def test_signal_during_a_run_exits_cleanly(tiny, tmp_path, signum):
 
 def test_cost_flag_reads_the_registry(monkeypatch):
     """--cost accepts what uqdrive.inference.identify.COSTS holds, a registry entry added later
-    included (README "Extending uqdrive"), and refuses anything else with the known names."""
+    included (docs/maintainer.md "Extending uqdrive"), and refuses anything else with the known names."""
     import argparse
 
     from uqdrive.cli.validation import registry_choice

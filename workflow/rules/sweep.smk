@@ -1,4 +1,4 @@
-# Parameter sweeps (README "Sweeping a config value"). A sweep file config/sweeps/<name>.yaml
+# Parameter sweeps (docs/workflow.md, "Changing and sweeping config values"). A sweep file config/sweeps/<name>.yaml
 # names a base config, dotted keys with their values (grid or zip) and the metric groups to
 # collect. Each point's resolved config is written to {OUT}/sweeps/<name>/<point>/config.yaml
 # and this workflow runs on it into that folder (only the outputs the metrics need); the jobs

@@ -287,6 +287,7 @@ SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_ve
 
 # -- parser and shared error handling -------------------------------------------------------------
 def build_parser() -> OneLineParser:
+    """The argument parser of the `uqdrive` command and its subcommands (one-line refusals, exit 2)."""
     parser = OneLineParser(prog="uqdrive", description="uqdrive: simulate single-track vehicle ensembles and identify the "
                                                         "distributions of their uncertain parameters from simulated or measured ones.",
                            epilog="Exit codes: 0 done, 2 refused input (one line on stderr: the field and the fix), "
@@ -319,6 +320,8 @@ def _signals_exit_cleanly():
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the `uqdrive` command line on ``argv`` (``sys.argv[1:]`` if None); return the exit status
+    (0 done, 2 refused input, 128 + N interrupted by signal N)."""
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as exc:  # --help (0) or a refused flag (2, one line already printed)

@@ -29,6 +29,7 @@ __all__ = ["is_model_file", "load_model", "simulate_model", "identify_with_model
 
 
 def is_model_file(value: str) -> bool:
+    """Whether a ``--model`` value names a model file (``.yaml``/``.yml``) rather than a built-in model."""
     return value.endswith((".yaml", ".yml"))
 
 

@@ -30,8 +30,9 @@ class ObservabilityResult:
     removal_rank : dict
         Rank after deleting each column; an unchanged rank means that variable's
         identifiability cannot be guaranteed.
-    singular_values : ndarray
-    null_vector : ndarray
+    singular_values : ndarray, shape (8,)
+        Singular values of the column-scaled O_NL, largest first.
+    null_vector : ndarray, shape (8,)
         Right singular vector of the smallest singular value (in column-scaled units): the
         direction along which the output does not change.
     """
@@ -44,6 +45,7 @@ class ObservabilityResult:
 
     @property
     def unidentifiable(self) -> list:
+        """Parameters whose removal keeps the rank: those the outputs cannot distinguish."""
         return [n for n, r in self.removal_rank.items() if r == self.rank]
 
 

@@ -27,7 +27,10 @@ class MomentModel(Protocol):
 
     theta_names: tuple
 
-    def moments(self, theta, gradient: bool = False): ...
+    def moments(self, theta, gradient: bool = False):
+        """Mean and variance of the states, shape (4, T) each in the states' units, at the
+        distribution parameters ``theta`` (shape (n_theta,), ``theta_names`` order); with
+        ``gradient`` also their derivatives, shape (n_theta, 4, T)."""
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,8 @@ COSTS: dict[str, Callable] = {"std": _std, "inp": _inp, "dst": _dst}
 
 
 def cost_weights(name: str, ctx: WeightContext, shape) -> np.ndarray:
+    """Weights of the cost (5.25) by the registered scheme ``name`` (STD, INP, DST: ``COSTS``), broadcast
+    to ``shape`` (n_states, T); an unknown name raises ValueError listing the known ones."""
     try:
         scheme = COSTS[name.lower()]
     except KeyError:
@@ -179,7 +184,7 @@ class DistributionEstimator:
     Parameters
     ----------
     model : MomentModel
-        E.g. :class:`uqdrive.pce_vehicle.LSTChaosModel`; may be any model with the protocol.
+        E.g. :class:`uqdrive.vehicle.chaos.LSTChaosModel`; may be any model with the protocol.
     cost : {"std", "inp", "dst"}
         Weight scheme, see :data:`COSTS`.
     bounds : sequence of (low, high), optional
@@ -202,13 +207,13 @@ class DistributionEstimator:
 
     Attributes
     ----------
-    theta_ : ndarray
-        Estimate; standard deviations reported as |sigma|.
+    theta_ : ndarray, shape (n_theta,)
+        Estimate in ``model.theta_names`` order, in the parameters' units; standard deviations reported as |sigma|.
     cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
-    theta_std_ : ndarray
+    theta_std_ : ndarray, shape (n_theta,)
         Standard errors: sandwich (sampling error of the statistics) when :meth:`fit` is given the
         realisations (NaN for a std at zero), else Gauss-Newton (see :meth:`_fit`).
-    gauss_newton_std_ : ndarray
+    gauss_newton_std_ : ndarray, shape (n_theta,)
         The Gauss-Newton standard errors s^2 (J'J)^-1 (residuals taken as independent).
     upper_bounds_, misfit_reference_ : dict, MisfitReference or None
         With the realisations: one-sided 95 % upper bound of each std at zero (by name), and the

@@ -63,6 +63,8 @@ class Estimate:
 
 
 def true_theta(config) -> np.ndarray:
+    """Distribution parameters of the config in ``theta_names`` order, shape (6,): the truth of the
+    simulated experiments."""
     return LSTChaosModel.theta_from_config(config, UNCERTAIN)
 
 

@@ -24,7 +24,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Parameters
     ----------
-    t : array_like
+    t : array_like, shape (T,)
         Time (s).
     amplitude_deg : float
         Amplitude A (deg).
@@ -37,7 +37,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -50,7 +50,7 @@ def step_steer(t, amplitude_deg: float = 2.0, t_start: float = 1.0, ramp: float 
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -64,7 +64,7 @@ def chirp(t, amplitude_deg: float = 2.0, f0: float = 0.1, f1: float = 1.5, durat
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -79,7 +79,7 @@ def double_lane_change(t, amplitude_deg: float = 2.0, t_start: float = 1.0, dura
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -115,7 +115,7 @@ def braking_in_turn_speed(t, start_kmh: float = 80.0, end_kmh: float = 50.0, t_b
     return speed_ramp(t, start_kmh, end_kmh, t_brake, duration)
 
 
-#: Manoeuvre name -> function(t, **params) returning the steering angle (rad).
+#: Manoeuvre name -> function(t, ``**params``) returning the steering angle (rad).
 MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
     "slalom": slalom,
     "step": step_steer,

@@ -69,6 +69,7 @@ class Germs:
 
     @property
     def n(self) -> int:
+        """Number of realisations."""
         return int(self.mu.size)
 
     def head(self, n: int) -> "Germs":
@@ -309,6 +310,7 @@ def ensemble_moments(x, spin_threshold: float | None = None):
     Parameters
     ----------
     x : ndarray, shape (4, n, T)
+        n realisations of the four states, each in its unit (rad, rad/s, rad, m).
     spin_threshold : float, optional
         |beta| (rad) above which a realisation counts as lost control (excluded).
 

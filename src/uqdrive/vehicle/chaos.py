@@ -60,6 +60,7 @@ class ChaosMoments:
 
     @property
     def std(self) -> np.ndarray:
+        """Standard deviation, shape (4, T), in each state's unit (negative round-off variance -> 0)."""
         return np.sqrt(np.maximum(self.variance, 0.0))
 
     @functools.cached_property
@@ -330,7 +331,7 @@ class LSTChaosModel:
         Parameters
         ----------
         thetas : ndarray, shape (B, n_theta)
-            Distribution parameters in ``theta_names`` order.
+            Distribution parameters in ``theta_names`` order, each in its parameter's units.
         every : int, optional
             Moments at ``time[::every]`` only (up to the last multiple): the same discretised
             model observed less often, with less work.

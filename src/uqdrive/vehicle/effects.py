@@ -97,6 +97,8 @@ class Effect:
     signature: str
 
     def apply(self, structure: ModelStructure, values) -> ModelStructure:  # pragma: no cover - abstract
+        """The structure with this effect's parameters ``values`` (physical units, in ``parameters``
+        order) set in its fields."""
         raise NotImplementedError
 
     def prior_start(self, config: Mapping | None = None) -> tuple:
@@ -114,37 +116,51 @@ class Effect:
 
 
 class TyreSaturation(Effect):
+    """Non-linear tyre: the Magic Formula (2.2) with curvature factor E (-) replaces the linear tyre."""
+
     def apply(self, s, v):
         return replace(s, tyre="magic_formula", tyre_curvature=float(v[0]))
 
 
 class ActuatorLag(Effect):
+    """First-order lag with time constant T (s) between commanded and actual steering angle."""
+
     def apply(self, s, v):
         return replace(s, steering_lag=float(v[0]))
 
 
 class ActuatorDelay(Effect):
+    """Dead time tau (s) between commanded and actual steering angle."""
+
     def apply(self, s, v):
         return replace(s, steering_delay=float(v[0]))
 
 
 class RoadBank(Effect):
+    """Road bank angle phi (deg): a constant lateral acceleration g sin(phi) without yaw moment."""
+
     def apply(self, s, v):
         return replace(s, lateral_acceleration=9.81 * float(np.sin(np.deg2rad(v[0]))))
 
 
 class WindGust(Effect):
+    """Time-variant side wind scaled by gust_scale (-) against the configured F_w,sigma."""
+
     def apply(self, s, v):
         return replace(s, gust_scale=float(v[0]))
 
 
 class LateralKinematics(Effect):
+    """Lateral velocity along the course angle: weight k (-) of beta in y_dot = v (psi + k beta)."""
+
     def apply(self, s, v):
         return replace(s, course_weight=float(v[0]))
 
 
 @dataclass(frozen=True)
 class SensorBias(Effect):
+    """Constant offset on one measured channel, in that channel's unit."""
+
     channel: str = "psi"
 
     def apply(self, s, v):
@@ -155,6 +171,8 @@ class SensorBias(Effect):
 
 @dataclass(frozen=True)
 class SensorScale(Effect):
+    """Gain error (-) of one measured channel's sensor."""
+
     channel: str = "psi"
 
     def apply(self, s, v):

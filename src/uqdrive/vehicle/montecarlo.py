@@ -46,19 +46,23 @@ class TimeGrid:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "TimeGrid":
+        """The grid of the config's ``time`` section (t_end, dt, step in s)."""
         t = config["time"]
         return cls(t["t_end"], t["dt"], t["step"])
 
     @property
     def n_out(self) -> int:
+        """Number of output intervals, t_end / dt."""
         return int(round(self.t_end / self.dt))
 
     @property
     def substeps(self) -> int:
+        """Integration steps per output interval, dt / step."""
         return int(round(self.dt / self.step))
 
     @property
     def output(self) -> np.ndarray:
+        """Output times, shape (n_out + 1,) (s)."""
         return np.arange(self.n_out + 1) * self.dt
 
     def fine(self, refine: int = 1) -> np.ndarray:
@@ -96,7 +100,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     wind_coeffs : ndarray, shape (n, n_c)
         Wind mode coefficients (N), see (5.1), (5.21).
     eigenfunctions : ndarray, shape (n_c, n_fine)
-        KLE eigenfunctions on the fine grid.
+        KLE eigenfunctions on the fine grid (-): the gusts are ``wind_coeffs @ eigenfunctions`` (N).
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -126,9 +130,11 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     delta_half : ndarray, shape (2 n_fine - 1,)
         Steering angle on the half-step grid (rad).
     wind_mean : ndarray, shape (n,)
+        Mean side wind per realisation (N).
     wind_coeffs : ndarray, shape (n, n_c)
+        Wind mode coefficients (N), as for :func:`simulate_lst`.
     eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid.
+        KLE eigenfunctions on the half-step grid (-), as ``eigenfunctions`` of :func:`simulate_lst`.
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -158,7 +164,9 @@ def spin_mask(beta, threshold: float):
     Parameters
     ----------
     beta : ndarray, shape (n, n_time)
+        Side-slip angle of each realisation (rad).
     threshold : float
+        |beta| (rad) above which a realisation lost control.
 
     Returns
     -------
@@ -293,6 +301,7 @@ def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str
     Parameters
     ----------
     draws : mapping of str to ndarray, shape (n,)
+        Parameter values per realisation: mu (-), m_load (kg), l_f (m), F_w_mean (N).
 
     Returns
     -------

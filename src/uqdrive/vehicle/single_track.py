@@ -51,11 +51,11 @@ class VehicleParameters:
 
     Attributes
     ----------
-    mu : float or ndarray
+    mu : float or ndarray, shape (n,)
         Tyre-road friction coefficient, the Magic-Formula peak factor D (-).
-    m_load : float or ndarray
+    m_load : float or ndarray, shape (n,)
         Mass of the load (kg).
-    l_f : float or ndarray
+    l_f : float or ndarray, shape (n,)
         Distance from the centre of gravity to the front axle (m).
     m_base, J0, wheelbase, c_Sf, c_Sr, v_c, M_c, g, C, E : float
         Base mass (kg), specific yaw inertia I_z/m (m^2), wheelbase L (m), front and rear
@@ -139,16 +139,16 @@ def magic_formula(slip, F_z, B, C, D, E):
 
     Parameters
     ----------
-    slip : array_like
+    slip : array_like, any shape
         Slip angle (rad) or slip ratio (-).
-    F_z : array_like
-        Normal load (N); broadcast against ``slip``.
-    B, C, D, E : array_like
+    F_z : array_like, shape broadcastable against ``slip``
+        Normal load (N).
+    B, C, D, E : array_like, shape broadcastable against ``slip``
         Stiffness, shape, peak and curvature factors (-).
 
     Returns
     -------
-    ndarray
+    ndarray, the broadcast shape of the arguments
         Tyre force (N), F_z D sin(C atan(B x - E (B x - atan(B x)))).
     """
     bx = B * slip
@@ -281,7 +281,7 @@ def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
 
     Parameters
     ----------
-    t : array_like
+    t : array_like, shape (T,)
         Time (s).
     delta_max : float
         Amplitude (rad).
@@ -290,7 +290,7 @@ def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         delta(t) = sign * delta_max * cos(2 pi t / period) (rad).
     """
     return sign * delta_max * np.cos(2.0 * np.pi * np.asarray(t, dtype=float) / period)
@@ -355,7 +355,7 @@ def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
 
 def gust_input_column(W, gust_yaw_moment: bool):
     """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see docs/reproduction.md, "Wind yaw moment")."""
     if gust_yaw_moment:
         return W
     W = np.array(W, copy=True)

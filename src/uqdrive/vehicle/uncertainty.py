@@ -67,6 +67,7 @@ class ParameterDistribution:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "ParameterDistribution":
+        """The distributions of the config's ``uncertainty`` section."""
         u = config["uncertainty"]
         return cls(
             mu=(u["mu"]["mean"], u["mu"]["std"]),
@@ -98,8 +99,7 @@ def squared_exponential_covariance(t1, t2, Tc: float):
 
     Parameters
     ----------
-    t1 : ndarray, shape (n1,)
-    t2 : ndarray, shape (n2,)
+    t1, t2 : ndarray, shape (n1,) and (n2,)
         Times (s).
     Tc : float
         Correlation time constant (s).
@@ -139,6 +139,7 @@ class KarhunenLoeve:
 
     @property
     def n_modes(self) -> int:
+        """Number of KLE modes kept."""
         return int(self.eigenvalues.size)
 
     @property

@@ -98,6 +98,7 @@ class StructureFit:
 
     @property
     def parameter_names(self) -> tuple:
+        """Names of the fitted parameters: the distribution parameters (if fitted), then the effect's."""
         names = THETA_NAMES if self.fit_theta else ()
         return names + (self.effect.parameters if self.effect is not None else ())
 
@@ -108,6 +109,7 @@ class StructureFit:
         return np.array([b[0] for b in bounds], float), np.array([b[1] for b in bounds], float)
 
     def structure(self, effect_values=()) -> ModelStructure:
+        """The model structure with the effect at ``effect_values`` (the base structure without an effect)."""
         if self.effect is None:
             return self.base
         return self.effect.augment(self.base, effect_values)
