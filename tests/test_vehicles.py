@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from uqdrive.cli.main import main
 from uqdrive.config import ConfigError, load_config, read_vehicle_file, validate_config
-from uqdrive.vehicle.car import engineering_terms, internal_constants, vehicle_names
+from uqdrive.vehicle_spec import engineering_terms, internal_constants, vehicle_names
 
 from conftest import REPO, tiny_config
 

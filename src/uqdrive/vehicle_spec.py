@@ -48,7 +48,7 @@ import yaml
 
 from ._errors import ConfigError
 
-__all__ = ["ENGINEERING_KEYS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "apply_vehicle_file",
+__all__ = ["OPTIONAL_QUANTITIES", "require", "ENGINEERING_KEYS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "apply_vehicle_file",
            "normalise_vehicle"]
 
 #: Engineering keys of the vehicle section: key -> (unit, meaning).
@@ -285,3 +285,36 @@ def read_vehicle_file(reference: str | Path, check_schema: Callable[[dict, str],
                                                              + " or ".join(f"'{k}' ({ENGINEERING_KEYS[k][0]})" for k in keys)))
     check_car(spec, label.format)
     return name, spec
+
+
+#: Optional keys of the config's ``vehicle`` section: key -> (unit, meaning).
+OPTIONAL_QUANTITIES = {
+    "cg_height": ("m", "height of the centre of gravity above the ground"),
+    "track_width": ("m", "track width (lateral distance between the wheel centres of one axle)"),
+    "steering_ratio": ("-", "hand-wheel angle per road-wheel angle"),
+}
+
+
+def require(config: Mapping[str, Any], key: str, purpose: str) -> float:
+    """The optional vehicle quantity ``key`` of ``config``, or a :class:`ConfigError` naming it.
+
+    Parameters
+    ----------
+    config : mapping
+        A validated uqdrive config.
+    key : str
+        One of :data:`OPTIONAL_QUANTITIES`.
+    purpose : str
+        What needs it, for the message (e.g. "the effect longitudinal_load_transfer").
+
+    Returns
+    -------
+    float
+        The value in the unit of :data:`OPTIONAL_QUANTITIES`.
+    """
+    unit, meaning = OPTIONAL_QUANTITIES[key]
+    value = config["vehicle"].get(key)
+    if value is None:
+        raise ConfigError(f"{purpose} needs config key 'vehicle.{key}' ({meaning}, {unit}), which is not given; "
+                          f"add it to the vehicle section or the vehicle file")
+    return float(value)

@@ -259,7 +259,7 @@ def _add_vehicles(sub) -> None:
 
 
 def _vehicles(args) -> None:
-    from ..vehicle.car import engineering_terms, vehicle_names
+    from ..vehicle_spec import engineering_terms, vehicle_names
 
     rows = []
     for name in args.vehicles or vehicle_names():

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
-from .sampling import run_influence, sampling_errors
+from .sampling import gauss_newton_errors, run_influence, sampling_errors
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -413,11 +413,4 @@ class DistributionEstimator:
         return res, np.concatenate([Jm, Js], axis=1).T
 
     def _gauss_newton_std(self, r) -> np.ndarray:
-        res, Jac = self._weighted_residuals(r, jacobian=True)
-        dof = max(res.size - Jac.shape[1], 1)
-        s2 = res @ res / dof
-        try:
-            cov = s2 * np.linalg.inv(Jac.T @ Jac)
-        except np.linalg.LinAlgError:
-            return np.full(Jac.shape[1], np.nan)
-        return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        return gauss_newton_errors(*self._weighted_residuals(r, jacobian=True))

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["RunInfluence", "run_influence", "sandwich_covariance", "MisfitReference", "misfit_reference", "sampling_errors"]
+__all__ = ["RunInfluence", "run_influence", "sandwich_covariance", "MisfitReference", "misfit_reference", "sampling_errors", "gauss_newton_errors"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,7 @@ class RunInfluence:
 
     @property
     def n(self) -> int:
+        """Number of realisations whose influences these are."""
         return int(self.mean.shape[1])
 
     def project(self, A_mean, A_std) -> np.ndarray:
@@ -227,3 +228,28 @@ def sampling_errors(jac, influence: RunInfluence, theta, at_zero, rng: np.random
     upper = {i: float(np.sqrt(theta[i] ** 2 + 1.6448536269514722 * se[i])) for i in zero}
     se[zero] = np.nan
     return se, upper, misfit_reference(jac, influence, rng)
+
+
+def gauss_newton_errors(residuals, jacobian) -> np.ndarray:
+    """Gauss-Newton standard errors sqrt(diag(s^2 (J'J)^-1)), s^2 = r'r / (m - p): the residuals
+    taken as independent with one variance (NaN where J'J is singular).
+
+    Parameters
+    ----------
+    residuals : ndarray, shape (m,)
+        Weighted residuals at the optimum.
+    jacobian : ndarray, shape (m, p)
+        Their derivative with respect to the p parameters.
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        Standard errors in the parameters' units.
+    """
+    dof = max(residuals.size - jacobian.shape[1], 1)
+    s2 = residuals @ residuals / dof
+    try:
+        cov = s2 * np.linalg.inv(jacobian.T @ jacobian)
+    except np.linalg.LinAlgError:
+        return np.full(jacobian.shape[1], np.nan)
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))

@@ -97,8 +97,8 @@ def braking_in_turn(t, amplitude_deg: float = 2.0, t_start: float = 1.0, ramp: f
 
     Returns
     -------
-    ndarray
-        Steering angle (rad).
+    ndarray, shape (T,)
+        Steering angle (rad) on the times ``t``.
     """
     return step_steer(t, amplitude_deg, t_start, ramp, sign)
 
@@ -109,8 +109,8 @@ def braking_in_turn_speed(t, start_kmh: float = 80.0, end_kmh: float = 50.0, t_b
 
     Returns
     -------
-    ndarray
-        v(t) (m/s).
+    ndarray, shape (T,)
+        v(t) (m/s) on the times ``t``.
     """
     return speed_ramp(t, start_kmh, end_kmh, t_brake, duration)
 
@@ -124,7 +124,7 @@ MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
 }
 
 #: Manoeuvres that change the speed: name -> (steering function, speed function (m/s)), each
-#: function(t, **params). Kept apart from :data:`MANOEUVRES` (the constant-speed benchmark of
+#: function(t, ``**params``). Kept apart from :data:`MANOEUVRES` (the constant-speed benchmark of
 #: discover) because discover models a constant speed.
 SPEED_PROFILES: dict[str, tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]] = {
     "braking_in_turn": (braking_in_turn, braking_in_turn_speed),

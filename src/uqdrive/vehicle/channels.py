@@ -62,6 +62,7 @@ class ChannelMoments:
 
     @property
     def std(self) -> np.ndarray:
+        """Standard deviation of each channel, shape (C, T), in the channels' units."""
         return np.sqrt(np.maximum(self.variance, 0.0))
 
 
@@ -387,8 +388,14 @@ def lateral_acceleration(model: str, x, p: VehicleParameters, delta, F_w, speed)
 
     Parameters
     ----------
+    model : {"lst", "nlst"}
+        Linear (5.4) or non-linear (5.3) single-track model.
     x : ndarray, shape (4, n, T)
+        States psi (rad), psi_dot (rad/s), beta (rad), y (m) of n realisations.
+    p : VehicleParameters
+        Parameters, scalars or arrays of shape (n,).
     delta : ndarray, shape (T,)
+        Road-wheel steering angle (rad).
     F_w : ndarray, shape (n, T)
         Side wind on the output grid (N).
     speed : ndarray, shape (T,)
@@ -397,6 +404,7 @@ def lateral_acceleration(model: str, x, p: VehicleParameters, delta, F_w, speed)
     Returns
     -------
     ndarray, shape (n, T)
+        Lateral acceleration at the centre of gravity (m/s^2).
     """
     out = np.empty(x.shape[1:])
     for k in range(x.shape[2]):

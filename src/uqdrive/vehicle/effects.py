@@ -182,6 +182,9 @@ class SensorScale(Effect):
 
 
 class LongitudinalLoadTransfer(Effect):
+    """Axle loads shifted by the longitudinal acceleration at centre-of-gravity height h (m):
+    F_zf = m (g l_r - a_x h) / L, the tyre peaks following the loads."""
+
     def apply(self, s, v):
         return replace(s, pitch_height=float(v[0]))
 
@@ -192,16 +195,24 @@ class LongitudinalLoadTransfer(Effect):
 
 
 class LateralLoadTransfer(Effect):
+    """Lateral load transfer split by the front roll-stiffness share chi_f (-), with the tyre
+    load sensitivity p_Dz (-) lowering the peak of the more loaded wheel."""
+
     def apply(self, s, v):
         return replace(s, roll_share_front=float(v[0]), load_sensitivity=float(v[1]))
 
 
 class ComplianceSteer(Effect):
+    """Road-wheel angle change per lateral acceleration, K (deg/g): roll or compliance steer."""
+
     def apply(self, s, v):
         return replace(s, compliance_steer=float(v[0]))
 
 
 class TyreRelaxation(Effect):
+    """Tyre relaxation: the slip angles follow their steady values with the lag sigma / v of the
+    relaxation length sigma (m)."""
+
     def apply(self, s, v):
         return replace(s, relaxation_length=float(v[0]))
 

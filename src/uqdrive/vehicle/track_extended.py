@@ -37,7 +37,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
-from .car import require
+from ..vehicle_spec import require
 from .single_track import VehicleParameters
 
 __all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "compliance_gain", "integrate_chassis", "uses_chassis_terms"]

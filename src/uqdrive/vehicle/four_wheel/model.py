@@ -52,7 +52,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...numerics.integrate import rk4_fixed_step
-from ..car import require
+from ...vehicle_spec import require
 from .tyre import cornering_stiffness, friction_ellipse, lateral_force, peak_force
 
 __all__ = ["FourWheelCar", "FourWheelRHS", "simulate_four_wheel", "N_STATES"]
@@ -129,7 +129,7 @@ class FourWheelCar:
     @classmethod
     def from_config(cls, config: Mapping[str, Any], **overrides) -> "FourWheelCar":
         """The car of a validated config's vehicle and tyre sections (cg_height and track_width
-        are required: :func:`uqdrive.vehicle.car.require`); ``overrides`` replace any field."""
+        are required: :func:`uqdrive.vehicle_spec.require`); ``overrides`` replace any field."""
         veh, tyre = config["vehicle"], config["tyre"]
         purpose = "the four-wheel vehicle model"
         car = cls(m_base=float(veh["m_base"]), J0=float(veh["J0"]), wheelbase=float(veh["wheelbase"]), B_f=float(veh["c_Sf"]),
