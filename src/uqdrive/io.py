@@ -258,7 +258,9 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     of dims (sample, time) with their SI ``units``, floating point, finite and within
     :data:`VALUE_LIMITS`, each varying across realisations; a ``delta`` (time) variable in rad; a
     global attribute ``v_c`` (m/s), one finite number in :data:`V_C_RANGE`. An optional ``spun``
-    (sample) flag must hold 0/1.
+    (sample) flag must hold 0/1. ``delta`` may carry the attribute ``interpolation``: how the
+    command is reconstructed between its samples, ``linear`` (default) or ``previous`` (each
+    sample held until the next: a zero-order hold), used by every simulation of the file.
     """
     for dim in ("sample", "time"):
         if dim not in ds.dims:
@@ -279,6 +281,10 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
         if got != unit:
             raise DataError(f"{source}: variable '{name}' has units '{got}'; expected '{unit}' (convert it and set the attribute)")
         _check_values(name, ds[name].values, unit, source)
+    interpolation = ds["delta"].attrs.get("interpolation", "linear")
+    if interpolation not in ("linear", "previous"):
+        raise DataError(f"{source}: variable 'delta' has interpolation '{interpolation}'; expected 'linear' (straight lines between "
+                        "samples) or 'previous' (each sample held until the next)")
     check_spread(ds, source)
     _check_v_c(ds, source)
     if "spun" in ds:

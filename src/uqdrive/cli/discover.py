@@ -50,30 +50,40 @@ def _checked_candidates(candidates: Sequence[str] | None):
 
 
 def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
-                  log: Callable[[str], None] | None = None) -> dict:
+                  log: Callable[[str], None] | None = None, model: Path | None = None) -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
 
     ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
     (True), never (False), or as config ``discrepancy.posterior`` says (None). ``log`` receives
-    a progress line per stage (the workflow's log file).
+    a progress line per stage (the workflow's log file). ``model``: a ``model.yaml`` written by
+    discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind.
     """
     names = _checked_candidates(candidates)
+    start = _start_model(model) if model is not None else None
     ds = read_ensemble(measured)
     n = ds.sizes["sample"]
     if n < MIN_SAMPLES:
         raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
-    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log)
+    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
     verdict = dict(finder.verdict_, measured=str(measured))
     write_outputs(finder, verdict, out)
     return verdict
+
+
+def _start_model(path: Path) -> dict:
+    """The effects and distributions of a ``model.yaml`` to start from (a DataError otherwise)."""
+    from .model import load_model
+
+    structure, dist = load_model(path)
+    return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
 
 
 def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:

@@ -5,7 +5,8 @@ The "reality" is integrated here by its own vectorised fixed-step RK4 (over real
 per-sample loop), independently of the LST/NLST code of :mod:`uqdrive.vehicle`: the stochastic
 linear single-track model (linear tyres c_f alpha_f, c_r alpha_r, y_dot = v psi) with uncertain
 mu, m_load, l_f and mean wind, KLE gusts (yaw moment M_c F_w as in the Monte Carlo ensembles)
-and white measurement noise, plus at most one switchable effect with a magnitude:
+and white measurement noise, plus switchable effects, each with a magnitude (one, or several at
+once in a combined case):
 
 =====================  ==========================================================================
 effect                 magnitude
@@ -16,10 +17,14 @@ actuator_lag           time constant T (s) of a first-order steering lag
 actuator_delay         pure steering delay tau (s)
 road_bank              bank angle phi (deg): lateral force m g sin(phi), no yaw moment
 wind_gust              factor on the config's gust std wind.sigma
-lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi
+lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
 sensor_bias            offset added to the measured ``channel`` (its SI unit)
 sensor_scale           gain on the measured ``channel``
 =====================  ==========================================================================
+
+The command is either a smooth function of time (``hold: linear``) or its samples on the output
+grid held between samples (``hold: previous``, a zero-order hold as a digital controller sends
+it); the file's ``delta`` carries that as its ``interpolation`` attribute.
 
 A generated dataset follows the uqdrive data schema and carries no label, no draws and no spin
 flag; :func:`case_label` gives the label for a separate file.
@@ -91,6 +96,11 @@ class HiddenEffectCase:
     noise : float
         Measurement-noise std of each channel as a fraction of its typical RMS (the median over
         realisations of the RMS over time of the clean signal).
+    extra : sequence of (effect, magnitude, channel)
+        Further hidden effects of a combined case (each at most once, none ``none``); channel
+        None unless a sensor effect.
+    hold : {"linear", "previous"}
+        The command between output samples: the smooth manoeuvre, or each sample held.
     """
 
     name: str
@@ -103,8 +113,30 @@ class HiddenEffectCase:
     channel: str | None = None
     shift: Any = ()
     noise: float = 0.01
+    extra: Any = ()
+    hold: str = "linear"
+
+    @property
+    def effects(self) -> tuple:
+        """Every hidden effect as (effect, magnitude, channel), the primary one first."""
+        return ((self.effect, float(self.magnitude), self.channel),) + self.extra if self.effect != "none" else ()
+
+    def size(self, effect: str, default: float = 0.0) -> float:
+        """Magnitude of ``effect`` in this case (``default`` when absent)."""
+        return next((m for e, m, _ in self.effects if e == effect), default)
 
     def __post_init__(self):
+        extra = tuple((str(e), float(m), None if c is None else str(c)) for e, m, c in self.extra)
+        object.__setattr__(self, "extra", extra)
+        if self.hold not in ("linear", "previous"):
+            raise ValueError(f"{self.name}: hold must be 'linear' or 'previous'; got '{self.hold}'")
+        if extra and self.effect == "none":
+            raise ValueError(f"{self.name}: a combined case has a primary effect other than 'none'")
+        names = [self.effect] + [e for e, _, _ in extra]
+        if any(e == "none" for e, _, _ in extra) or len({(e, c) for e, _, c in self.effects}) != len(self.effects):
+            raise ValueError(f"{self.name}: the effects of a combined case are distinct and not 'none': {names}")
+        for e, m, c in extra:
+            HiddenEffectCase(f"{self.name}/{e}", e, m, self.manoeuvre, self.manoeuvre_params, channel=c)  # each checked alone
         if self.effect not in EFFECTS:
             raise ValueError(f"unknown effect '{self.effect}'; choose one of {', '.join(EFFECTS)}")
         if self.manoeuvre not in MANOEUVRES:
@@ -172,12 +204,13 @@ def _time_grid(config: Mapping[str, Any]):
     return np.arange(n_out + 1) * dt, dt / substeps, substeps
 
 
-def _actual_steering(case: HiddenEffectCase, t) -> np.ndarray:
-    """Steering at the wheels before any lag: the command, delayed by tau for actuator_delay (zero before)."""
+def _actual_steering(case: HiddenEffectCase, t, dt: float) -> np.ndarray:
+    """Steering at the wheels before any lag: the command (held between the output samples
+    i dt for ``hold: previous``), delayed by tau for actuator_delay (zero before)."""
     params = dict(case.manoeuvre_params)
-    if case.effect != "actuator_delay":
-        return steering_command(case.manoeuvre, t, params)
-    shifted = np.asarray(t, float) - case.magnitude
+    shifted = np.asarray(t, float) - case.size("actuator_delay")
+    if case.hold == "previous":
+        shifted = np.floor(shifted / dt + 1e-9) * dt
     started = shifted > -1e-9
     return np.where(started, steering_command(case.manoeuvre, np.maximum(shifted, 0.0), params), 0.0)
 
@@ -186,7 +219,7 @@ def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta
     """RK4 right-hand side f(x, j) of the reality on the half-step grid index j.
 
     x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
-    fifth state for actuator_lag.
+    fifth state for actuator_lag. Several effects act together (a combined case).
     """
     veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
     v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
@@ -199,31 +232,32 @@ def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta
     inv_Iz, inv_mv = 1.0 / I_z, 1.0 / (m * v)
     w_mean = draws["F_w_mean"]
     gust_moment = bool(w["gust_yaw_moment"])
-    effect, size = case.effect, float(case.magnitude)
-    bank = g * np.sin(np.deg2rad(size)) / v if effect == "road_bank" else 0.0
+    present = {e for e, _, _ in case.effects}
+    lag, saturating, course = case.size("actuator_lag"), "tyre_saturation" in present, "lateral_kinematics" in present
+    bank = g * np.sin(np.deg2rad(case.size("road_bank"))) / v
 
     def rhs(x, j):
         psi, r, beta = x[0], x[1], x[2]
-        d = x[4] if effect == "actuator_lag" else delta_half[j]
+        d = x[4] if lag > 0 else delta_half[j]
         gust = gust_half[j]
         F_w = w_mean + gust
         M_w = M_c * (F_w if gust_moment else w_mean)
         out = np.empty_like(x)
         out[0] = r
-        if effect == "tyre_saturation":  # non-linear single-track model (5.3) of the thesis
+        if saturating:  # non-linear single-track model (5.3) of the thesis
             vx, vy = v * np.cos(beta), v * np.sin(beta)
             F_f = magic_formula(d - np.arctan((vy + l_f * r) / vx), F_fz, B_f, C, mu, E) * np.cos(d)
             F_r = magic_formula(-np.arctan((vy - l_r * r) / vx), F_rz, B_r, C, mu, E)
-            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r
-            out[3] = v * np.sin(psi)
+            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r + bank
+            out[3] = v * np.sin(psi + beta) if course else v * np.sin(psi)
         else:  # linear tyres and small angles (5.4)
             F_f = c_f * (d - beta - l_f * r / v)
             F_r = c_r * (l_r * r / v - beta)
             out[2] = (F_f + F_r + F_w) * inv_mv - r + bank
-            out[3] = v * np.sin(psi + beta) if effect == "lateral_kinematics" else v * psi
+            out[3] = v * np.sin(psi + beta) if course else v * psi
         out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
-        if effect == "actuator_lag":
-            out[4] = (delta_half[j] - d) / size
+        if lag > 0:
+            out[4] = (delta_half[j] - d) / lag
         return out
 
     return rhs
@@ -272,12 +306,13 @@ def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=Non
     t, h, substeps = _time_grid(config)
     n_steps = (t.size - 1) * substeps
     t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
-    sigma = float(config["wind"]["sigma"]) * (case.magnitude if case.effect == "wind_gust" else 1.0)
+    sigma = float(config["wind"]["sigma"]) * case.size("wind_gust", 1.0)
     coeffs = sigma * np.asarray(draws["xi_wind"]) * np.sqrt(kle.eigenvalues)  # (n, n_c), thesis (5.21)
     gust_half = np.ascontiguousarray((coeffs @ kle.eigenfunctions(t_half)).T)  # (n_half, n)
-    delta_half = _actual_steering(case, t_half)
+    dt = float(t[1] - t[0])
+    delta_half = _actual_steering(case, t_half, dt)
     n = np.shape(draws["mu"])[0]
-    x0 = np.zeros((5 if case.effect == "actuator_lag" else 4, n))
+    x0 = np.zeros((5 if case.size("actuator_lag") > 0 else 4, n))
     rhs = _reality_rhs(config, case, draws, delta_half, gust_half)
     x = _rk4(rhs, x0, h, n_steps, substeps)[:, :4]  # (T, 4, n)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
@@ -305,8 +340,8 @@ def measure(case: HiddenEffectCase, x) -> np.ndarray:
     for i, name in enumerate(STATES):
         zeta = rng.standard_normal(x[i].shape)
         scale = case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
-        gain = case.magnitude if case.effect == "sensor_scale" and case.channel == name else 1.0
-        offset = case.magnitude if case.effect == "sensor_bias" and case.channel == name else 0.0
+        gain = next((m for e, m, c in case.effects if e == "sensor_scale" and c == name), 1.0)
+        offset = next((m for e, m, c in case.effects if e == "sensor_bias" and c == name), 0.0)
         out[i] = gain * x[i] + offset + scale * zeta
     return out
 
@@ -325,7 +360,7 @@ def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoe
         name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
         for i, name in enumerate(STATES)
     }
-    data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
+    data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle", "interpolation": case.hold})
     coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
     attrs = {"title": "measured single-track ensemble", "v_c": float(config["vehicle"]["speed_kmh"]) / 3.6}
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
@@ -336,6 +371,8 @@ def case_label(case: HiddenEffectCase) -> dict[str, Any]:
     return {
         "name": case.name,
         "effect": case.effect,
+        "effects": [{"effect": e, "magnitude": m, "channel": c} for e, m, c in case.effects],
+        "hold": case.hold,
         "discrepant": case.effect != "none",
         "magnitude": float(case.magnitude),
         "channel": case.channel,
