@@ -204,19 +204,22 @@ def _time_grid(config: Mapping[str, Any]):
     return np.arange(n_out + 1) * dt, dt / substeps, substeps
 
 
-def _actual_steering(case: HiddenEffectCase, t, dt: float) -> np.ndarray:
+def _actual_steering(case: HiddenEffectCase, t, dt: float, left: bool = False) -> np.ndarray:
     """Steering at the wheels before any lag: the command (held between the output samples
-    i dt for ``hold: previous``), delayed by tau for actuator_delay (zero before)."""
+    i dt for ``hold: previous``), delayed by tau for actuator_delay (zero before). ``left``:
+    the limit from the left at a held command's jumps (the value a step ending there saw)."""
     params = dict(case.manoeuvre_params)
     shifted = np.asarray(t, float) - case.size("actuator_delay")
     if case.hold == "previous":
-        shifted = np.floor(shifted / dt + 1e-9) * dt
+        shifted = (np.ceil(shifted / dt - 1e-9) - 1.0 if left else np.floor(shifted / dt + 1e-9)) * dt
     started = shifted > -1e-9
     return np.where(started, steering_command(case.manoeuvre, np.maximum(shifted, 0.0), params), 0.0)
 
 
-def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half):
-    """RK4 right-hand side f(x, j) of the reality on the half-step grid index j.
+def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half, delta_left=None):
+    """RK4 right-hand side f(x, j, end) of the reality on the half-step grid index j; ``end``:
+    the last stage of a step, which sees the steering's limit from the left ``delta_left``
+    (a held command jumps at its samples; default: ``delta_half``, a continuous command).
 
     x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
     fifth state for actuator_lag. Several effects act together (a combined case).
@@ -236,9 +239,12 @@ def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta
     lag, saturating, course = case.size("actuator_lag"), "tyre_saturation" in present, "lateral_kinematics" in present
     bank = g * np.sin(np.deg2rad(case.size("road_bank"))) / v
 
-    def rhs(x, j):
+    delta_left = delta_half if delta_left is None else delta_left
+
+    def rhs(x, j, end=False):
+        u = delta_left[j] if end else delta_half[j]
         psi, r, beta = x[0], x[1], x[2]
-        d = x[4] if lag > 0 else delta_half[j]
+        d = x[4] if lag > 0 else u
         gust = gust_half[j]
         F_w = w_mean + gust
         M_w = M_c * (F_w if gust_moment else w_mean)
@@ -257,7 +263,7 @@ def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta
             out[3] = v * np.sin(psi + beta) if course else v * psi
         out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
         if lag > 0:
-            out[4] = (delta_half[j] - d) / lag
+            out[4] = (u - d) / lag
         return out
 
     return rhs
@@ -272,7 +278,7 @@ def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
         k1 = rhs(x, j)
         k2 = rhs(x + 0.5 * h * k1, j + 1)
         k3 = rhs(x + 0.5 * h * k2, j + 1)
-        k4 = rhs(x + h * k3, j + 2)
+        k4 = rhs(x + h * k3, j + 2, True)
         x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
         if (k + 1) % every == 0:
             out[(k + 1) // every] = x
@@ -311,9 +317,10 @@ def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=Non
     gust_half = np.ascontiguousarray((coeffs @ kle.eigenfunctions(t_half)).T)  # (n_half, n)
     dt = float(t[1] - t[0])
     delta_half = _actual_steering(case, t_half, dt)
+    delta_left = _actual_steering(case, t_half, dt, left=True) if case.hold == "previous" else None
     n = np.shape(draws["mu"])[0]
     x0 = np.zeros((5 if case.size("actuator_lag") > 0 else 4, n))
-    rhs = _reality_rhs(config, case, draws, delta_half, gust_half)
+    rhs = _reality_rhs(config, case, draws, delta_half, gust_half, delta_left)
     x = _rk4(rhs, x0, h, n_steps, substeps)[:, :4]  # (T, 4, n)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
     return t, delta, np.ascontiguousarray(x.transpose(1, 2, 0))
@@ -415,11 +422,32 @@ _BENCHMARK = [
 ]
 
 
+# Several hidden effects at once: name, [(effect, magnitude, channel), ...], manoeuvre, params, shift, noise
+_COMBINED = [
+    ("combined_course_lag", [("lateral_kinematics", 5.0, None), ("actuator_lag", 0.15, None)], "lane_change", {}, {}, 0.01),
+    ("combined_saturation_lag", [("tyre_saturation", 5.0, None), ("actuator_lag", 0.1, None)], "slalom", {"period": 3.0}, {}, 0.01),
+    ("combined_bank_bias", [("road_bank", 2.0, None), ("sensor_bias", 0.01, "psi_dot")], "chirp", {"amplitude_deg": 2.0}, {}, 0.01),
+    ("combined_gust_delay", [("wind_gust", 4.0, None), ("actuator_delay", 0.1, None)], "slalom", {"amplitude_deg": 3.0, "period": 4.0}, {}, 0.01),
+    ("combined_bank_scale", [("road_bank", 1.5, None), ("sensor_scale", 1.2, "beta")], "step", {"amplitude_deg": 2.0, "sign": -1.0}, {"mu": (0.9, 0.15)}, 0.02),
+    ("combined_course_bank_lag", [("lateral_kinematics", 4.0, None), ("road_bank", 1.0, None), ("actuator_lag", 0.1, None)], "slalom",
+     {"period": 5.0}, {}, 0.01),
+]
+
+# Null cases whose command is held between the samples of the 10 ms grid (pulses and steps as a
+# digital controller sends them), at 300 realisations or fewer: name, manoeuvre, params, samples, shift, noise
+_HELD_NULL = [
+    ("none_pulse_held", "pulse", {"amplitude_deg": 2.0, "width": 0.5}, 300, {}, 0.01),
+    ("none_step_held", "step", {"amplitude_deg": 2.0, "ramp": 0.05}, 250, {"l_f": (1.45, 0.15)}, 0.015),
+    ("none_pulse_held_long", "pulse", {"amplitude_deg": 3.0, "width": 1.5, "sign": -1.0}, 200, {"mu": (0.9, 0.15)}, 0.01),
+]
+
+
 def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
-    every effect at two magnitudes on manoeuvres other than the thesis slalom, and
-    "thesis_nlst", the thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config
-    distributions, root seed).
+    every effect at two magnitudes on manoeuvres other than the thesis slalom, six combined
+    cases (two or three effects at once), three ``none`` cases with a held (zero-order-hold)
+    pulse or step at 300 realisations or fewer, and "thesis_nlst", the thesis' own NLST reality
+    (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
 
     Parameters
     ----------
@@ -432,6 +460,13 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
         HiddenEffectCase(name, effect, size, manoeuvre, params, n, root + 101 + i, channel, shift, noise)
         for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(_BENCHMARK)
     ]
+    start = root + 101 + len(_BENCHMARK)
+    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(_COMBINED):
+        (effect, size, channel), extra = effects[0], effects[1:]
+        cases.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
+    start += len(_COMBINED)
+    for i, (name, manoeuvre, params, held_samples, shift, noise) in enumerate(_HELD_NULL):
+        cases.append(HiddenEffectCase(name, "none", 0.0, manoeuvre, params, min(n, held_samples), start + i, None, shift, noise, hold="previous"))
     st = config["steering"]
     thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",
                               {"period": float(st["period"])}, n, root, noise=0.01)

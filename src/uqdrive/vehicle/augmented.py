@@ -365,9 +365,14 @@ class AugmentedSimulator:
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)
-        if self._held_input(s):  # the held value at each half step (the new one from its sample on)
-            i = held_index(t_half, self.dt, s.steering_delay)
-            delta_half = np.where(i >= 0, self.delta[np.clip(i, 0, self.delta.size - 1)], 0.0)
+        if self._held_input(s):
+            # the held value at each half step; where it jumps (a step's end, shared with the next
+            # step's start) the mean of both sides: the last stage of the step before and the first
+            # of the step after then err by opposite amounts, and the jump arrives in time
+            value = lambda i: np.where(i >= 0, self.delta[np.clip(i, 0, self.delta.size - 1)], 0.0)  # noqa: E731
+            t_shift = t_half - s.steering_delay
+            delta_half = 0.5 * (value(held_index(t_half, self.dt, s.steering_delay))
+                                + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
         else:
             delta_half = np.interp(t_half, self.time, delta)
         f_half = self.kle.eigenfunctions(t_half)  # (n_c, n_half)

@@ -6,7 +6,7 @@ localise where the data leave it, name the missing effect among registered candi
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -18,7 +18,6 @@ from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, expand_names
 from ...vehicle.noise import estimate_noise_variance
 from ...vehicle.single_track import STATES
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
-from .catchall import smooth_discrepancy
 from .effectset import EffectSet, family_of, resolvable
 from .fit import StructureFit
 from .posterior import AugmentedPosterior
@@ -194,6 +193,7 @@ class DiscrepancyFinder:
                 self.log(f"discover: {stage} done in {stages[stage]:.1f} s{detail}")
 
         ctx = _Context(sim, index, noise, spin, n, delta, float(t[1] - t[0]))
+        self._n = n
         if start_effects:
             base = self._joint(ctx, theta0, list(start_effects), start_effects)
         else:
@@ -204,13 +204,19 @@ class DiscrepancyFinder:
         stat0 = band.max_statistic(base.z_)
         significant = band.gate(base.z_)
         lap("null_band", f" ({self.bootstrap} replicates; max statistic {stat0:.3g}, threshold {band.threshold:.3g})")
-        self.fits_, self.screening_, self.steps_, self.removed_, self.unresolved_ = {}, {}, [], [], {}
+        self.fits_, self.screening_, self.steps_, self.removed_, self.unresolved_, self.rejected_ = {}, {}, [], [], {}, []
         final, final_band = base, band
         if significant:
             final, final_band = self._forward(ctx, base, band, start_effects, lap)
             if len(self.steps_) > 1:
                 final, final_band = self._backward(ctx, final, final_band, start_effects)
                 lap("backward", f" ({len(self.removed_)} removed)")
+            if self.steps_ and not (final_band.max_statistic(final.z_) <= final_band.threshold
+                                    or excess_rms(final.z_, final_band) <= 0.5 * excess_rms(base.z_, band)):
+                # the effects together neither explain the gap nor halve it: none of them is
+                # trusted (a partial fit of an unknown gap), the verdict is unrecognised
+                self.rejected_, self.steps_ = [s["name"] for s in self.steps_], []
+                final, final_band = base, band
         self.augmented_, self.augmented_band_ = final, final_band
         self.verdict_ = self._decide(base, band, stat0, significant, ctx)
         self.verdict_["separating_input"] = self._separating_input(delta, n)
@@ -233,11 +239,22 @@ class DiscrepancyFinder:
         parameter (2 x the time-correlation inflation), in chi2 units."""
         return 2.0 * band.chi2_null_sd, 2.0 * band.inflation
 
+    def _chi2(self, fit) -> float:
+        """chi2 of a fit on the common footing of the linear models' scale.
+
+        A numerically integrated model runs on fewer realisations, so its z are divided by a
+        wider scale (:meth:`_scale_for`): its chi2 then shrinks the systematic misfit by that
+        factor squared and would favour it against every linear model. Its excess over the null
+        level is converted back: null level + excess x (scale ratio)^2."""
+        ratio2 = float(np.mean((self._scale_for(fit.structure_, self._n) / self.scale_) ** 2))
+        level = self.band_.mean_square_null * fit.z_.size
+        return level + (fit.chi2_ - level) * ratio2
+
     def _forward(self, ctx, base, band, start_effects, lap):
         """Add effects while each one is justified: its joint fit lowers chi2 by more than its
         penalty plus the null-calibrated margin, it is resolvable at the data's sampling, and it
-        explains the rest of the gap or closes at least a quarter of it without the smooth
-        catch-all doing better; stop when the model explains the data (inside its own band)."""
+        explains the rest of the gap or closes at least a quarter of it (:data:`STEP_SHRINK`);
+        stop when the model explains the data (inside its own band)."""
         cur, cur_band = base, band
         names, values = list(start_effects), dict(start_effects)
         explained = False
@@ -254,36 +271,33 @@ class DiscrepancyFinder:
                 self.fits_, self.screening_ = fits, screening
             lap(f"step_{step + 1}", f" (screened {len(pool)}, fitted {', '.join(tried)})")
             margin, per_param = self._criterion(cur_band)
-            catch_z, p_catch = smooth_discrepancy(cur.z_)
-            catch_chi2 = float(np.sum(catch_z**2))
             prev_gap = excess_rms(cur.z_, cur_band)
-            chosen = None
-            for c in sorted(fits, key=lambda c: fits[c].chi2_):
+            chosen, best = None, min(fits, key=lambda c: self._chi2(fits[c]))
+            for c in sorted(fits, key=lambda c: self._chi2(fits[c])):
                 fc = fits[c]
                 ok, why = resolvable(c, fc.effect.split(fc.effect_values_)[c], ctx.delta, ctx.dt)
                 if not ok:
                     self.unresolved_[c] = why
-                    if chosen is None and step == 0 and band.max_statistic(fc.z_) <= band.threshold:
+                    if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
                         self.unresolved_["explains_gap"] = c  # the gap is at the sampling's resolution
                         return cur, cur_band
                     continue
                 penalty = per_param * len(EFFECTS[c].parameters)
-                if cur.chi2_ - fc.chi2_ - penalty <= margin:
+                if self._chi2(cur) - self._chi2(fc) - penalty <= margin:
                     break  # the best resolvable addition is not justified: nothing further is
                 after_band, which = self._own_band(ctx, c, fc, band, key=step + 1)
                 explains = after_band.max_statistic(fc.z_) <= after_band.threshold
                 gap = excess_rms(fc.z_, after_band)
-                catch_better = catch_chi2 + per_param * p_catch < fc.chi2_ + penalty - margin
-                if explains or (gap <= STEP_SHRINK * prev_gap and not catch_better):
+                if explains or gap <= STEP_SHRINK * prev_gap:
                     chosen = c
                 break
             if chosen is None:
                 break
             fc = fits[chosen]
-            tie = [c for c in fits if c != chosen and fits[c].chi2_ - fc.chi2_ <= margin]
+            tie = [c for c in fits if c != chosen and self._chi2(fits[c]) - self._chi2(fc) <= margin]
             self.steps_.append({"name": chosen, "fit": fc, "band": after_band, "band_kind": which, "explains": bool(explains),
                                 "gap_after": gap, "ambiguous": sorted({family_of(c) for c in tie} - {family_of(chosen)}),
-                                "candidates": {c: round(f.chi2_, 2) for c, f in sorted(fits.items(), key=lambda kv: kv[1].chi2_)}})
+                                "candidates": {c: round(self._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: self._chi2(kv[1]))}})
             names.append(chosen)
             values = {k: list(v) for k, v in fc.effect.split(fc.effect_values_).items()}
             cur, cur_band, explained = fc, after_band, explains
@@ -300,7 +314,7 @@ class DiscrepancyFinder:
             rest = [m for m in names if m != step["name"]]
             fit = self._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
             margin, per_param = self._criterion(cur_band)
-            saved = fit.chi2_ - cur.chi2_ - per_param * len(EFFECTS[step["name"]].parameters)
+            saved = self._chi2(fit) - self._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
             if saved <= margin:
                 self.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
                 self.steps_.remove(step)
@@ -350,16 +364,19 @@ class DiscrepancyFinder:
     def _screen(self, ctx, cur, pool):
         """Each candidate's own parameters fitted on top of the current model ``cur`` with the
         distributions and the effects already added held at cur's estimate: a cheap ranking of
-        the linear candidates (the non-linear ones are fitted jointly whatever their rank)."""
+        the linear candidates (the non-linear ones are fitted jointly whatever their rank). A
+        current model with a non-linear tyre is ranked on with its linear tyre (its joint fits
+        are the expensive part: the ranking only picks which to run)."""
         out = {}
         for name in pool:
             if self._nonlinear(name):
                 start = [self.config["tyre"]["E"]] if name == "tyre_saturation" else list(EFFECTS[name].start)
                 out[name] = {"chi2": float("nan"), "values": np.asarray(start, float)}
                 continue
-            structure = EFFECTS[name].augment(cur.structure_, EFFECTS[name].start)
-            f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=cur.structure_,
-                             fit_theta=False, max_nfev=8 if structure.nonlinear else 40)
+            base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
+            structure = EFFECTS[name].augment(base, EFFECTS[name].start)
+            f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
+                             fit_theta=False, max_nfev=40)
             f.fit(self.measured_, self._scale_for(structure, ctx.n), cur.theta_)
             out[name] = {"chi2": f.chi2_, "values": f.effect_values_}
         return out

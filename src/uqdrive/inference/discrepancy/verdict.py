@@ -39,8 +39,11 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
         if family_of(name) in FAMILIES:
             entry["parameters"]["channel"] = EFFECTS[name].channel
         effects.append(entry)
-    left = significant and not finder.unresolved_.get("explains_gap") and not (named and (explains or gap1 <= 0.5 * gap0))
-    if left:  # a part is explained at most: the rest is real but unnamed
+    catch_z, p_catch = smooth_discrepancy(base.z_)
+    margin, per_param = finder._criterion(band)
+    catch_better = float(np.sum(catch_z**2)) + per_param * p_catch < finder._chi2(aug) + per_param * len(aug.parameter_names) - margin
+    left = significant and not finder.unresolved_.get("explains_gap") and (not named or (not explains and catch_better))
+    if left:  # nothing named, or a part explained: the rest is real but unnamed
         effects.append({"effect": "unrecognised", "registry_name": "", "parameters": {}, "ambiguous_with": [], "gap_after": round(gap1, 4)})
     effect_name = effects[0]["effect"] if effects else "none"
     first = finder.steps_[0] if named else None
@@ -53,8 +56,6 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
         fb, fband = first["fit"], first["band"]
         summary[first["name"]].update(max_statistic=round(fband.max_statistic(fb.z_), 3), gap_after=round(excess_rms(fb.z_, fband), 4),
                                       explains=bool(first["explains"]))
-    catch_z, p_catch = smooth_discrepancy(base.z_)
-    margin, _ = finder._criterion(band)
     verdict = {
         "effect": effect_name,
         "ambiguous_with": effects[0]["ambiguous_with"] if effects else [],
@@ -88,6 +89,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
                            "mean_square_null": round(after_band.mean_square_null, 4), "replicates": int(after_band.max_null.size)} if named else {},
             "steps": [{"effect": s["name"], "chi2": round(s["fit"].chi2_, 2), "explains": s["explains"], "candidates": s["candidates"]} for s in finder.steps_],
             "removed": finder.removed_,
+            "rejected": finder.rejected_,
             "unresolved": dict(finder.unresolved_),
             "catch_all": {"chi2": round(float(np.sum(catch_z**2)), 2), "parameters": p_catch, "max_statistic": round(band.max_statistic(catch_z), 3)},
             "screening": {c: round(v["chi2"], 2) for c, v in sorted(finder.screening_.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])},
