@@ -13,7 +13,7 @@ from .band import STATISTICS, excess_rms
 from .catchall import smooth_discrepancy
 from .effectset import family_of
 
-__all__ = ["distributions", "assemble_verdict", "localise"]
+__all__ = ["distributions", "assemble_verdict", "localise", "model_document"]
 
 
 def distributions(theta) -> dict:
@@ -127,3 +127,14 @@ def localise(time, z, band, limit: int = 20):
                 out.append({"signal": signal, "statistic": stat, "t_start": float(t[a]), "t_end": float(t[b - 1]), "score": round(float(s), 3)})
     out.sort(key=lambda e: -e["score"])
     return out[:limit]
+
+
+def model_document(aug, config, verdict) -> dict:
+    """``model.yaml`` content: the baseline, every added effect with its fitted parameters, the
+    distributions of the fit ``aug`` (a :class:`.fit.StructureFit`) and the verdict's names."""
+    effects = {name: dict(params) for name, params in aug.structure_.effects}
+    d = distributions(aug.theta_)
+    d["m_load"] = dict(config["uncertainty"]["m_load"])
+    return {"uqdrive_model": 1, "baseline": "lst", "effects": effects, "distributions": d,
+            "wind_sigma": float(config["wind"]["sigma"]), "verdict": verdict["effect"],
+            "verdict_effects": [e["effect"] for e in verdict["effects"]]}
