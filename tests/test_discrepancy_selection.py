@@ -157,3 +157,16 @@ def test_two_hidden_effects_are_both_named_and_the_model_continues(combined, cap
     e = json.loads((combined / "ident" / "estimate.json").read_text())
     assert set(e["effects"]) == {"road_bank", "sensor_bias_psi_dot"}
     capsys.readouterr()
+
+
+def test_a_non_linear_probe_is_finished_when_in_reach(config):
+    """The short fit of a non-linear candidate is continued when it closed a quarter of what the
+    best linear candidate closed, or when no linear candidate closed anything; else dropped."""
+    f = DiscrepancyFinder(config)
+    f.scale_, f._n = np.ones((2, 4, 10)), 1000
+    f.band_ = SimpleNamespace(mean_square_null=1.0)
+    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2)  # noqa: E731
+    cur, best_linear = fit(1000.0), fit(200.0)  # the linear candidate closes 800
+    assert f._in_reach(cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
+    assert not f._in_reach(cur, fit(810.0), [best_linear])  # 190 < 200
+    assert f._in_reach(cur, fit(1000.0), [fit(1100.0)]) and f._in_reach(cur, fit(1000.0), [])
