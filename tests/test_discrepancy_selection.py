@@ -170,3 +170,24 @@ def test_a_non_linear_probe_is_finished_when_in_reach(config):
     assert f._in_reach(cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
     assert not f._in_reach(cur, fit(810.0), [best_linear])  # 190 < 200
     assert f._in_reach(cur, fit(1000.0), [fit(1100.0)]) and f._in_reach(cur, fit(1000.0), [])
+
+
+def test_combined_figures_draw_one_line_per_case_and_a_note_without_cases():
+    import matplotlib.pyplot as plt
+
+    from uqdrive.plots.discrepancy import combined_confusion, gap_per_effect
+
+    label = {"name": "c", "effect": "road_bank", "effects": [{"effect": "road_bank"}, {"effect": "sensor_bias"}], "magnitude": 2.0}
+    verdict = {"effect": "sensor_bias", "gap_before": 10.0, "gap_after": 0.5, "ambiguous_with": [],
+               "effects": [{"effect": "sensor_bias", "gap_after": 6.0}, {"effect": "road_bank", "gap_after": 0.5}],
+               "distributions": {"before": {"mu": {"mean": 1.0}}, "after": {"mu": {"mean": 1.0}}}}
+    null = case_outcome({"name": "n", "effect": "none"}, {**verdict, "effect": "none", "effects": [], "gap_after": 10.0})
+    ds = benchmark_dataset([case_outcome(label, verdict), case_outcome(dict(label, name="d"), verdict), null])
+    fig = gap_per_effect(ds)
+    assert [list(line.get_ydata()) for line in fig.axes[0].lines] == [[10.0, 6.0, 0.5]] * 2
+    fig2 = combined_confusion(ds)
+    assert fig2.axes[0].images[0].get_array().sum() == 2
+    without = benchmark_dataset([null])
+    assert "no combined" in combined_confusion(without).axes[0].texts[0].get_text()
+    assert "no combined" in gap_per_effect(without).axes[0].texts[0].get_text()
+    plt.close("all")
