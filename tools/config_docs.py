@@ -225,7 +225,29 @@ def render() -> str:
         shown = yaml.safe_dump(value, default_flow_style=True, width=1000).strip().removesuffix("...").strip()
         rules = ", ".join(readers_of(key, readers) + (["(which jobs exist)"] if readers_of(key, dag) else [])) or "CLI only"
         lines.append(f"| `{key}` | `{shown}` | {schema_constraint(schema, key)} | {meaning.replace('|', '/')} | {rules} |")
+    present = {key for key, *_ in commented_leaves(CONFIG.read_text())}
+    for key, description in optional_keys(schema):
+        if key not in present:
+            rules = ", ".join(readers_of(key, readers)) or "(applied when the config is loaded)"
+            lines.append(f"| `{key}` | (absent) | {schema_constraint(schema, key)} | {description.replace('|', '/')} | {rules} |")
     return "\n".join(lines) + "\n"
+
+
+def optional_keys(schema: dict, node: dict | None = None, prefix: str = "") -> list[tuple[str, str]]:
+    """(dotted key, description) of each schema property that carries a description: the optional
+    keys the default config leaves out (documented by the schema, not by a default)."""
+    node, defs, out = schema if node is None else node, schema.get("$defs", {}), []
+    for name, sub in node.get("properties", {}).items():
+        key = f"{prefix}{name}"
+        target = sub
+        while "$ref" in target:
+            target = defs[target["$ref"].rsplit("/", 1)[-1]]
+        description = sub.get("description") or target.get("description")
+        if description:
+            out.append((key, description))
+        elif target.get("type") == "object":
+            out += optional_keys(schema, target, key + ".")
+    return out
 
 
 if __name__ == "__main__":

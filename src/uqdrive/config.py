@@ -4,6 +4,8 @@ Errors name the offending key (dotted) and say how to fix it; a config hash goes
 Beyond the schema: every number finite, physical ranges of what the models read
 (:data:`PHYSICAL_RANGES`) and cross-field checks. The default configuration ships inside the
 package (``default_config.yaml``, a byte-for-byte copy of the repository's ``config/config.yaml``).
+A validated config holds the car in the model's internal terms: a ``vehicle_file`` is applied and
+the vehicle section's engineering keys are converted by :mod:`uqdrive.vehicle_spec`.
 """
 
 from __future__ import annotations
@@ -21,7 +23,11 @@ import yaml
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
-__all__ = ["ConfigError", "load_config", "validate_config", "config_hash", "load_schema", "default_config_text",
+from ._errors import ConfigError
+from .vehicle_spec import ENGINEERING_KEYS, apply_vehicle_file, normalise_vehicle, vehicle_names  # noqa: F401
+from .vehicle_spec import read_vehicle_file as _read_vehicle_file
+
+__all__ = ["ConfigError", "load_config", "validate_config", "read_vehicle_file", "vehicle_names", "config_hash", "load_schema", "default_config_text",
            "PHYSICAL_RANGES", "DEFAULT_CONFIG_NAME", "config_value", "restrict_config", "merge_config", "override_config",
            "parse_overrides", "provenance"]
 
@@ -63,10 +69,6 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
 _MAX_TIME_POINTS = 10**6  # t_end / step: beyond it one trajectory does not fit in memory
 
 
-class ConfigError(ValueError):
-    """A configuration value is missing, misspelt, of the wrong type or out of range."""
-
-
 _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml: the same result, 20x faster
 
 
@@ -98,18 +100,18 @@ def _key(path) -> str:
     return ".".join(str(p) for p in path) or "<top level>"
 
 
-def _check_leaves(node, path=()) -> None:
+def _check_leaves(node, path=(), where: str = "config key '{}'") -> None:
     """Mapping keys are names and every number is finite (YAML .nan and .inf parse as floats)."""
     if isinstance(node, Mapping):
         for k, v in node.items():
             if not isinstance(k, str):
-                raise ConfigError(f"config key '{_key(path + (k,))}' is not a name; write keys as text")
-            _check_leaves(v, path + (k,))
+                raise ConfigError(f"{where.format(_key(path + (k,)))} is not a name; write keys as text")
+            _check_leaves(v, path + (k,), where)
     elif isinstance(node, list):
         for i, v in enumerate(node):
-            _check_leaves(v, path + (i,))
+            _check_leaves(v, path + (i,), where)
     elif isinstance(node, float) and not math.isfinite(node):
-        raise ConfigError(f"config key '{_key(path)}' is {node}; give a finite number")
+        raise ConfigError(f"{where.format(_key(path))} is {node}; give a finite number")
 
 
 _FIXES = {
@@ -126,17 +128,27 @@ _FIXES = {
 }
 
 
-def _schema_error(error) -> ConfigError:
+def _unit(dotted: str) -> str:
+    """The unit of a config key for messages ("" if it has none or is not known)."""
+    if dotted in PHYSICAL_RANGES:
+        return PHYSICAL_RANGES[dotted][-1]
+    parts = dotted.split(".")
+    return ENGINEERING_KEYS.get(parts[1] if parts[0] == "vehicle" and len(parts) > 1 else parts[0], ("",))[0]
+
+
+def _schema_error(error, where: str = "config key '{}'") -> ConfigError:
     path = list(error.absolute_path)
+    name = lambda p: where.format(_key(p))  # noqa: E731
     if error.validator == "additionalProperties":
         extra = sorted(map(str, set(error.instance) - set(error.schema.get("properties", {}))))
         allowed = ", ".join(sorted(error.schema.get("properties", {})))
-        return ConfigError(f"config key '{_key(path + extra[:1])}' is not known; allowed keys under '{_key(path)}' are: {allowed}")
+        return ConfigError(f"{name(path + extra[:1])} is not known; allowed keys under '{_key(path)}' are: {allowed}")
     if error.validator == "required":
         missing = [k for k in error.validator_value if isinstance(error.instance, Mapping) and k not in error.instance][:1]
-        return ConfigError(f"config key '{_key(path + missing)}' is missing; add it (the default: uqdrive config --dump -)")
+        return ConfigError(f"{name(path + missing)} is missing; add it (the default: uqdrive config --dump -)")
     fix = _FIXES.get(error.validator)
-    return ConfigError(f"config key '{_key(path)}': {error.message}" + (f"; {fix(error)}" if fix else ""))
+    unit = _unit(_key(path) if where.startswith("config") else "vehicle." + _key(path))
+    return ConfigError(f"{name(path)}{f' ({unit})' if unit and unit != '-' else ''}: {error.message}" + (f"; {fix(error)}" if fix else ""))
 
 
 def validate_config(config: Mapping[str, Any]) -> dict:
@@ -154,6 +166,11 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     error = best_match(_validator().iter_errors(cfg))
     if error is not None:
         raise _schema_error(error)
+    reference = cfg.pop("vehicle_file", None)
+    if reference is not None:
+        name, spec = read_vehicle_file(reference)
+        cfg = apply_vehicle_file(cfg, spec, name)
+    cfg = normalise_vehicle(cfg)
     _check_ranges(cfg)
     _check_semantics(cfg)
     return cfg
@@ -201,8 +218,28 @@ def _check_semantics(cfg: dict) -> None:
         raise ConfigError("config key 'wind.kle_truncation' must be positive")
 
 
-def load_config(path: str | Path | None = None) -> dict:
-    """Read a YAML configuration file (None: the packaged default) and validate it.
+def read_vehicle_file(reference: str | Path) -> tuple[str, dict]:
+    """The name and the checked content of a vehicle file: a packaged name or a YAML file's path
+    (:func:`uqdrive.vehicle_spec.read_vehicle_file`), validated by the schema's ``$defs/vehicle_file``."""
+    return _read_vehicle_file(reference, _check_vehicle_schema)
+
+
+def _check_vehicle_schema(spec: dict, label: str) -> None:
+    _check_leaves(spec, where=label)
+    error = best_match(_vehicle_validator().iter_errors(spec))
+    if error is not None:
+        raise _schema_error(error, label)
+
+
+@functools.lru_cache(maxsize=1)
+def _vehicle_validator() -> Draft202012Validator:
+    schema = _schema()
+    return Draft202012Validator({"$defs": schema["$defs"], **schema["$defs"]["vehicle_file"]})
+
+
+def load_config(path: str | Path | None = None, vehicle: str | Path | None = None) -> dict:
+    """Read a YAML configuration file (None: the packaged default) and validate it; ``vehicle``
+    (a packaged vehicle name or a vehicle file) replaces the car as the ``vehicle_file`` key does.
 
     Raises
     ------
@@ -229,6 +266,8 @@ def load_config(path: str | Path | None = None) -> dict:
         raise ConfigError(f"config file '{name}' is not valid YAML: {reason}") from None
     if not isinstance(data, dict):
         raise ConfigError(f"config file '{name}' must hold a mapping of keys (start from: uqdrive config --dump FILE)")
+    if vehicle is not None:
+        data["vehicle_file"] = str(vehicle)
     return validate_config(data)
 
 

@@ -59,7 +59,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
-    succeeded, so a failure leaves no verdict behind.
+    succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
+    replaces the config's ``vehicle.speed_kmh`` where they differ.
     """
     names = _checked_candidates(candidates)
     start = _start_model(model) if model is not None else None
@@ -69,6 +70,9 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
         raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
+    v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
+    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
+        config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
     finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
@@ -87,12 +91,15 @@ def _start_model(path: Path) -> dict:
 
 
 def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
-    """verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing)."""
+    """verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing; missing
+    parent folders are created, and removed again when the writing fails)."""
     from ..plots.discrepancy import bands_before_after, localisation_map
     from ..plots.figure import save_figure
 
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
+    created = [p for p in (parent, *parent.parents) if not p.exists()]
+    parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     try:
         (tmp / "verdict.json").write_text(json.dumps(verdict, indent=2) + "\n")
@@ -109,3 +116,8 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+        for folder in created if not out.exists() else ():
+            try:
+                folder.rmdir()
+            except OSError:
+                pass  # someone else put files there meanwhile: leave it

@@ -1,6 +1,6 @@
 """Command line of uqdrive: ``simulate`` writes an ensemble in the data schema, ``identify`` fits
 the parameter distributions to one, ``discover`` finds and names what the model misses in one,
-``config`` writes out or checks a configuration.
+``config`` writes out or checks a configuration, ``vehicles`` lists the packaged vehicle files.
 
 Every refusal is one line on stderr naming the field and the fix, exit code 2, and nothing is
 written; SIGINT/SIGTERM end a run cleanly (temporaries removed, exit 128 + signal number).
@@ -26,6 +26,8 @@ __all__ = ["main", "build_parser", "Interrupted"]
 CONFIG_HELP = (f"YAML config (default: the packaged {DEFAULT_CONFIG_NAME}, identical to the repository's "
                "config/config.yaml; write it out to edit with 'uqdrive config --dump FILE')")
 FORCE_HELP = "replace an existing output (atomically); without it an existing output is refused"
+VEHICLE_HELP = ("the car: a packaged vehicle name ('uqdrive vehicles' lists them) or a vehicle file NAME.yaml; replaces the "
+                "config's car (vehicle section but speed_kmh, g; l_f mean; tyre C, E when the file gives them)")
 IDENTIFY_OUTPUTS = ("estimate.json", "fit.png")
 
 
@@ -35,6 +37,27 @@ class Interrupted(BaseException):
     def __init__(self, signum: int):
         super().__init__(signum)
         self.signum = signum
+
+
+def _load(args) -> dict:
+    """The config of ``--config`` with the car of ``--vehicle`` (if given)."""
+    return load_config(args.config, vehicle=getattr(args, "vehicle", None))
+
+
+def _speed_notice(config, measured: Path) -> None:
+    """One line when the data's speed (attribute v_c) replaced the config's vehicle.speed_kmh, once
+    the command succeeded (a refusal stays one line: the reader names what is wrong)."""
+    try:
+        import xarray as xr
+
+        with xr.open_dataset(measured) as ds:
+            v_c = float(ds.attrs["v_c"])
+    except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
+        return
+    kmh = float(config["vehicle"]["speed_kmh"])
+    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
+        stderr_line(f"uqdrive: note: the data's speed v_c = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's "
+                    f"vehicle.speed_kmh = {kmh:g} km/h")
 
 
 # -- subcommands --------------------------------------------------------------------------------
@@ -53,6 +76,7 @@ def _add_simulate(sub) -> None:
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
                    help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file (its folder must exist)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(run=_simulate)
@@ -67,7 +91,7 @@ def _simulate(args) -> None:
     from ..vehicle.noise import noisy_ensemble
     from ..vehicle.single_track import STATES
 
-    config = load_config(args.config)
+    config = _load(args)
     check_writable(args.out, overwrite=args.force)
     if args.model not in ("lst", "nlst"):
         from .model import simulate_model
@@ -111,6 +135,7 @@ def _add_identify(sub) -> None:
                    help="identify with the augmented model that 'uqdrive discover' wrote (its effects held at their fitted "
                         "values, distributions fitted on common random numbers) instead of the Table 5.4 chaos model")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder for estimate.json and fit.png (created only once the input is accepted)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
@@ -121,17 +146,19 @@ def _identify(args) -> None:
     from ..io import check_output_folder
     from .identify import identify_file
 
-    config = load_config(args.config)
+    config = _load(args)
     check_output_folder(args.out, IDENTIFY_OUTPUTS, overwrite=args.force)
     if args.model is not None:
         from .model import identify_with_model
 
         s = identify_with_model(config, args.measured, args.model, args.out)
+        _speed_notice(config, args.measured)
         print(f"wrote {Path(args.out) / 'estimate.json'}: mu N({s['mu'][0]:.4f}, {s['mu'][1]:.4f}), l_f N({s['l_f'][0]:.4f}, "
               f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}")
         return
     summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, args.out,
                             state_scale=args.state_scale, overwrite=args.force)
+    _speed_notice(config, args.measured)
     state = "converged" if summary["converged"] else "DID NOT CONVERGE, see warnings in estimate.json"
     fmt = lambda v, n: tuple(None if x is None else round(x, n) for x in v)  # noqa: E731
     print(f"wrote {Path(args.out) / 'estimate.json'}: mu N{fmt(summary['mu'], 4)}, l_f N{fmt(summary['l_f'], 4)}, "
@@ -182,7 +209,9 @@ def _add_discover(sub) -> None:
                         "tyre_saturation, actuator_lag, actuator_delay, road_bank, wind_gust, lateral_kinematics, "
                         "sensor_bias, sensor_scale (or one channel, e.g. sensor_bias_psi_dot)")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (written whole, only once the run succeeded)")
+    p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder (written whole, only once the run succeeded; missing parent folders are created then)")
     p.add_argument("--posterior", action=argparse.BooleanOptionalAction, default=None,
                    help="sample the emcee posterior of the repaired model into verdict.json (--posterior) or never "
                         "(--no-posterior); default: as config discrepancy.posterior says (enabled, for the effects listed)")
@@ -196,21 +225,56 @@ def _add_discover(sub) -> None:
 def _discover(args) -> None:
     from .discover import discover_file
 
-    config = load_config(args.config)
+    config = _load(args)
     out = Path(args.out)
     if out.exists() and not args.force:
         raise OutputError(f"output folder '{out}' exists; pass --force to replace it or choose another --out")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise OutputError(f"output folder's parent '{parent}' does not exist; create it first")
+    existing = next(p for p in out.parents if p.exists())
+    if not existing.is_dir():
+        raise OutputError(f"output folder '{out}' lies below '{existing}', which is not a folder; choose another --out")
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     v = discover_file(config, args.measured, candidates, out, posterior=args.posterior, model=args.model)
+    _speed_notice(config, args.measured)
     named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
     print(f"wrote {out / 'verdict.json'}: effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
           + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
 
 
-SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config)
+def _add_vehicles(sub) -> None:
+    p = sub.add_parser("vehicles", help="list the packaged vehicle files (or check given ones) with their main numbers",
+                       description="List the packaged vehicle files, or check the named ones or vehicle files, with their "
+                                   "main numbers in engineering units and the model's internal constants derived from them "
+                                   "(with the tyre C, E and g of --config where a file does not give them).")
+    p.add_argument("vehicles", nargs="*", metavar="NAME|FILE", help="vehicle names or files (default: every packaged vehicle)")
+    p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
+    p.set_defaults(run=_vehicles)
+
+
+def _vehicles(args) -> None:
+    from ..vehicle.car import engineering_terms, vehicle_names
+
+    rows = []
+    for name in args.vehicles or vehicle_names():
+        config = load_config(args.config, vehicle=name)
+        e, v = engineering_terms(config), config["vehicle"]
+        rows.append((v["name"], f"{e['mass']:.6g}", f"{e['yaw_inertia']:.6g}", f"{e['wheelbase']:.5g}", f"{e['l_f']:.5g}",
+                     f"{e['cornering_stiffness_front'] / 1e3:.4g}", f"{e['cornering_stiffness_rear'] / 1e3:.4g}",
+                     f"{e['C']:.5g}", f"{e['E']:.5g}", f"{v['J0']:.5g}", f"{v['c_Sf']:.5g}", f"{v['c_Sr']:.5g}",
+                     _description(name)))
+    head = ("vehicle", "mass kg", "I_z kg m^2", "L m", "l_f m", "C_af kN/rad", "C_ar kN/rad", "C", "E", "J0 m^2", "c_Sf", "c_Sr",
+            "description")
+    widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
+    for row in [head, *rows]:
+        print("  ".join(c.ljust(w) if i in (0, len(row) - 1) else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))).rstrip())
+
+
+def _description(reference: str) -> str:
+    from ..config import read_vehicle_file
+
+    return read_vehicle_file(reference)[1]["description"]
+
+
+SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_vehicles)
 
 
 # -- parser and shared error handling -------------------------------------------------------------

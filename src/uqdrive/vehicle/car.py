@@ -1,5 +1,12 @@
 """The car as an engineer describes it: the optional vehicle quantities that only some computations
-need (centre-of-gravity height, track width, steering ratio), read with an error that names the key.
+need (centre-of-gravity height, track width, steering ratio), read with an error that names the key,
+and the engineering terms of the vehicle section.
+
+The derivation of the model's internal constants from the engineering keys (mass, yaw inertia,
+centre-of-gravity position, cornering stiffness in N/rad or Magic-Formula factors per axle) and
+its inverse live in :mod:`uqdrive.vehicle_spec`, re-exported here: the config loader, a layer
+below this package, applies them when a config is read, so that every reader of
+``config["vehicle"]`` sees the internal constants.
 """
 
 from __future__ import annotations
@@ -7,8 +14,9 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from ..config import ConfigError
+from ..vehicle_spec import ENGINEERING_KEYS, engineering_terms, internal_constants, vehicle_names
 
-__all__ = ["OPTIONAL_QUANTITIES", "require"]
+__all__ = ["OPTIONAL_QUANTITIES", "ENGINEERING_KEYS", "require", "engineering_terms", "internal_constants", "vehicle_names"]
 
 #: Optional keys of the config's ``vehicle`` section: key -> (unit, meaning).
 OPTIONAL_QUANTITIES = {
