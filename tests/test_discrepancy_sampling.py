@@ -72,12 +72,15 @@ def test_held_delay_and_lag_follow_the_held_command():
 def test_reconstruction_error_and_resolution_rules():
     """Golden values: half of each step change, RMS; a delay below one sample and a lag whose
     change of the input stays within the reconstruction error are not resolvable."""
-    assert reconstruction_error(np.array([0.0, 1.0, 1.0]), 0.01) == pytest.approx(np.sqrt(0.25 / 2))
+    assert reconstruction_error(np.array([0.0, 1.0, 1.0]), 0.01) == pytest.approx(np.sqrt(0.25 / 3))
+    assert reconstruction_error(np.array([1.0, 1.0, 1.0]), 0.01) == pytest.approx(np.sqrt(0.25 / 3))  # the jump at t = 0
     t = np.arange(1001) * 0.01
     u = 0.05 * np.sin(2 * np.pi * 0.5 * t)
     assert not resolvable("actuator_delay", [0.0043], u, 0.01)[0]
     assert resolvable("actuator_delay", [0.05], u, 0.01)[0]
     assert not resolvable("actuator_lag", [0.002], u, 0.01)[0]
+    slalom = 0.05 * np.cos(2 * np.pi * t / 4.0)  # starts at its amplitude: a step at t = 0 as well
+    assert not resolvable("actuator_lag", [0.0036], slalom, 0.01)[0] and resolvable("actuator_lag", [0.05], slalom, 0.01)[0]
     assert resolvable("actuator_lag", [0.05], u, 0.01)[0]
     assert resolvable("road_bank", [0.1], u, 0.01)[0]
 

@@ -35,9 +35,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
+from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import yaml
 
 from ..rng import rng_stream
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formula
@@ -132,9 +134,8 @@ class HiddenEffectCase:
             raise ValueError(f"{self.name}: hold must be 'linear' or 'previous'; got '{self.hold}'")
         if extra and self.effect == "none":
             raise ValueError(f"{self.name}: a combined case has a primary effect other than 'none'")
-        names = [self.effect] + [e for e, _, _ in extra]
         if any(e == "none" for e, _, _ in extra) or len({(e, c) for e, _, c in self.effects}) != len(self.effects):
-            raise ValueError(f"{self.name}: the effects of a combined case are distinct and not 'none': {names}")
+            raise ValueError(f"{self.name}: the effects of a combined case are distinct and not 'none': {self.effects}")
         for e, m, c in extra:
             HiddenEffectCase(f"{self.name}/{e}", e, m, self.manoeuvre, self.manoeuvre_params, channel=c)  # each checked alone
         if self.effect not in EFFECTS:
@@ -288,22 +289,13 @@ def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
 def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=None, kle: KarhunenLoeve | None = None):
     """Clean (noise- and sensor-error-free) response of the case's reality.
 
-    Parameters
-    ----------
-    config : mapping
-        Validated uqdrive configuration (vehicle, tyre, uncertainty, wind, time).
-    case : HiddenEffectCase
-    draws : dict, optional
-        Output of :func:`draw_realisations` (drawn if omitted).
-    kle : KarhunenLoeve, optional
-        KLE of the unit wind on [0, t_end] (computed from the config if omitted).
+    ``config``: validated (vehicle, tyre, uncertainty, wind, time); ``draws``: output of
+    :func:`draw_realisations` and ``kle`` the unit wind's KLE on [0, t_end] (made if omitted).
 
     Returns
     -------
-    t : ndarray, shape (T,)
-        Output times (s).
-    delta : ndarray, shape (T,)
-        Commanded steering angle (rad).
+    t, delta : ndarray, shape (T,)
+        Output times (s) and commanded steering angle (rad).
     x : ndarray, shape (4, samples, T)
         True states psi, psi_dot, beta, y.
     """
@@ -392,54 +384,9 @@ def case_label(case: HiddenEffectCase) -> dict[str, Any]:
     }
 
 
-# name, effect, magnitude, manoeuvre, manoeuvre params, channel, shift, noise
-_BENCHMARK = [
-    ("none_thesis_slalom", "none", 0.0, "slalom", {"amplitude_deg": 5.0, "period": 4.0}, None, {}, 0.01),
-    ("none_step", "none", 0.0, "step", {"amplitude_deg": 2.0}, None, {}, 0.02),
-    ("none_chirp_mu_low", "none", 0.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.01),
-    ("none_lane_change", "none", 0.0, "lane_change", {"amplitude_deg": 3.0}, None, {"l_f": (1.45, 0.15)}, 0.02),
-    ("none_slalom_inverted", "none", 0.0, "slalom", {"amplitude_deg": 3.0, "period": 3.0, "sign": -1.0}, None, {"F_w_mean": (-200.0, 300.0)}, 0.01),
-    ("none_slalom_slow", "none", 0.0, "slalom", {"amplitude_deg": 2.0, "period": 6.0, "phase": 0.5}, None, {"m_load": (150.0, 40.0)}, 0.015),
-    ("tyre_saturation_3deg", "tyre_saturation", 3.0, "slalom", {"period": 3.0, "sign": -1.0}, None, {}, 0.01),
-    ("tyre_saturation_5deg", "tyre_saturation", 5.0, "lane_change", {}, None, {"mu": (0.9, 0.15)}, 0.02),
-    ("actuator_lag_80ms", "actuator_lag", 0.08, "chirp", {"amplitude_deg": 2.0}, None, {}, 0.01),
-    ("actuator_lag_200ms", "actuator_lag", 0.2, "step", {"amplitude_deg": 2.0, "ramp": 0.3}, None, {}, 0.02),
-    ("actuator_delay_50ms", "actuator_delay", 0.05, "lane_change", {"amplitude_deg": 3.0}, None, {}, 0.01),
-    ("actuator_delay_150ms", "actuator_delay", 0.15, "slalom", {"amplitude_deg": 2.0, "period": 2.5}, None, {}, 0.02),
-    ("road_bank_1deg", "road_bank", 1.0, "step", {"amplitude_deg": 2.0, "sign": -1.0}, None, {}, 0.01),
-    ("road_bank_3deg", "road_bank", 3.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.02),
-    ("wind_gust_x3", "wind_gust", 3.0, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, None, {}, 0.01),
-    ("wind_gust_x6", "wind_gust", 6.0, "lane_change", {"amplitude_deg": 2.0}, None, {}, 0.02),
-    ("lateral_kinematics_3deg", "lateral_kinematics", 3.0, "slalom", {"period": 6.0}, None, {}, 0.01),
-    ("lateral_kinematics_6deg", "lateral_kinematics", 6.0, "lane_change", {}, None, {}, 0.02),
-    ("sensor_bias_psi_dot_small", "sensor_bias", 0.005, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.01),
-    ("sensor_bias_psi_dot", "sensor_bias", 0.01, "step", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
-    ("sensor_bias_beta", "sensor_bias", 0.004, "slalom", {"amplitude_deg": 3.0, "period": 3.0}, "beta", {}, 0.01),
-    ("sensor_bias_y", "sensor_bias", 0.3, "lane_change", {"amplitude_deg": 3.0}, "y", {}, 0.02),
-    ("sensor_scale_psi_dot_110", "sensor_scale", 1.1, "lane_change", {"amplitude_deg": 3.0}, "psi_dot", {}, 0.01),
-    ("sensor_scale_psi_dot_125", "sensor_scale", 1.25, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
-    ("sensor_scale_beta_125", "sensor_scale", 1.25, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, "beta", {}, 0.01),
-]
-
-
-# Several hidden effects at once: name, [(effect, magnitude, channel), ...], manoeuvre, params, shift, noise
-_COMBINED = [
-    ("combined_course_lag", [("lateral_kinematics", 5.0, None), ("actuator_lag", 0.15, None)], "lane_change", {}, {}, 0.01),
-    ("combined_saturation_lag", [("tyre_saturation", 5.0, None), ("actuator_lag", 0.1, None)], "slalom", {"period": 3.0}, {}, 0.01),
-    ("combined_bank_bias", [("road_bank", 2.0, None), ("sensor_bias", 0.01, "psi_dot")], "chirp", {"amplitude_deg": 2.0}, {}, 0.01),
-    ("combined_gust_delay", [("wind_gust", 4.0, None), ("actuator_delay", 0.1, None)], "slalom", {"amplitude_deg": 3.0, "period": 4.0}, {}, 0.01),
-    ("combined_bank_scale", [("road_bank", 1.5, None), ("sensor_scale", 1.2, "beta")], "step", {"amplitude_deg": 2.0, "sign": -1.0}, {"mu": (0.9, 0.15)}, 0.02),
-    ("combined_course_bank_lag", [("lateral_kinematics", 4.0, None), ("road_bank", 1.0, None), ("actuator_lag", 0.1, None)], "slalom",
-     {"period": 5.0}, {}, 0.01),
-]
-
-# Null cases whose command is held between the samples of the 10 ms grid (pulses and steps as a
-# digital controller sends them), at 300 realisations or fewer: name, manoeuvre, params, samples, shift, noise
-_HELD_NULL = [
-    ("none_pulse_held", "pulse", {"amplitude_deg": 2.0, "width": 0.5}, 300, {}, 0.01),
-    ("none_step_held", "step", {"amplitude_deg": 2.0, "ramp": 0.05}, 250, {"l_f": (1.45, 0.15)}, 0.015),
-    ("none_pulse_held_long", "pulse", {"amplitude_deg": 3.0, "width": 1.5, "sign": -1.0}, 200, {"mu": (0.9, 0.15)}, 0.01),
-]
+def _case_tables() -> dict:
+    """The case tables of ``hidden_cases.yaml`` (package data)."""
+    return yaml.safe_load(resources.files("uqdrive.studies").joinpath("hidden_cases.yaml").read_text())
 
 
 def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
@@ -455,17 +402,17 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
         Realisations per case (config ``montecarlo.samples`` by default).
     """
     n = int(config["montecarlo"]["samples"] if samples is None else samples)
-    root = int(config["seed"])
+    root, tables = int(config["seed"]), _case_tables()
     cases = [
         HiddenEffectCase(name, effect, size, manoeuvre, params, n, root + 101 + i, channel, shift, noise)
-        for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(_BENCHMARK)
+        for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(tables["single"])
     ]
-    start = root + 101 + len(_BENCHMARK)
-    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(_COMBINED):
+    start = root + 101 + len(tables["single"])
+    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(tables["combined"]):
         (effect, size, channel), extra = effects[0], effects[1:]
         cases.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
-    start += len(_COMBINED)
-    for i, (name, manoeuvre, params, held_samples, shift, noise) in enumerate(_HELD_NULL):
+    start += len(tables["combined"])
+    for i, (name, manoeuvre, params, held_samples, shift, noise) in enumerate(tables["held_null"]):
         cases.append(HiddenEffectCase(name, "none", 0.0, manoeuvre, params, min(n, held_samples), start + i, None, shift, noise, hold="previous"))
     st = config["steering"]
     thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",

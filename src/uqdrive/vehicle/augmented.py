@@ -126,31 +126,28 @@ def actual_steering(delta, dt: float, lag: float = 0.0, delay: float = 0.0, inte
         q = int(np.floor(delay / dt + 1e-9))
         r = max(delay - q * dt, 0.0)
 
-        def held(i):
-            i = np.asarray(i)
-            return np.where(i >= 0, u[np.clip(i, 0, u.size - 1)], 0.0)
-
+        held = lambda i: np.where(np.asarray(i) >= 0, u[np.clip(i, 0, u.size - 1)], 0.0)  # noqa: E731
         if lag <= 0:
             return held(held_index(t, dt, delay))
-        from scipy.signal import lfilter
-
         a = np.exp(-dt / lag)
         a_r = np.exp(-(dt - r) / lag) if r > 0 else a
         k = np.arange(u.size - 1)
-        drive = (a_r - a) * held(k - q - 1) + (1.0 - a_r) * held(k - q)
-        x, _ = lfilter([1.0], [1.0, -a], drive, zi=[0.0])
-        return np.concatenate([[0.0], x])
+        return _lag_filter((a_r - a) * held(k - q - 1) + (1.0 - a_r) * held(k - q), a)
     if delay > 0:
         u = np.interp(t - delay, t, u, left=0.0)
     if lag <= 0:
         return u
-    from scipy.signal import lfilter
-
     a = np.exp(-dt / lag)
     b0 = 1.0 - lag * (1.0 - a) / dt
     b1 = lag * (1.0 - a) / dt - a
     # the step 0 -> u[0] at t = 0 arrives within the first interval (a linear ramp there)
-    drive = b0 * u[1:] + b1 * u[:-1]
+    return _lag_filter(b0 * u[1:] + b1 * u[:-1], a)
+
+
+def _lag_filter(drive, a: float):
+    """x_0 = 0, x_{k+1} = a x_k + drive_k: the lag's recursion, shape (len(drive) + 1,)."""
+    from scipy.signal import lfilter
+
     x, _ = lfilter([1.0], [1.0, -a], drive, zi=[0.0])
     return np.concatenate([[0.0], x])
 
@@ -168,9 +165,10 @@ def held_integral(delta, dt: float, delay: float = 0.0):
 def reconstruction_error(delta, dt: float) -> float:
     """RMS (rad) of the difference between the linear and the held reconstruction of a sampled
     command at mid-sample times: how well the samples alone define the input. An effect that
-    changes the input by less (a short lag) cannot be told from the choice of reconstruction."""
-    u = np.asarray(delta, float)
-    return float(np.sqrt(np.mean((0.5 * (u[1:] - u[:-1])) ** 2))) if u.size > 1 else 0.0
+    changes the input by less (a short lag) cannot be told from the choice of reconstruction.
+    The wheel is straight before t = 0, so a command that starts away from 0 jumps there too."""
+    u = np.concatenate([[0.0], np.asarray(delta, float)])
+    return float(np.sqrt(np.mean((0.5 * np.diff(u)) ** 2)))
 
 
 class AugmentedSimulator:

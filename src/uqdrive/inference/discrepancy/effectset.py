@@ -105,7 +105,8 @@ def resolvable(name: str, values, delta, dt: float) -> tuple[bool, str]:
     if name == "actuator_delay" and v < dt:
         return False, f"delay {v * 1e3:.2g} ms below one sample ({dt * 1e3:.3g} ms)"
     if name == "actuator_lag":
-        moved = float(np.sqrt(np.mean((actual_steering(delta, dt, lag=max(v, 0.0)) - np.asarray(delta, float)) ** 2)))
+        # from the first step on: at t = 0 any lag holds the wheel at 0 whatever its size
+        moved = float(np.sqrt(np.mean((actual_steering(delta, dt, lag=max(v, 0.0)) - np.asarray(delta, float))[1:] ** 2)))
         floor = reconstruction_error(delta, dt)
         if moved <= floor:
             return False, f"lag {v * 1e3:.2g} ms moves the input by {moved:.2g} rad RMS, within its reconstruction error {floor:.2g} rad"
