@@ -233,8 +233,7 @@ class DiscrepancyFinder:
 
     # -- forward selection and backward check --------------------------------------------------
     def _criterion(self, band):
-        """Null-calibrated terms: the tie margin (2 null sd of chi2) and the penalty per fitted
-        parameter (2 x the time-correlation inflation), in chi2 units."""
+        """Null-calibrated tie margin (2 null sd of chi2) and penalty per parameter (2 x inflation)."""
         return 2.0 * band.chi2_null_sd, 2.0 * band.inflation
 
     def _chi2(self, fit) -> float:
@@ -261,9 +260,16 @@ class DiscrepancyFinder:
             if not pool:
                 break
             screening = self._screen(ctx, cur, pool)
-            linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: self.top]
+            # on a non-linear model: the best-ranked linear candidate, finished if its short fit pays
+            linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if cur.structure_.nonlinear else self.top]
             tried = linear + [c for c in pool if self._nonlinear(c)]  # non-linear ones always fitted jointly
-            fits = {c: self._joint(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]}) for c in linear}
+            fits, (margin, per_param) = {}, self._criterion(cur_band)
+            for c in linear:
+                budget = PROBE_NFEV if cur.structure_.nonlinear else None
+                fits[c] = self._joint(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
+                if budget and self._chi2(cur) - self._chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
+                    start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
+                    fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
             for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
                 short = self._joint(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]}, max_nfev=PROBE_NFEV)
                 if self._in_reach(cur, short, [fits[k] for k in linear]):
@@ -366,11 +372,8 @@ class DiscrepancyFinder:
         return sim.with_germs(self._raw_germs.head(self.nonlinear_samples)) if structure.nonlinear else sim
 
     def _screen(self, ctx, cur, pool):
-        """Each candidate's own parameters fitted on top of the current model ``cur`` with the
-        distributions and the effects already added held at cur's estimate: a cheap ranking of
-        the linear candidates (the non-linear ones are fitted jointly whatever their rank). A
-        current model with a non-linear tyre is ranked on with its linear tyre (its joint fits
-        are the expensive part: the ranking only picks which to run)."""
+        """Each linear candidate's own parameters fitted on top of ``cur`` (distributions and
+        effects held; a non-linear tyre linearised): a cheap ranking of which to fit jointly."""
         out = {}
         for name in pool:
             if self._nonlinear(name):
@@ -402,11 +405,9 @@ class DiscrepancyFinder:
 
     # -- verdict ------------------------------------------------------------------------------
     def _own_band(self, ctx, name, fit, band, key: int = 1):
-        """The null band of a model with named effects: an effect that changes the variance
-        structure (a stronger gust, a sensor gain) changes the sampling spread the band
-        normalises by, so the augmented model is judged against its own parametric bootstrap.
-        A non-linear model keeps the baseline's band (its bootstrap, B x n realisations by RK4,
-        would cost minutes)."""
+        """The null band of a model with named effects: its own bootstrap (a stronger gust or a
+        sensor gain changes the spread the band normalises by); a non-linear model keeps the
+        baseline's (its bootstrap, B x n realisations by RK4, would cost minutes)."""
         if fit.structure_.nonlinear:
             return band, "baseline"
         return self._null_band(ctx, fit, key=key), "own"
