@@ -27,7 +27,7 @@ reproduce: $(PYTHON)
 	@echo "report: results/report.html, scorecard: results/scorecard.csv"
 
 # make sweep SWEEP=config/sweeps/NAME.yaml: every point into results/sweeps/NAME/<point>/, then
-# results/sweeps/NAME/summary.{nc,csv,png}, then the report (README "Sweeping a config value").
+# results/sweeps/NAME/summary.{nc,csv,png}, then the report (docs/workflow.md, "Changing and sweeping config values").
 # The target comes first: --configfile takes every word after it as a config file.
 .PHONY: sweep
 sweep: $(PYTHON)
@@ -39,20 +39,32 @@ sweep: $(PYTHON)
 
 test: $(PYTHON)
 	$(INSTALL_LOCK)
-	$(PYTHON) -m pip install --quiet --no-deps -e ".[test]"
+	$(PYTHON) -m pip install --quiet --no-deps -e ".[test,docs]"
 	@$(PYTHON) -m compileall -q src/uqdrive
 	$(PYTHON) -m pytest
 
-# requirements.lock: the exact versions make reproduce and make test install (pyproject.toml keeps
-# lower bounds for library users). Refreshed from a fresh venv with uqdrive and its test extra.
+# make docs: the documentation site into docs/_build/html (open docs/_build/html/index.html).
+# Warnings are errors; --keep-going lists all of them before failing. tests/test_docs.py runs the
+# same build (SPHINX_BUILD below) inside make test, so CI builds the site on every run.
+SPHINX_BUILD = -m sphinx -b html -W --keep-going -q -j auto
+.PHONY: docs
+docs: $(PYTHON)
+	$(INSTALL_LOCK)
+	$(PYTHON) -m pip install --quiet --no-deps -e ".[docs]"
+	$(PYTHON) $(SPHINX_BUILD) docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
+# requirements.lock: the exact versions make reproduce, make test and make docs install
+# (pyproject.toml keeps lower bounds for library users). Refreshed from a fresh venv with uqdrive
+# and its test and docs extras.
 .PHONY: lock
 lock:
 	tmp=$$(mktemp -d) && trap 'rm -rf "$$tmp"' EXIT && \
 	python3 -m venv "$$tmp/venv" && \
 	"$$tmp/venv/bin/python" -m pip install --quiet --upgrade pip && \
-	"$$tmp/venv/bin/python" -m pip install --quiet -e ".[test]" && \
-	{ echo "# Exact versions of uqdrive's dependencies and test extra: make reproduce and make test install"; \
-	  echo "# these, then uqdrive itself with --no-deps. Written by make lock ($$("$$tmp/venv/bin/python" -V), $$(uname -sm))."; \
+	"$$tmp/venv/bin/python" -m pip install --quiet -e ".[test,docs]" && \
+	{ echo "# Exact versions of uqdrive's dependencies and its test and docs extras: make reproduce, make test"; \
+	  echo "# and make docs install these, then uqdrive itself with --no-deps. Written by make lock ($$("$$tmp/venv/bin/python" -V), $$(uname -sm))."; \
 	  "$$tmp/venv/bin/python" -m pip freeze --exclude-editable; } > requirements.lock.new && \
 	mv requirements.lock.new requirements.lock
 	@echo "requirements.lock: $$(grep -vc '^#' requirements.lock) packages"

@@ -64,13 +64,22 @@ def _background():
 
 
 @pytest.fixture(scope="session")
-def second_run(tmp_path_factory, _background):
-    """The folder of the second DAG run (cluster executor, Ctrl-C, make reproduce, kill -9, make
-    reproduce: tests/dag_runs.py) and the future of what each step did; started, not awaited."""
+def slurm():
+    """None where Slurm takes jobs, else why not (tests/dag_runs.py slurm_unreachable)."""
+    from dag_runs import slurm_unreachable
+
+    return slurm_unreachable()
+
+
+@pytest.fixture(scope="session")
+def second_run(tmp_path_factory, _background, slurm):
+    """The folder of the second DAG run (make reproduce, kill -9, then the Slurm run with Ctrl-C,
+    scancel and resumption where Slurm answers, make reproduce elsewhere: tests/dag_runs.py), whether
+    it ran on Slurm, and the future of what each step did; started, not awaited."""
     from dag_runs import interrupted_runs
 
     wd = tmp_path_factory.mktemp("interrupted")
-    return wd, _background.submit(interrupted_runs, wd)
+    return wd, slurm is None, _background.submit(interrupted_runs, wd, slurm is None)
 
 
 @pytest.fixture(scope="session")
@@ -101,3 +110,14 @@ def pytest_collection_modifyitems(config, items):
 
     items.sort(key=rank)  # stable: equal ranks keep their file order
 
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """The Slurm run's wall time (tests/test_slurm.py writes it below the session's temporary
+    folder, an xdist worker's included), in the summary whatever the capture settings."""
+    factory = getattr(config, "_tmp_path_factory", None)
+    if factory is None or factory._basetemp is None:  # no temporary folder was made
+        return
+    base = factory._basetemp
+    for found in sorted(base.rglob("slurm_wall_time.txt")):
+        terminalreporter.write_line(found.read_text().strip())

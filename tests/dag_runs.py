@@ -1,5 +1,7 @@
 """The second run of the CI-sized DAG (config/test.yaml) and its interruptions, for
-tests/test_dag_repeatability.py; conftest.py starts it beside the first run (``workdir``)."""
+tests/test_dag_repeatability.py and tests/test_slurm.py; conftest.py starts it beside the first
+run (``workdir``). Where Slurm answers (CI: tools/slurm_cluster.sh start), the run goes on and
+ends on the Slurm cluster through workflow/profiles/slurm."""
 
 import importlib.util
 import os
@@ -8,14 +10,18 @@ import shlex
 import signal
 import subprocess
 import sys
+import shutil
 import time
 
 from conftest import REPO
 
 TEST_CONFIG = REPO / "config" / "test.yaml"
 CLUSTER_PROFILE = REPO / "workflow" / "profiles" / "cluster-generic-local"
+SLURM_PROFILE = REPO / "workflow" / "profiles" / "slurm"
+SLURM_SCRIPT = "tools/slurm_cluster.sh"
 STALE_LOCK = REPO / "workflow" / "profiles" / "default" / "stale_lock.py"
-#: Jobs finished before each interruption (of the ~70 jobs of config/test.yaml).
+#: Jobs finished before each interruption (of the ~70 jobs of config/test.yaml): kill -9 of make
+#: reproduce after KILL_AFTER, Ctrl-C of the Slurm run after CTRL_C_AFTER more.
 CTRL_C_AFTER, KILL_AFTER = 10, 4
 
 _spec = importlib.util.spec_from_file_location("stale_lock", STALE_LOCK)
@@ -41,7 +47,7 @@ def _start(cmd, wd, log):
     """Start cmd in wd in a session of its own with Ctrl-C's default meaning (as a terminal runs a
     command), output to log. A test run started in the background (`pytest ... &` in a script,
     nohup) inherits SIGINT ignored, and Python then never turns it into KeyboardInterrupt: the
-    Ctrl-C below would be lost (seen in session 9: the cluster run went on to the end)."""
+    Ctrl-C below would be lost (the cluster run would go on to its end)."""
     with open(log, "w") as fh:
         return subprocess.Popen(cmd, cwd=wd, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -52,8 +58,9 @@ def _finished(log):
 
 
 def _planned(log):
-    """Jobs the run set out to do (its "Job stats" total, `all` included)."""
-    return int(re.search(r"^total\s+(\d+)", log.read_text(), re.MULTILINE).group(1))
+    """Jobs the run set out to do (its "Job stats" total, `all` included; 0 if it printed none)."""
+    found = re.search(r"^total\s+(\d+)", log.read_text(), re.MULTILINE)
+    return int(found.group(1)) if found else 0
 
 
 def _wait(condition, proc, log, timeout):
@@ -96,41 +103,112 @@ def _unlock_as_told(unlock, wd):
     return answers
 
 
-def interrupted_runs(wd):
-    """The DAG through the cluster executor, Ctrl-C, make reproduce, kill -9, make reproduce, in
-    folder ``wd``: what each step did.
+def slurm_unreachable():
+    """Why Slurm cannot take this suite's jobs (one line), or None when `sinfo` lists a node of the
+    default partition that takes jobs."""
+    if shutil.which("sinfo") is None:
+        return "sinfo is not on PATH"
+    try:
+        done = subprocess.run(["sinfo", "-h", "-N", "-o", "%T %P"], capture_output=True, text=True, timeout=30)
+    except subprocess.TimeoutExpired:
+        return "sinfo gave no answer in 30 s"
+    if done.returncode != 0:
+        return f"sinfo failed: {done.stderr.strip()[:200]}"
+    states = [line.split()[0] for line in done.stdout.splitlines() if line.split()[-1].endswith("*")]
+    if not any(s.rstrip("*~#!%$@^-") in ("idle", "mixed", "allocated", "completing") for s in states):
+        return f"no node of the default partition takes jobs (sinfo: {' '.join(states) or 'none'})"
+    return None
 
-    Part of CI since session 11 (issue 15): it costs ~2 CPU-minutes and runs in a thread beside
-    the first run (conftest's ``workdir``), so that its waits (the cluster executor's status
-    checks, Snakemake's starts, the interruptions) overlap the first run's work. Sessions 8-9 ran
-    the two one after the other, and CI took 9.5-9.8 min with it then."""
+
+def slurm_command():
+    """The Slurm run as docs/cluster.md gives it (the profile sizes jobs to the partition's
+    nodes), the config being config/test.yaml; the same command resumes a stopped run. Targets
+    may follow (the last option takes one value)."""
+    return [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--configfile", str(TEST_CONFIG),
+            "--workflow-profile", str(SLURM_PROFILE)]
+
+
+def slurm_jobids(log_text):
+    """Slurm job ids a run submitted (the plugin's "submitted with SLURM jobid N" lines)."""
+    return re.findall(r"has been submitted with SLURM jobid (\d+)", log_text)
+
+
+def _run_uuid(log):
+    found = re.search(r"SLURM run ID: (\S+)", log.read_text())
+    return found.group(1) if found else None
+
+
+def _running_slurm_jobs(log):
+    """Ids of the run's Slurm jobs that squeue shows running (the run's jobs carry its run ID as name)."""
+    uuid = _run_uuid(log)
+    if uuid is None:
+        return []
+    out = subprocess.run(["squeue", "-h", "-t", "R", "-n", uuid, "-o", "%i"], capture_output=True, text=True).stdout
+    return out.split()
+
+
+def _slurm_step(wd, name, steps, interrupt=None):
+    """One Slurm run in wd (log NAME.log). interrupt(proc, log) -> what it did, or None to let it run
+    to the end. A run that finds the folder locked (a hard stop left the lock) is unlocked with
+    `snakemake --unlock` and started again, as docs/cluster.md says."""
+    t0 = time.monotonic()
+    unlocked = any((wd / ".snakemake" / "locks").glob("*"))  # no run works here: a stale lock
+    if unlocked:
+        subprocess.run([*slurm_command(), "--unlock"], cwd=wd, capture_output=True, check=True)
+    log = wd / f"{name}.log"
+    proc = _start(slurm_command(), wd, log)
+    did = interrupt(proc, log) if interrupt is not None else None
+    steps[name] = _step(log, t0, returncode=proc.wait(timeout=1200), jobids=slurm_jobids(log.read_text()), did=did,
+                        unlocked=unlocked, locks=sorted((wd / ".snakemake" / "locks").glob("*")))
+
+
+def _ctrl_c_while_a_job_runs(proc, log):
+    _wait(lambda: _finished(log) >= CTRL_C_AFTER and _running_slurm_jobs(log) and time.time() - log.stat().st_mtime > 1.5,
+          proc, log, timeout=900)
+    running = _running_slurm_jobs(log)
+    os.killpg(proc.pid, signal.SIGINT)
+    return running
+
+
+def _scancel_a_running_job(proc, log):
+    _wait(lambda: _running_slurm_jobs(log), proc, log, timeout=900)
+    jobid = _running_slurm_jobs(log)[0]
+    subprocess.run(["scancel", jobid], check=True)
+    return jobid
+
+
+def interrupted_runs(wd, slurm=False):
+    """The second run of the DAG in folder ``wd``, interrupted: what each step did.
+
+    make reproduce, killed with kill -9 part way (a stale lock and orphaned jobs); make reproduce's
+    stale-lock step. Then, with ``slurm``: the Slurm run (docs/cluster.md's command), Ctrl-C while
+    a job runs; the same command again, one running job cancelled with scancel (the run stops with
+    that job's error and Slurm log); the same command again, to the end. Without Slurm: make
+    reproduce to the end.
+
+    Part of CI: it runs in a thread beside the first run (conftest's ``workdir``), so
+    that its waits (status checks, Snakemake's starts, the interruptions) overlap the first run's
+    work. Run one after the other, CI took 9.5-9.8 min."""
     unlock, readme = readme_commands()
     steps = {}
 
-    # 1. The cluster path; Ctrl-C once CTRL_C_AFTER jobs have finished.
-    log, t0 = wd / "cluster.log", time.monotonic()
-    proc = _start([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--configfile", str(TEST_CONFIG),
-                   "--workflow-profile", str(CLUSTER_PROFILE)], wd, log)
-    # ... and its log has been quiet for a moment: Snakemake waits on running jobs, as when a user
-    # presses Ctrl-C during a long job (see the test below for a Ctrl-C while it schedules).
-    _wait(lambda: _finished(log) >= CTRL_C_AFTER and time.time() - log.stat().st_mtime > 1.5, proc, log, timeout=900)
-    os.killpg(proc.pid, signal.SIGINT)
-    steps["cluster"] = _step(log, t0, returncode=proc.wait(timeout=120), locks=sorted((wd / ".snakemake" / "locks").glob("*")))
-
-    # 2. make reproduce; kill -9 once KILL_AFTER jobs have finished and one runs.
+    # 1. make reproduce; kill -9 once KILL_AFTER jobs have finished and one runs.
     log, t0 = wd / "readme_1.log", time.monotonic()
-    steps["unlock_1"] = _unlock_as_told(unlock, wd)
     proc = _start(readme, wd, log)
     _wait(lambda: _finished(log) >= KILL_AFTER and len(stale_lock.snakemake_processes(wd.resolve()) or []) > 1, proc, log, timeout=600)
     proc.kill()
     proc.wait()
     steps["readme_1"] = _step(log, t0, locks=sorted((wd / ".snakemake" / "locks").glob("*")))
+    steps["unlock_1"] = _unlock_as_told(unlock, wd)
 
-    # 3. make reproduce again, to the end.
-    log, t0 = wd / "readme_2.log", time.monotonic()
-    steps["unlock_2"] = _unlock_as_told(unlock, wd)
-    proc = _start(readme, wd, log)
-    steps["readme_2"] = _step(log, t0, returncode=proc.wait(timeout=900))
+    if not slurm:
+        log, t0 = wd / "readme_2.log", time.monotonic()
+        proc = _start(readme, wd, log)
+        steps["readme_2"] = _step(log, t0, returncode=proc.wait(timeout=900))
+        return steps
+
+    # 2-4. On the Slurm cluster: Ctrl-C, scancel, to the end.
+    _slurm_step(wd, "slurm_1", steps, _ctrl_c_while_a_job_runs)
+    _slurm_step(wd, "slurm_2", steps, _scancel_a_running_job)
+    _slurm_step(wd, "slurm_3", steps)
     return steps
-
-

@@ -94,8 +94,8 @@ def _corrupt(src, dst, how):
     import xarray as xr
 
     ds = xr.load_dataset(src)
-    if how == "missing":
-        ds = ds.drop_vars("beta")
+    if how == "missing":  # any one channel is enough (issue 28): a file with none is refused
+        ds = ds.drop_vars(["psi", "psi_dot", "beta", "y", "a_y"], errors="ignore")
     elif how == "nan":
         ds["psi"][0, 5] = float("nan")
     elif how == "grid":
@@ -107,7 +107,7 @@ def _corrupt(src, dst, how):
     ds.to_netcdf(dst)
 
 
-@pytest.mark.parametrize("how, message", [("missing", "missing variable 'beta'"), ("nan", "NaN"), ("grid", "uniform"),
+@pytest.mark.parametrize("how, message", [("missing", "no usable channel"), ("nan", "NaN"), ("grid", "uniform"),
                                           ("delta", "variable 'delta' has dims"), ("one", "at least 2")])
 def test_identify_bad_input(measured, tmp_path, capsys, how, message):
     bad = tmp_path / "bad.nc"
@@ -173,7 +173,10 @@ def test_lost_control_is_found_from_the_data(tmp_path, monkeypatch):
     flagged = _identify_default(tmp_path / "flagged.nc", tmp_path / "a")
     measured = _identify_default(tmp_path / "measured.nc", tmp_path / "b")
     assert measured["n_spun"] == len(spun) and measured["spun_indices"] == spun and "spun_in_file_indices" not in measured
-    assert flagged["spun_in_file_indices"] == flagged["spun_indices"] == spun and flagged["warnings"] == []
+    assert flagged["spun_in_file_indices"] == flagged["spun_indices"] == spun
+    # NLST data against the LST chaos model at n = 2000: the misfit is beyond the sampling noise
+    # (measured 17.5 times it, threshold 3.2), which is the one warning
+    assert [w for w in flagged["warnings"] if "times the noise" not in w] == [] and flagged["converged"] is False
     assert measured["samples_used"] == 2000 - len(spun)
     assert measured["mu"][0] == pytest.approx(flagged["mu"][0], abs=1e-9)
     keep = yaml.safe_load(Path(REPO / "config" / "config.yaml").read_text())

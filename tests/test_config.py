@@ -88,7 +88,7 @@ def test_packaged_default_config_is_the_repository_config():
         (lambda c: c["uncertainty"]["l_f"].update(std=float("-inf")), "'uncertainty.l_f.std' is -inf"),
         (lambda c: c["bayes"]["prior"].update(mu_mean=[0.05, float("nan")]), "'bayes.prior.mu_mean.1' is nan"),
         (lambda c: c["uncertainty"]["m_load"].update(mean=-1784.0), "'uncertainty.m_load.mean' = -1784 is outside the physical range [0, 100000] kg"),
-        (lambda c: c["uncertainty"]["mu"].update(std=0.0), "'uncertainty.mu.std' = 0 is outside the physical range (0, 10]"),
+        (lambda c: c["uncertainty"]["mu"].update(std=11.0), "'uncertainty.mu.std' = 11 is outside the physical range [0, 10]"),
         (lambda c: c["vehicle"].update(m_base=1e300), "'vehicle.m_base' = 1e+300"),
         (lambda c: c["vehicle"].update(speed_kmh=1e4), "'vehicle.speed_kmh'"),
         (lambda c: c["vehicle"].update(speed_kmh=0.0), "'vehicle.speed_kmh'"),

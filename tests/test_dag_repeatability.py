@@ -1,13 +1,11 @@
-"""One more run of the CI-sized DAG (config/test.yaml) shows three things at once.
+"""One more run of the CI-sized DAG (config/test.yaml) shows two things at once.
 
-* The cluster path: the run starts on snakemake-executor-plugin-cluster-generic with the local
-  stand-in for a batch system (workflow/profiles/cluster-generic-local: submit.sh, status.sh,
-  cancel.sh), small jobs batched into group jobs.
 * Interrupted runs resume with the README's own command, `make reproduce` (its steps read from
-  `make -n reproduce`): the cluster run gets Ctrl-C (SIGINT to its process group) part way; make
-  reproduce resumes it and is itself killed with kill -9 part way, which leaves a stale lock and
-  orphaned jobs; make reproduce again: its stale-lock step names the orphans and the command that
-  ends them, then removes the lock, and the run finishes. Nothing that had finished runs again.
+  `make -n reproduce`): make reproduce is killed with kill -9 part way, which leaves a stale lock
+  and orphaned jobs; its stale-lock step names the orphans and the command that ends them, then
+  removes the lock. Where Slurm answers, the run goes on on the Slurm cluster (interrupted with
+  Ctrl-C and scancel, resumed with docs/cluster.md's command: tests/test_slurm.py), elsewhere with
+  make reproduce. Nothing that had finished runs again.
 * Determinism: the scorecard and every netCDF file's values equal those of the uninterrupted
   first run (the session fixture ``workdir`` of conftest.py), bit for bit, wall-clock timings
   aside.
@@ -22,7 +20,7 @@ import pytest
 import xarray as xr
 
 from conftest import REPO
-from dag_runs import CLUSTER_PROFILE, CTRL_C_AFTER
+from dag_runs import CLUSTER_PROFILE
 
 # Every test of the DAG runs on one xdist worker, so the session-scoped `workdir` run happens once.
 pytestmark = [pytest.mark.xdist_group("dag"), pytest.mark.workflow]
@@ -40,51 +38,35 @@ def resumed(request, second_run):
     """What each step of the interrupted runs did (conftest's ``second_run``, which the first run
     ``workdir`` starts before it runs, so that the two run side by side)."""
     request.getfixturevalue("workdir")
-    wd, future = second_run
+    wd, _, future = second_run
     steps = future.result()
-    for name in ("cluster", "readme_1", "readme_2"):
-        step = steps[name]
-        print(f"{name}: {step['seconds']:.0f} s, {step['finished']} of {step['planned']} planned jobs finished, {step['cut']} cut")
-    for name in ("unlock_1", "unlock_2"):
-        print(name, [(a.returncode, a.stderr.strip()) for a in steps[name]])
+    for name, step in steps.items():
+        if isinstance(step, dict):
+            print(f"{name}: {step['seconds']:.0f} s, {step['finished']} of {step['planned']} planned jobs finished, {step['cut']} cut")
+        else:
+            print(name, [(a.returncode, a.stderr.strip()) for a in step])
     return wd, steps
 
 
-def test_the_dag_runs_through_the_cluster_generic_executor_in_group_jobs(resumed):
-    _, steps = resumed
-    cluster = steps["cluster"]
-    submitted = re.findall(r"Submitted (group job|job) \S+ with external jobid '(\d+)'", cluster["log"])
-    assert submitted and all(kind == "group job" for kind, _ in submitted), cluster["log"][-3000:]  # every rule has a group
-    assert cluster["finished"] >= CTRL_C_AFTER
-    assert cluster["returncode"] != 0
-    if "Terminating processes on user request" in cluster["log"]:
-        # Ctrl-C while Snakemake waits on jobs: it stops, cancelling the jobs it can (cancel.sh),
-        # and removes its lock.
-        assert cluster["locks"] == [], cluster["log"][-3000:]
-    else:
-        # Ctrl-C while Snakemake selects jobs (seen once in CI: "Error grouping resources in group
-        # 'bayes': KeyboardInterrupt"): it stops with the interrupt reported and may leave its
-        # lock, which make reproduce's stale-lock step removes (the next test checks that it ran).
-        assert "KeyboardInterrupt" in cluster["log"], cluster["log"][-3000:]
-        if cluster["locks"]:
-            assert "removed the stale lock" in steps["unlock_1"][-1].stderr, steps["unlock_1"]
+def _runs(steps):
+    """The runs after the kill -9, in order: make reproduce, or the three Slurm runs."""
+    return [steps[name] for name in ("readme_2", "slurm_1", "slurm_2", "slurm_3") if name in steps]
 
 
-def test_make_reproduce_resumes_after_ctrl_c_and_kill_9_rerunning_only_what_was_cut(resumed):
+def test_make_reproduce_resumes_after_kill_9_and_nothing_finished_runs_again(resumed):
     _, steps = resumed
-    cluster, first, last = steps["cluster"], steps["readme_1"], steps["readme_2"]
-    # The stale-lock step lets make reproduce start: at once, or once the processes it named ended.
-    assert steps["unlock_1"][-1].returncode == 0
-    # Nothing that had finished runs again: each run plans at most what the previous one left.
-    assert first["planned"] <= cluster["planned"] - cluster["finished"]
-    assert last["planned"] <= first["planned"] - first["finished"]
+    first, runs = steps["readme_1"], _runs(steps)
     assert first["locks"], "kill -9 leaves the lock that stops the next run (LockException)"
     # After kill -9: the step names the jobs the killed run left behind, with the commands that
-    # end them and clear the lock, or (they ended) removes the stale lock; then make reproduce finishes.
-    answers = steps["unlock_2"]
+    # end them and clear the lock, or (they ended) removes the stale lock.
+    answers = steps["unlock_1"]
     if answers[0].returncode == 2:
         assert "still run in this folder" in answers[0].stderr and "(kill " in answers[0].stderr and "snakemake --unlock" in answers[0].stderr
     assert answers[-1].returncode == 0 and "removed the stale lock" in answers[-1].stderr
+    # Nothing that had finished runs again: each run plans at most what the previous one left.
+    for before, after in zip([first, *runs], runs):
+        assert after["planned"] <= before["planned"] - before["finished"], (before["log"][-2000:], after["log"][-2000:])
+    last = runs[-1]
     assert last["returncode"] == 0, last["log"][-3000:]
     assert f"{last['finished']} of {last['finished']} steps (100%) done" in last["log"]
 

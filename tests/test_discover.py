@@ -69,6 +69,10 @@ def test_named_effect_repairs_the_model_and_the_model_file_is_used(files, capsys
     assert main(["identify", str(paths["bank"]), "--model", str(out / "model.yaml"), "--config", str(cfg), "--out", str(ident)]) == 0
     e = json.loads((ident / "estimate.json").read_text())
     assert e["effects"] == {"road_bank": {"phi": pytest.approx(est)}} and abs(e["mu"][0] - 1.0) < 0.1
+    # the fields and figure of plain identify; the baseline's warnings and the known quantities in the verdict
+    assert {"warnings", "notes", "standard_errors", "intervals_95", "goodness_of_fit", "converged", "fixed"} <= set(e)
+    assert (ident / "fit.png").stat().st_size > 0 and all(x is None or x > 0 for pair in e["standard_errors"].values() for x in pair)
+    assert isinstance(v["warnings"], list) and v["fixed"] == {}
 
 
 def test_null_case_says_none(files, capsys):
@@ -96,7 +100,7 @@ def _corrupt(ds, how):
         t[5:] += 0.003
         return ds.assign_coords(time=("time", t, ds["time"].attrs))
     if how == "too few samples":
-        return ds.isel(sample=slice(0, 20))
+        return ds.isel(sample=slice(0, 9))  # discover needs 10 (io.MIN_RUNS)
     return ds
 
 

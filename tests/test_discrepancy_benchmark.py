@@ -4,7 +4,7 @@ ensembles come from other code (uqdrive.studies.hidden_effects); discover never 
 
 The whole benchmark (26 cases, 1000 samples each) runs in the workflow (rule family
 `discrepancy`, scorecard rows) and here with `pytest -m slow`; CI runs a subset of four cases at
-a reduced size that keeps every decision of the full run (checked on the full run: README).
+a reduced size that keeps every decision of the full run (checked on the full run: docs/reproduction.md).
 """
 
 import copy

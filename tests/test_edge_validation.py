@@ -151,7 +151,7 @@ BAD_CONFIGS = {
     "mu_mean_inf": (_replace("mean: 1.0", "mean: .inf"), "'uncertainty.mu.mean' is inf"),
     "mu_std_nan": (_cfg(lambda c: c["uncertainty"]["mu"].update(std=float("nan"))), "uncertainty.mu.std"),
     "m_load_negative": (_cfg(lambda c: c["uncertainty"]["m_load"].update(mean=-1784.0)), "uncertainty.m_load.mean"),
-    "l_f_std_zero": (_cfg(lambda c: c["uncertainty"]["l_f"].update(std=0.0)), "uncertainty.l_f.std"),
+    "l_f_std_negative": (_cfg(lambda c: c["uncertainty"]["l_f"].update(std=-0.1)), "uncertainty.l_f.std"),  # 0 declares l_f known
     "m_base_huge": (_cfg(lambda c: c["vehicle"].update(m_base=1e300)), "vehicle.m_base"),
     "speed_zero": (_cfg(lambda c: c["vehicle"].update(speed_kmh=0.0)), "vehicle.speed_kmh"),
     "t_end_equals_dt": (_cfg(lambda c: c["time"].update(t_end=0.02)), "time.t_end"),
@@ -313,12 +313,13 @@ def test_fit_warnings_flag_bounds_and_unchanged_start():
 
 
 def test_fit_at_a_bound_is_reported_not_converged(tiny, tmp_path, capsys):
-    """States scaled down 1000-fold (millimetres read as metres): mu pinned at its bound."""
+    """States scaled down 1000-fold (millimetres read as metres): mu's spread pinned at zero and
+    a misfit far beyond the sampling noise, which is the warning (with the units to check)."""
     small = tmp_path / "small.nc"
     _scaled(xr.load_dataset(tiny[1]), 1e-3).to_netcdf(small)
     assert main(["identify", str(small), "--config", str(tiny[0]), "--out", str(tmp_path / "est")]) == 0
     est = json.loads((tmp_path / "est" / "estimate.json").read_text())
-    assert est["converged"] is False and any("ended at the bound" in w for w in est["warnings"])
+    assert est["converged"] is False and any("times the noise" in w and "units of the states" in w for w in est["warnings"])
     assert "DID NOT CONVERGE" in capsys.readouterr().out
 
 
@@ -362,7 +363,7 @@ def test_signal_during_a_run_exits_cleanly(tiny, tmp_path, signum):
 
 def test_cost_flag_reads_the_registry(monkeypatch):
     """--cost accepts what uqdrive.inference.identify.COSTS holds, a registry entry added later
-    included (README "Extending uqdrive"), and refuses anything else with the known names."""
+    included (docs/maintainer.md "Extending uqdrive"), and refuses anything else with the known names."""
     import argparse
 
     from uqdrive.cli.validation import registry_choice

@@ -4,7 +4,7 @@ wrong dims and units, non-uniform or shifted time, bad v_c, spin flags, damaged 
 flags and output paths). Every run either is refused (exit code 2, exactly one line on stderr,
 also at the file-descriptor level, and nothing left behind) or gives a valid result (exit 0,
 a readable ensemble or an estimate.json with finite numbers or null). The counts of cases tried,
-refused and accepted are printed (the README quotes them); UQDRIVE_FUZZ_LOG=FILE appends each
+refused and accepted are printed (docs/workflow.md quotes them); UQDRIVE_FUZZ_LOG=FILE appends each
 case's flags, exit code and stderr line to FILE.
 """
 
@@ -200,7 +200,7 @@ def check_valid_result(command: str, out: Path) -> None:
 
 @pytest.mark.long(10)
 def test_fuzzed_inputs_are_refused_in_one_line_or_give_a_valid_result(base, capsys):
-    @seed(20230601)  # reproducible cases, so that the counts the README quotes stay put
+    @seed(20230601)  # reproducible cases, so that the counts docs/workflow.md quotes stay put
     @settings(max_examples=60, deadline=None, database=None, suppress_health_check=list(HealthCheck),
               phases=(Phase.explicit, Phase.generate))  # no shrinking: the draws of a failure are printed as they are
     @given(data=st.data())

@@ -66,8 +66,8 @@ def test_unit_free_residuals_reproduce_table_6_2(config):
     """Golden values of thesis Table 6.2 (default config, 2000 runs, start at the truth, m_load
     exact). With the residuals of (5.25) divided by each state's RMS measured mean, the LST row
     is met within the issue's tolerances (0.02 mu, 0.02 m l_f, 30 N wind) and the NLST row's mu
-    within 0.03 and l_f within 0.02 m; the NLST upper wind bound is ~60 N off (README).
-    In SI units ([1 1 1 1]) the NLST mu comes out ~0.74 and l_f's std collapses, see README."""
+    within 0.03 and l_f within 0.02 m; the NLST upper wind bound is ~60 N off (docs/reproduction.md).
+    In SI units ([1 1 1 1]) the NLST mu comes out ~0.74 and l_f's std collapses, see docs/reproduction.md."""
     from uqdrive.studies.identification import Estimate, _fit
 
     stats = {f"{m}_normal": ensemble_statistics(simulate_ensemble(config, m), "exclude") for m in ("lst", "nlst")}

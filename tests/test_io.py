@@ -45,7 +45,7 @@ def _without_attr(ds, name):
 @pytest.mark.parametrize(
     "corrupt, message",
     [
-        (lambda d: d.drop_vars("beta"), "missing variable 'beta'"),
+        (lambda d: d.drop_vars(["psi", "psi_dot", "beta", "y", "a_y"], errors="ignore"), "no usable channel"),
         (lambda d: d.rename({"sample": "run"}), "missing dimension 'sample'"),
         (lambda d: d.assign(psi=d["psi"].assign_attrs(units="deg")), "units 'deg'; expected 'rad'"),
         (lambda d: d.assign(y=d["y"].where(d["time"] < 5)), "NaN"),

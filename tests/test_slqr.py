@@ -114,7 +114,7 @@ def test_synthesis_stops_at_a_stationary_point_of_the_cost(deterministic, k_lqr,
         return real(fun, x0, **kwargs)
 
     monkeypatch.setattr(slqr_module, "minimize", recording)
-    with single_blas_thread():  # 28-state matrices: BLAS threads only add overhead (NOTES)
+    with single_blas_thread():  # 28-state matrices: BLAS threads only add overhead (docs/maintainer.md)
         K, res = model.synthesise(K0, Q, R, 0.3)
         # The pair handed to BFGS: the cost normalised to 1 at K0, and its own gradient (central
         # differences with h = 1e-5 |K|: truncation ~h^2, measured 2e-7 relative at 1e-4 |K|, so

@@ -90,7 +90,7 @@ def test_steering_inputs_5_5_and_5_7():
 def test_nlst_is_odd_in_state_steering_and_wind(x, delta, F_w, mu):
     """(5.3) is odd: f(-x, -delta, -F_w) = -f(x, delta, F_w). So inverted steering (5.7) with
     mirrored wind gives the mirrored ensemble, and an estimate of the mean wind from inverted
-    data must be the mirror of the normal-steering one (Table 6.3 discussion, README)."""
+    data must be the mirror of the normal-steering one (Table 6.3 discussion, docs/reproduction.md)."""
     p = VehicleParameters.from_config(load_config(REPO / "config" / "config.yaml"), mu=np.array([mu]), m_load=np.array([100.0]), l_f=np.array([1.55]))
     xs = np.array(x)[:, None]
     f = make_nlst_rhs(p)

@@ -213,7 +213,7 @@ def render() -> str:
         "`src/uqdrive/config_schema.yaml` (types and ranges) and `workflow/rules/*.smk` (readers); a test",
         "fails while this file is out of date. Units and seed tables come from the comments in",
         "`config/config.yaml`; a section's comment applies to its keys. Any key can be overridden with",
-        "`--config key=value` or a `--configfile`, and swept (README, \"Sweeping a config value\").",
+        "`--config key=value` or a `--configfile`, and swept (docs/workflow.md, \"Changing and sweeping config values\").",
         "",
         "| key | default | type / range | meaning, unit, source | read by rules |",
         "|---|---|---|---|---|",

@@ -37,6 +37,8 @@ _MAX = 2**63 - 1  # largest seed netCDF attributes and numpy seed sequences shar
 
 #: Physical range of each value the models read: key -> (low, high, low inclusive, high
 #: inclusive, unit). Wider than any vehicle, so that only unit slips and typos land outside.
+#: A std of 0 (and a mean wind with low == high) declares the quantity known
+#: (:func:`uqdrive.vehicle.uncertainty.known_quantities`).
 PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
     "seed": (0, _MAX, True, True, ""),
     "vehicle.m_base": (0.0, 1e5, False, True, "kg"),
@@ -50,10 +52,10 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
     "tyre.C": (0.0, 10.0, False, True, ""),
     "tyre.E": (-100.0, 1.0, True, True, ""),
     "uncertainty.mu.mean": (0.0, 10.0, False, True, ""),
-    "uncertainty.mu.std": (0.0, 10.0, False, True, ""),
+    "uncertainty.mu.std": (0.0, 10.0, True, True, ""),
     "uncertainty.m_load.mean": (0.0, 1e5, True, True, "kg"),
-    "uncertainty.m_load.std": (0.0, 1e5, False, True, "kg"),
-    "uncertainty.l_f.std": (0.0, 20.0, False, True, "m"),
+    "uncertainty.m_load.std": (0.0, 1e5, True, True, "kg"),
+    "uncertainty.l_f.std": (0.0, 20.0, True, True, "m"),
     "uncertainty.F_w_mean.low": (-1e5, 1e5, True, True, "N"),
     "uncertainty.F_w_mean.high": (-1e5, 1e5, True, True, "N"),
     "wind.sigma": (0.0, 1e5, True, True, "N"),

@@ -20,18 +20,26 @@ from typing import Mapping, Sequence
 import numpy as np
 import xarray as xr
 
-from .vehicle.single_track import STATE_UNITS, STATES
+from .vehicle.channels import CHANNEL_UNITS, CHANNELS
 
 __all__ = ["DataError", "OutputError", "check_writable", "check_output_folder", "atomic_path", "write_csv_rows", "write_dataset",
-           "read_ensemble", "validate_ensemble", "check_spread", "V_C_RANGE", "VALUE_LIMITS", "MIN_TIME_POINTS"]
+           "read_ensemble", "validate_ensemble", "check_spread", "check_run_count", "present_channels", "speed_profile",
+           "V_C_RANGE", "VALUE_LIMITS", "MIN_TIME_POINTS", "MIN_RUNS", "STANDARD_GRAVITY", "A_Y_UNITS"]
 
 #: Vehicle speeds (m/s) a measured ensemble may carry in its ``v_c`` attribute.
 V_C_RANGE = (0.5, 100.0)
 #: Largest magnitude (SI units) of each variable: beyond it the numbers are not a vehicle's (a unit
 #: or scale error). Angles of a spinning car grow, so psi and beta get room; delta is a wheel angle.
-VALUE_LIMITS = {"psi": 1e4, "psi_dot": 1e3, "beta": 1e4, "y": 1e6, "delta": math.pi / 2}
+VALUE_LIMITS = {"psi": 1e4, "psi_dot": 1e3, "beta": 1e4, "y": 1e6, "a_y": 200.0, "delta": math.pi / 2}
 #: A trajectory needs this many time points for a mean, a slope and a curvature.
 MIN_TIME_POINTS = 3
+#: Fewest runs identify and discover accept: below 10 the sample std of a channel is uncertain by
+#: more than 1/sqrt(2 (n - 1)) = 24 % (n = 10), larger than the spreads the parameters make.
+MIN_RUNS = 10
+#: Standard gravity (m/s^2, ISO 80000-3): a lateral acceleration stored in g is converted with it.
+STANDARD_GRAVITY = 9.80665
+#: Spellings of m/s^2 accepted in the ``units`` attribute of ``a_y``.
+A_Y_UNITS = ("m/s^2", "m/s2", "m s-2", "m/s**2", "m.s-2")
 
 
 class DataError(ValueError):
@@ -224,9 +232,14 @@ def _check_values(name: str, values: np.ndarray, unit: str, source: str) -> None
                         f"{VALUE_LIMITS[name]:.3g} {unit}; check its units and scale (SI: {unit})")
 
 
+def present_channels(ds: xr.Dataset) -> tuple:
+    """The measured channels of :data:`uqdrive.vehicle.channels.CHANNELS` that ``ds`` carries, in that order."""
+    return tuple(c for c in CHANNELS if c in ds)
+
+
 def check_spread(ds: xr.Dataset, source: str, mask: np.ndarray | None = None) -> None:
-    """Each state must vary: not zero everywhere, and not the same in every (used) realisation."""
-    for name in STATES:
+    """Each channel must vary: not zero everywhere, and not the same in every (used) realisation."""
+    for name in present_channels(ds):
         x = ds[name].values if mask is None else ds[name].values[mask]
         if not np.any(x):
             raise DataError(f"{source}: variable '{name}' is zero everywhere; a measured ensemble needs the recorded response")
@@ -234,6 +247,59 @@ def check_spread(ds: xr.Dataset, source: str, mask: np.ndarray | None = None) ->
             which = "used realisation" if mask is not None else "realisation"
             raise DataError(f"{source}: variable '{name}' is identical in every {which}; an ensemble needs spread "
                             "across independent runs (give one run per sample)")
+
+
+def check_run_count(n: int, source: str, command: str) -> None:
+    """At least :data:`MIN_RUNS` runs, or a :class:`DataError` saying how many and why."""
+    if n < MIN_RUNS:
+        raise DataError(f"{source}: {n} run(s) (dimension 'sample'); {command} needs at least {MIN_RUNS}: the spread "
+                        f"of fewer runs is too uncertain (the sample std is uncertain by 1/sqrt(2 (n - 1)), "
+                        f"{1 / math.sqrt(2 * max(n - 1, 1)):.0%} at n = {n}) to tell the parameters apart; record more runs")
+
+
+def _check_a_y_units(ds: xr.Dataset, source: str) -> xr.Dataset:
+    """Lateral acceleration in m/s^2; a file in g is converted (and says so in ``conversions``)."""
+    got = ds["a_y"].attrs.get("units")
+    if got in A_Y_UNITS:
+        return ds
+    if got in ("g", "G", "g0", "g_n"):
+        a_y = ds["a_y"] * STANDARD_GRAVITY
+        a_y.attrs = dict(ds["a_y"].attrs, units="m/s^2")
+        note = f"a_y converted from g to m/s^2 (x {STANDARD_GRAVITY} m/s^2, standard gravity)"
+        attrs = dict(ds.attrs, conversions="; ".join(filter(None, [ds.attrs.get("conversions", ""), note])))
+        return ds.assign(a_y=a_y).assign_attrs(attrs)
+    raise DataError(f"{source}: variable 'a_y' has units '{got}'; give the lateral acceleration in 'm/s^2' (or 'g', "
+                    "converted on reading): set ds['a_y'].attrs['units']")
+
+
+def _check_speed(ds: xr.Dataset, source: str) -> None:
+    """A ``v`` variable: dims (time,) or (sample, time), units m/s, finite and in :data:`V_C_RANGE`."""
+    v = ds["v"]
+    if v.dims not in (("time",), ("sample", "time")):
+        raise DataError(f"{source}: variable 'v' has dims {v.dims}; give the speed over ('time',) or ('sample', 'time')")
+    if v.attrs.get("units") != "m/s":
+        raise DataError(f"{source}: variable 'v' has units '{v.attrs.get('units')}'; give the speed in 'm/s' "
+                        "(km/h / 3.6) and set ds['v'].attrs['units'] = 'm/s'")
+    values = v.values
+    if values.dtype.kind != "f":
+        raise DataError(f"{source}: variable 'v' has dtype {values.dtype}; store it as floating point")
+    if not np.all(np.isfinite(values)):
+        raise DataError(f"{source}: variable 'v' holds {int(np.sum(~np.isfinite(values)))} NaN or infinite values; "
+                        "interpolate the speed over those samples")
+    lo, hi = V_C_RANGE
+    if np.any(values < lo) or np.any(values > hi):
+        raise DataError(f"{source}: variable 'v' reaches {float(values.min()):g}..{float(values.max()):g} m/s, outside "
+                        f"{lo:g}-{hi:g} m/s; the model needs a forward speed: give |v| in m/s (no reversing, no standstill)")
+
+
+def speed_profile(ds: xr.Dataset) -> np.ndarray | None:
+    """The speed over time (m/s) of a validated ensemble: None when it is the constant ``v_c`` (or
+    a ``v`` that never changes), else ``v`` over time (its mean over runs for (sample, time))."""
+    if "v" not in ds:
+        return None
+    v = ds["v"].values
+    v = v.mean(axis=0) if v.ndim == 2 else v
+    return None if np.all(v == v[0]) else v
 
 
 def _check_v_c(ds: xr.Dataset, source: str) -> None:
@@ -254,13 +320,17 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     """Check an ensemble against the uqdrive schema; raise :class:`DataError` naming the fix.
 
     Required: dims ``sample`` (at least 2) and ``time``; a uniform, increasing, finite ``time``
-    coordinate in s with at least :data:`MIN_TIME_POINTS` points; variables psi, psi_dot, beta, y
-    of dims (sample, time) with their SI ``units``, floating point, finite and within
-    :data:`VALUE_LIMITS`, each varying across realisations; a ``delta`` (time) variable in rad; a
-    global attribute ``v_c`` (m/s), one finite number in :data:`V_C_RANGE`. An optional ``spun``
-    (sample) flag must hold 0/1. ``delta`` may carry the attribute ``interpolation``: how the
-    command is reconstructed between its samples, ``linear`` (default) or ``previous`` (each
-    sample held until the next: a zero-order hold), used by every simulation of the file.
+    coordinate in s with at least :data:`MIN_TIME_POINTS` points; at least one channel of
+    psi, psi_dot, beta, y, a_y (:data:`uqdrive.vehicle.channels.CHANNELS`) of dims (sample, time)
+    with its SI ``units`` (a_y in 'g' is converted to m/s^2, noted in the ``conversions``
+    attribute), floating point, finite and within :data:`VALUE_LIMITS`, each varying across
+    realisations; a ``delta`` (time) variable in rad; the speed as a global attribute ``v_c``
+    (m/s), one finite number in :data:`V_C_RANGE`, or a variable ``v`` over (time) or
+    (sample, time) in m/s within that range (then ``v`` is the speed, ``v_c`` is not needed).
+    An optional ``spun`` (sample) flag must hold 0/1. ``delta`` may carry the attribute
+    ``interpolation``: how the command is reconstructed between its samples, ``linear``
+    (default) or ``previous`` (each sample held until the next), used by every simulation of the
+    file. Returns the (converted) dataset.
     """
     for dim in ("sample", "time"):
         if dim not in ds.dims:
@@ -270,7 +340,13 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     _check_time(ds, source)
     if ds.sizes["sample"] < 2:
         raise DataError(f"{source}: {ds.sizes['sample']} sample(s); mean and std need at least 2 realisations")
-    required = dict(STATE_UNITS, delta="rad")
+    if not present_channels(ds):
+        raise DataError(f"{source}: no usable channel; give at least one of "
+                        + ", ".join(f"'{c}' ({u})" for c, u in CHANNEL_UNITS.items()) + " over (sample, time)")
+    if "a_y" in ds:
+        ds = _check_a_y_units(ds, source)
+    required = {c: CHANNEL_UNITS[c] for c in present_channels(ds)}
+    required["delta"] = "rad"
     for name, unit in required.items():
         if name not in ds:
             raise DataError(f"{source}: missing variable '{name}' ({unit})")
@@ -278,7 +354,7 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
         if ds[name].dims != want:
             raise DataError(f"{source}: variable '{name}' has dims {ds[name].dims}; expected {want}")
         got = ds[name].attrs.get("units")
-        if got != unit:
+        if got != unit and not (name == "a_y" and got in A_Y_UNITS):
             raise DataError(f"{source}: variable '{name}' has units '{got}'; expected '{unit}' (convert it and set the attribute)")
         _check_values(name, ds[name].values, unit, source)
     interpolation = ds["delta"].attrs.get("interpolation", "linear")
@@ -286,7 +362,10 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
         raise DataError(f"{source}: variable 'delta' has interpolation '{interpolation}'; expected 'linear' (straight lines between "
                         "samples) or 'previous' (each sample held until the next)")
     check_spread(ds, source)
-    _check_v_c(ds, source)
+    if "v" in ds:
+        _check_speed(ds, source)
+    else:
+        _check_v_c(ds, source)
     if "spun" in ds:
         spun = ds["spun"]
         if spun.dims != ("sample",) or spun.dtype.kind not in "biuf" or not np.all(np.isin(spun.values, (0, 1))):

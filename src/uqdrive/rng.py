@@ -24,6 +24,8 @@ STREAMS = {
     "discrepancy_model": 20,
     "discrepancy_bootstrap": 21,
     "discrepancy_posterior": 22,
+    "identify_reference": 40,   # multiplier bootstrap of the misfit's reference (goodness of fit)
+    "identify_coverage": 41,    # starts of the error-bar calibration's replicate fits
 }
 
 

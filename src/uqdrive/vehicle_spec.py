@@ -12,21 +12,23 @@ internal terms passes through untouched (bit for bit).
 
 Engineering keys (``vehicle.*``), each an alternative to the internal key it names:
 
-==========================  ==========  ==================================================
-key                         unit        gives
-==========================  ==========  ==================================================
-``mass``                    kg          m_base = mass (the car without load)
-``yaw_inertia``             kg m^2      J0 = yaw_inertia / m_base (I_z at the mass without
-                                        load; the model scales it with the mass, I_z = m J0)
-``cg_to_front_axle``        m           uncertainty.l_f.mean = cg_to_front_axle
-``front_axle_load_share``   -           uncertainty.l_f.mean = L (1 - share), share = l_r / L
-``cornering_stiffness``     N/rad       c_Sf = C_alpha,f / (F_zf,nom C), c_Sr = C_alpha,r /
-  ``{front, rear}``                     (F_zr,nom C): both tyres of an axle, at mu = 1 and the
-                                        static axle loads of the car without load
-``magic_formula``           -           c_Sf = front.B, c_Sr = rear.B, tyre.C = C, tyre.E = E
-  ``{front, rear}: {B, C, E}``          (D is mu); the model has one C and one E, so the two
-                                        axles must give equal C and equal E
-==========================  ==========  ==================================================
+============================  ==========  ============================================================
+key                           unit        gives
+============================  ==========  ============================================================
+``mass``                      kg          m_base = mass (the car without load)
+``yaw_inertia``               kg m^2      J0 = yaw_inertia / m_base (I_z at the mass without
+                                          load; the model scales it with the mass, I_z = m J0)
+``cg_to_front_axle``          m           uncertainty.l_f.mean = cg_to_front_axle
+``front_axle_load_share``     -           uncertainty.l_f.mean = L (1 - share), share = l_r / L
+``cornering_stiffness:``      N/rad       c_Sf = C_alpha,f / (F_zf,nom C), c_Sr = C_alpha,r /
+                                          (F_zr,nom C) with keys ``{front, rear}``: both tyres of an
+                                          axle, at mu = 1 and the static axle loads of the car
+                                          without load
+``magic_formula:``            -           c_Sf = front.B, c_Sr = rear.B, tyre.C = C, tyre.E = E
+                                          with keys ``{front, rear}: {B, C, E}`` (D is mu); the model
+                                          has one C and one E, so the two axles must give equal C
+                                          and equal E
+============================  ==========  ============================================================
 
 The nominal axle loads of the cornering-stiffness form are those of the mass without load at the
 centre-of-gravity position of the config (the l_f mean): F_zf,nom = m_base g l_r / L and

@@ -26,6 +26,7 @@ ID_FIGURE_NAMES = [f"fig_6_{i}" for i in range(7, 16)] + ["fig_robust_start"] + 
 FIGURES += [f"{FIG}/{name}.png" for name in ID_FIGURE_NAMES] if {"lst", "nlst"} <= set(MODELS) and set(STEERS) == {"normal", "inverted"} else []
 FIGURES += [f"{FIG}/{name}.png" for name in ("fig_6_16", "fig_6_17", "fig_6_18", "fig_gamma_sweep")] if ID_FIGURE_NAMES and {"lst", "nlst"} <= set(MODELS) else []
 FIGURES += [f"{FIG}/posterior_{kind}_{case}.png" for kind in ("corner", "trace") for case in ("lst", "nlst", "lst_noise")] if {"lst", "nlst"} <= set(MODELS) else []
+FIGURES += [f"{OUT}/tables/identify_coverage.csv"] if "lst" in MODELS and "coverage" in config["identification"] else []
 
 
 def ws_mcmc_sets(n):

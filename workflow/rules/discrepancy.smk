@@ -123,7 +123,7 @@ rule discrepancy_thesis_figures:
                             labels={"figure": "localisation", "case": "thesis NLST data"}),
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "summary"
     log:

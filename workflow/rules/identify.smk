@@ -157,3 +157,26 @@ rule fig_identification:
         "../envs/uqdrive.yaml"
     script:
         "../scripts/fig_identification.py"
+
+
+rule identify_coverage:
+    # Calibration of `uqdrive identify`'s 95 % intervals and misfit test on seeded replicates.
+    input:
+        src("inference.identify", "inference.sampling", "studies.identification", "vehicle.chaos", "vehicle.montecarlo", "numerics.galerkin",
+            "numerics.pce", "numerics.polynomials", "numerics.integrate", "rng"),
+    output:
+        table=report(f"{OUT}/tables/identify_coverage.csv", caption="../report/identify_coverage.rst", category="Thesis 6.2 Identification",
+                     subcategory="tables", labels={"experiment": "error-bar calibration", "table": "coverage", "shows": "95 % intervals cover the truth"}),
+    params:
+        **reads("seed", *MODEL_KEYS, "montecarlo.spin_threshold", "identification.order", "identification.quadrature_points", "identification.coverage"),
+    threads: 1
+    resources:
+        mem_mb=1500,
+        runtime=20,
+    group: "identification"
+    log:
+        f"{OUT}/logs/identify_coverage.log",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/identify_coverage.py"

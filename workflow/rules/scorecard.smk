@@ -33,7 +33,7 @@ rule scorecard:
         f"{OUT}/scorecard/merged.csv",
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "summary"
     log:
@@ -54,7 +54,7 @@ rule scorecard_provenance:
         provenance=PROVENANCE,
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "summary"
     log:
@@ -86,7 +86,7 @@ rule report_summary:
         versions=PACKAGE_VERSIONS,
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "summary"
     log:

@@ -1,4 +1,4 @@
-# Parameter sweeps (README "Sweeping a config value"). A sweep file config/sweeps/<name>.yaml
+# Parameter sweeps (docs/workflow.md, "Changing and sweeping config values"). A sweep file config/sweeps/<name>.yaml
 # names a base config, dotted keys with their values (grid or zip) and the metric groups to
 # collect. Each point's resolved config is written to {OUT}/sweeps/<name>/<point>/config.yaml
 # and this workflow runs on it into that folder (only the outputs the metrics need); the jobs
@@ -24,7 +24,7 @@ rule sweep_config:
         + ", ".join(f"{k} = {v}" for k, v in {**sweep(w.sweep).fixed, **sweep(w.sweep).point(w.point).values}.items()),
     threads: 1
     resources:
-        mem_mb=500,
+        mem_mb=1000,
         runtime=2,
     group: "sweep"
     log:

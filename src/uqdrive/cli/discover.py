@@ -14,14 +14,16 @@ import numpy as np
 import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
-from ..io import DataError, read_ensemble
+from ..io import MIN_RUNS, DataError, check_run_count, present_channels, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
+from ..vehicle.uncertainty import known_quantities
 
-__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "write_outputs"]
+__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "baseline_warnings", "write_outputs"]
 
-#: Fewer realisations give moment statistics too noisy for a calibrated verdict.
-MIN_SAMPLES = 50
+#: Fewer realisations give moment statistics too noisy for a verdict; the null band is bootstrapped
+#: at the data's own run count, so it widens as the runs get fewer.
+MIN_SAMPLES = MIN_RUNS
 
 #: Manoeuvres (uqdrive.studies.manoeuvres) among which the verdict names the input that would
 #: separate ambiguous candidates: slow and fast slaloms, steps, a chirp, a lane change.
@@ -65,11 +67,18 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     names = _checked_candidates(candidates)
     start = _start_model(model) if model is not None else None
     ds = read_ensemble(measured)
-    n = ds.sizes["sample"]
-    if n < MIN_SAMPLES:
-        raise DataError(f"{measured}: {n} samples; discover needs at least {MIN_SAMPLES} for a calibrated null band")
+    check_run_count(ds.sizes["sample"], str(measured), "discover")
+    missing = [c for c in ("psi", "psi_dot", "beta", "y") if c not in present_channels(ds)]
+    if missing:
+        raise DataError(f"{measured}: discover compares all four states and this file lacks {', '.join(missing)}; without them "
+                        "the candidate effects cannot be told apart: use identify for a channel subset, or record the missing channels")
+    if speed_profile(ds) is not None:
+        raise DataError(f"{measured}: discover models a constant speed and 'v' changes during the runs; give runs at one speed "
+                        "(identify handles a speed profile)")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
+    if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
         config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
@@ -77,7 +86,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
-    verdict = dict(finder.verdict_, measured=str(measured))
+    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
+                   fixed=known_quantities(config))
     write_outputs(finder, verdict, out)
     return verdict
 
@@ -88,6 +98,23 @@ def _start_model(path: Path) -> dict:
 
     structure, dist = load_model(path)
     return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
+
+
+def baseline_warnings(finder: DiscrepancyFinder, config: Mapping[str, Any]) -> list[str]:
+    """Warnings of the baseline fit, in the words of ``uqdrive identify``: the optimiser did not
+    converge, or a distribution parameter (a std at zero excepted) sits at a bound of its search
+    box. (Whether the baseline fits the data at all is the verdict's question.)"""
+    from ..inference.discrepancy.fit import THETA_BOUNDS, known_theta
+    from ..vehicle.augmented import THETA_NAMES
+    from .identify import fit_warnings
+
+    base = finder.baseline_
+    u = config["uncertainty"]
+    theta0 = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], u["F_w_mean"]["low"], u["F_w_mean"]["high"]]
+    free = [i for i in range(len(THETA_NAMES)) if i not in known_theta(config)]
+    pick = lambda seq: [seq[i] for i in free]  # noqa: E731
+    out = fit_warnings(pick(base.theta_), pick(theta0), pick(THETA_BOUNDS), pick(THETA_NAMES), bool(base.success_), base.message_)
+    return [f"baseline fit: {w}" for w in out]
 
 
 def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:

@@ -20,16 +20,20 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..io import DataError, atomic_path, check_spread, read_ensemble
+from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
-from ..vehicle.chaos import LSTChaosModel
+from ..vehicle.channels import CHANNEL_UNITS, ChannelChaosModel
+from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
+from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
-__all__ = ["identify_file", "fit_warnings"]
+__all__ = ["identify_file", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
+#: Below this many runs the sampling error of the runs' own distribution is named in the estimate's notes.
+FEW_RUNS = 100
 
 
 def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
@@ -41,7 +45,8 @@ def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
     cfg = copy.deepcopy(dict(config))
     dt = float(t[1] - t[0])
     cfg["time"] = {"t_end": float(t[-1]), "dt": dt, "step": dt}
-    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=float(ds.attrs["v_c"]) * 3.6)
+    v = float(ds.attrs["v_c"]) if "v" not in ds else float(np.ravel(ds["v"].values)[0])
+    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=v * 3.6)
     return cfg
 
 
@@ -62,6 +67,13 @@ def _dst_divergence(cfg, delta):
 def _lost_control(ds, cfg, source: str):
     """Spin flags from the data, the file's own flags (or None) and the dataset carrying the former."""
     threshold = float(cfg["montecarlo"]["spin_threshold"])
+    if "beta" not in ds:  # no side slip recorded: lost control cannot be told from the data
+        in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
+        spun = np.zeros(ds.sizes["sample"], bool) if in_file is None else in_file
+        ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": "lost control, from the file's flags"}))
+        mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+        check_spread(ds, source, mask)
+        return ds, spun, None
     spun = spin_mask(ds["beta"].values, threshold)
     in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
     ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad), from the data"}))
@@ -73,9 +85,26 @@ def _lost_control(ds, cfg, source: str):
     return ds, spun, in_file
 
 
-def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) -> list[str]:
-    """Why a fit is not to be trusted: the optimiser's own verdict, an estimate on a bound of the
-    box, or the starting point returned unchanged (the cost does not respond to the parameters)."""
+#: What to check when the model does not fit (the misfit is beyond the sampling noise).
+MISFIT_FIX = ("the model does not fit these data: if the vehicle constants are not this car's, check mass (vehicle.m_base), "
+              "yaw inertia (vehicle.J0), cornering stiffness (vehicle.c_Sf, c_Sr), wheelbase and speed; else check the units "
+              "of the states, --m-load, and whether an effect the model lacks is present (uqdrive discover)")
+
+
+def _words(name: str) -> str:
+    """A parameter's name in the user's words: mu_mean -> "mu mean", F_w_mean_low -> "F_w_mean low"."""
+    head, _, tail = name.rpartition("_")
+    return f"{head} {tail}"
+
+
+def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str, standard_errors=None, reference=None, cost=None,
+                 n_runs=None, start_results=None) -> list[str]:
+    """Why a fit is not to be trusted, each with its likely fix: the optimiser's own verdict, an
+    estimate on a bound of the box (a std at its lower bound excepted: that is the answer "no
+    spread", see :func:`fit_notes`), standard errors that are not finite, a misfit beyond its
+    reference distribution under the fitted model (``reference``, a
+    :class:`uqdrive.inference.sampling.MisfitReference`, and the ``cost``), starts that end at
+    different estimates with equally good misfits, or the starting point returned unchanged."""
     out = [] if converged else [f"the optimiser stopped without converging: {message}"]
     theta, theta0 = np.asarray(theta, float), np.asarray(theta0, float)
     if not np.all(np.isfinite(theta)):
@@ -83,11 +112,83 @@ def fit_warnings(theta, theta0, bounds, names, converged: bool, message: str) ->
     lo, hi = np.array(bounds, float).T
     tol = 1e-6 * (hi - lo)
     for name, value, a, b, eps in zip(names, theta, lo, hi, tol):
+        if name.endswith("_std") and value <= a + eps:
+            continue
         if value <= a + eps or value >= b - eps:
-            out.append(f"{name} = {value:.6g} ended at the bound {a if value <= a + eps else b:g} of its search box: the data lie "
-                       "outside what the model reaches (check units, v_c and --m-load)")
+            end, bound = ("lower", a) if value <= a + eps else ("upper", b)
+            out.append(f"{name} = {value:.6g} ended at the bound {bound:g} of its search box: {_words(name)} is at the {end} bound "
+                       f"{bound:g} of the search [{a:g}, {b:g}], so the data lie outside what the model reaches; {MISFIT_FIX}")
+    if standard_errors is not None:
+        se = np.asarray(standard_errors, float)
+        std_at_zero = [n.endswith("_std") and v <= a + e for n, v, a, e in zip(names, theta, lo, tol)]
+        bad = [n for n, e, z in zip(names, se, std_at_zero) if not z and not np.isfinite(e)]
+        if bad:
+            out.append(f"the standard errors of {', '.join(_words(n) for n in bad)} are not finite: these data do not determine "
+                       "them (another parameter changes the moments in the same way); use a richer manoeuvre or declare a "
+                       "quantity known (std: 0 in the config's uncertainty section)")
+    if reference is not None and cost is not None and np.isfinite(reference.threshold) and cost > reference.threshold:
+        out.append(f"the misfit is {cost / reference.expected:.3g} times the noise (cost {cost:.4g} against {reference.expected:.4g} "
+                   f"expected from the sampling error of {n_runs} realisations; {reference.level:.0%} threshold {reference.threshold:.4g}, "
+                   f"{reference.threshold / reference.expected:.3g} times the noise): {MISFIT_FIX}")
+    if start_results and standard_errors is not None and reference is not None and np.isfinite(reference.expected):
+        se = np.asarray(standard_errors, float)
+        for th, c, ok in start_results:
+            if not ok or c > cost + reference.expected:
+                continue  # a worse local optimum (or a stop short of one): the best one was taken
+            gap = np.abs(np.asarray(th) - theta) / se
+            if np.any(np.isfinite(gap) & (gap > 3.0)):
+                i = int(np.nanargmax(np.where(np.isfinite(gap), gap, -np.inf)))
+                out.append(f"starts disagree: another start ends with an equally good misfit at {_words(names[i])} {th[i]:.6g} instead "
+                           f"of {theta[i]:.6g} ({gap[i]:.3g} standard errors apart): the data do not single out one answer; use a "
+                           "richer manoeuvre or declare a quantity known")
+                break
     if np.all(np.abs(theta - theta0) <= 1e-10 * np.maximum(np.abs(theta0), 1.0)):
         out.append("the fit returned its starting point unchanged: the cost does not respond to the parameters (check the data)")
+    return out
+
+
+def fit_notes(names, theta, bounds, upper_bounds) -> list[str]:
+    """Facts about a sound fit worth saying: a std estimated at zero (the lower bound of its
+    search) is the answer "this quantity shows no spread", with a one-sided interval."""
+    out = []
+    lo, hi = np.array(bounds, float).T
+    for name, value, a, b in zip(names, theta, lo, hi):
+        if name.endswith("_std") and value <= a + 1e-6 * (b - a):
+            u = upper_bounds.get(name)
+            quantity = name[: -len("_std")]
+            out.append(f"{quantity} std is estimated at zero (the lower end {a:g} of its search): the data show no spread of {quantity}"
+                       + (f"; one-sided 95 % upper bound {u:.4g}" if u is not None and math.isfinite(u) else "")
+                       + f". If {quantity} is known, declare it with uncertainty.{quantity}.std: 0")
+    return out
+
+
+def _channel_notes(cfg, ds, channels, speed) -> list[str]:
+    """What the recorded channels cannot answer: parameters they cannot separate, lost control
+    without beta, unit conversions, runs at different speeds."""
+    from ..inference.identifiability import unidentifiable_parameters
+
+    # the four states identify every parameter fitted here (thesis sec. 5.3.1): the test is for subsets
+    open_ = {} if channels == STATES else unidentifiable_parameters(cfg, channels, UNCERTAIN)
+    out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
+           f"not determined by the data; record {hint}" for p, hint in open_.items()]
+    if "beta" not in channels:
+        out.append("without beta, lost control cannot be detected from the data: every run is used (drop spun runs before)")
+    if ds.attrs.get("conversions"):
+        out.append(str(ds.attrs["conversions"]))
+    if speed is not None and ds["v"].ndim == 2 and np.ptp(ds["v"].values, axis=0).max() > 0.01 * float(speed.min()):
+        out.append("the runs' speed profiles differ by more than 1 %: the model follows their mean profile")
+    return out
+
+
+def _sampling_errors(theta, n: int) -> dict:
+    """Sampling errors of the normal parameters' mean and std from n runs, std / sqrt(n) and
+    std / sqrt(2 (n - 1)): how far the runs' own distribution is from the population's."""
+    out = {}
+    for i, k in enumerate(UNCERTAIN):
+        if k == "F_w_mean":  # uniform: its interval, not a mean and std
+            continue
+        sd = abs(float(theta[2 * i + 1]))
+        out[k] = [_finite(sd / math.sqrt(n)), _finite(sd / math.sqrt(2 * max(n - 1, 1)))]
     return out
 
 
@@ -110,10 +211,16 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     """
     source = str(measured)
     ds = read_ensemble(measured)
+    check_run_count(ds.sizes["sample"], source, "identify")
+    channels = present_channels(ds)
+    speed = speed_profile(ds)
+    if cost == "dst" and (channels != STATES or speed is not None):
+        raise DataError(f"{source}: the DST cost compares the LST and NLST states at constant speed; this file has channels "
+                        f"{', '.join(channels)}{' and a changing speed' if speed is not None else ''}: use --cost std or inp")
     cfg = _model_config(config, ds, source)
     policy = cfg["montecarlo"]["spin_policy"]
     ds, spun, in_file = _lost_control(ds, cfg, source)
-    stats = ensemble_statistics(ds, policy)
+    stats = ensemble_statistics(ds, policy, channels)
     scale = state_scale or configured_state_scale(cfg)
     try:
         state_weights(scale, stats["mean"].values, stats["std"].values)
@@ -124,56 +231,116 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
     model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
+    if channels != STATES or speed is not None:
+        model = ChannelChaosModel(model, channels, speed)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
     theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in channels]).astype(float)
+    # Measurement noise inflates the measured std: the model's variance gets the noise variance
+    # estimated from the data (order-4 differences leave the smooth signal out).
+    noise = np.array([estimate_noise_variance(runs[i], order=4) for i in range(runs.shape[0])])
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale,
-                                optimiser=configured_optimiser(cfg))
+                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale, optimiser=configured_optimiser(cfg),
+                                noise_variance=noise)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl))
+            est.fit(stats["mean"].values, stats["std"].values, theta0, WeightContext(delta, kl), runs=runs)
         except ValueError as exc:  # the model cannot be evaluated at the config's start for these data
             raise DataError(f"{source}: the model cannot follow these data from the config's starting values ({exc}); "
                             "check v_c, the units of the states and the config's uncertainty means") from None
-    th, err = est.theta_, est.theta_std_
-    notes = fit_warnings(th, theta0, est.bounds, model.theta_names, est.converged_, est.message_)
-    converged = bool(est.converged_) and not notes
-    notes += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    summary = _summary(est, model, theta0, m_load, runs.shape[1])
+    summary["warnings"] += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
+    summary["warnings"] += _channel_notes(cfg, ds, channels, speed)
+    n_used = int(stats.attrs["n_used"])
+    sampling = _sampling_errors([v for u in UNCERTAIN for v in summary[u]], n_used)
+    se_mu = summary["standard_errors"]["mu"][0]
+    if n_used < FEW_RUNS and sampling["mu"][0] is not None and se_mu is not None and se_mu < sampling["mu"][0] / 3:
+        summary["notes"].append(f"with {n_used} runs the runs' own mean of mu is uncertain by about {sampling['mu'][0]:.2g} "
+                                f"(std / sqrt(n)), more than the fit's standard error {se_mu:.2g}: read mu's mean as "
+                                f"+- {sampling['mu'][0]:.2g} (sampling_errors)")
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
-        notes.append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
-                     f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
-    summary = {
-        "mu": [_finite(th[0]), _finite(th[1])],
-        "l_f": [_finite(th[2]), _finite(th[3])],
-        "F_w_mean": [_finite(th[4]), _finite(th[5])],
-        "cost": _finite(est.cost_),
-        "converged": converged,
-        "warnings": notes,
-        "iterations": int(est.n_iter_),
+        summary["warnings"].append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
+                                   f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
+    summary.update({
         "cost_function": cost,
         "state_scale": scale,
         "m_load": m_load,
-        "standard_errors": {k: [_finite(err[2 * i]), _finite(err[2 * i + 1])] for i, k in enumerate(UNCERTAIN)},
+        "noise_variance": {state: float(v) for state, v in zip(channels, noise)},
+        "sampling_errors": sampling,
+        "channels": list(channels),
+        "speed": "constant" if speed is None else f"profile {float(speed.min()):.4g}-{float(speed.max()):.4g} m/s",
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
         "spin_threshold": float(cfg["montecarlo"]["spin_threshold"]),
         "n_spun": int(spun.sum()),
         "spun_indices": np.flatnonzero(spun).tolist(),
-        "message": est.message_,
         "measured": source,
-    }
+    })
     if flagged is not None:
         summary["spun_in_file_indices"] = flagged
     _write_outputs(Path(out), stats, est.moments_, summary, overwrite)
     return summary
 
 
-def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) -> None:
+def _summary(est: DistributionEstimator, model: LSTChaosModel, theta0, m_load: float, n_runs: int) -> dict:
+    """The estimate.json fields of a fit: the distributions (known ones at their values), their
+    standard errors and 95 % intervals, the goodness of fit, ``converged`` and the warnings."""
+    names, th, err = model.theta_names, est.theta_, est.theta_std_
+    ref = est.misfit_reference_
+    notes = fit_warnings(th, theta0, est.bounds, names, est.converged_, est.message_, standard_errors=err, reference=ref,
+                         cost=est.cost_, n_runs=n_runs, start_results=est.start_results_)
+    value = dict(zip(names, th.tolist()))
+    se = dict(zip(names, err.tolist()))
+    fixed = {"m_load": m_load, **model.known}
+    pairs = {u: ("mean", "std") if DISTRIBUTIONS[u] == "normal" else ("low", "high") for u in UNCERTAIN}
+    out = {}
+    for u, (a, b) in pairs.items():
+        if u in model.known:
+            out[u] = [model.known[u], 0.0] if b == "std" else [model.known[u], model.known[u]]
+        else:
+            out[u] = [_finite(value[f"{u}_{a}"]), _finite(value[f"{u}_{b}"])]
+    intervals = {}
+    for n in names:
+        if n in est.upper_bounds_:
+            intervals[n] = [0.0, _finite(est.upper_bounds_[n])]
+        elif math.isfinite(se[n]):
+            intervals[n] = [_finite(value[n] - 1.959963984540054 * se[n]), _finite(value[n] + 1.959963984540054 * se[n])]
+        else:
+            intervals[n] = [None, None]
+    gof = None
+    if ref is not None:
+        gof = {"misfit": _finite(est.cost_), "expected": _finite(ref.expected), "ratio": _finite(est.cost_ / ref.expected),
+               "threshold": _finite(ref.threshold), "level": ref.level, "p_value": _finite(ref.p_value(est.cost_)), "dof": _finite(ref.dof),
+               "passed": bool(est.cost_ <= ref.threshold)}
+    return {
+        **out,
+        "cost": _finite(est.cost_),
+        "converged": bool(est.converged_) and not notes,
+        "warnings": notes,
+        "notes": fit_notes(names, th, est.bounds, est.upper_bounds_),
+        "iterations": int(est.n_iter_),
+        "fixed": fixed,
+        "standard_errors": {u: [0.0, 0.0] if u in model.known else [_finite(se[f"{u}_{a}"]), _finite(se[f"{u}_{b}"])]
+                            for u, (a, b) in pairs.items()},
+        "intervals_95": intervals,
+        "goodness_of_fit": gof,
+        "starts": [{"estimate": [_finite(x) for x in t], "cost": _finite(c), "converged": ok} for t, c, ok in est.start_results_],
+        "message": est.message_,
+    }
+
+
+def write_outputs(out: Path, summary: dict, figure, overwrite: bool = True) -> None:
+    """estimate.json and fit.png (drawn by ``figure(path)``) into ``out``, all or nothing."""
+    _write_outputs(Path(out), None, None, summary, overwrite, figure)
+
+
+def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, figure=None) -> None:
     """Create ``out`` (and missing parents) and write fit.png, then estimate.json; on any failure
-    or interruption remove what this call created."""
+    or interruption remove what this call created. ``figure(path)`` draws fit.png (default: the
+    chaos model's moments against ``stats``)."""
     created = []
     try:
         for folder in [*reversed(out.parents), out]:
@@ -181,7 +348,7 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) ->
                 folder.mkdir()
                 created.append(folder)
         with atomic_path(out / "fit.png", overwrite) as tmp:
-            _figure(stats, moments, tmp)
+            (figure or (lambda path: _figure(stats, moments, path)))(tmp)
         created.append(out / "fit.png")
         with atomic_path(out / "estimate.json", overwrite) as tmp:
             tmp.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
@@ -198,19 +365,46 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool) ->
 
 
 def _figure(stats, moments, path):
+    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments."""
+    model = None if moments is None else (moments.mean, moments.std)
+    fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path,
+               channels=[str(c) for c in stats["state"].values])
+
+
+def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std",
+               channels=STATES):
+    """fit.png: measured mean +- 3 std per channel (band) and the model's (lines).
+
+    Parameters
+    ----------
+    time : ndarray, shape (T,)
+        Output times (s).
+    measured_mean, measured_std : ndarray, shape (C, T)
+        Measured mean and std of each channel, in the channel's SI unit.
+    model : tuple of two ndarrays (C, T), or None
+        The identified model's mean and std.
+    path : path of the PNG
+    title : str
+        Figure title.
+    channels : sequence of str, length C
+        The channels' names, in the order of the rows.
+    """
     from ..plots.figure import save_figure, state_axes
 
-    fig, axes = state_axes(title="Identified model (PCE) vs measured ensemble: mean +- 3 std")
-    t = stats["time"].values
-    for i, (ax, state) in enumerate(zip(axes, STATES)):
-        m, s = stats["mean"].values[i], stats["std"].values[i]
-        ax.fill_between(t, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
-        ax.plot(t, m, color="C0")
-        if moments is not None:
-            ax.plot(t, moments.mean[i], "C3--", label="identified")
-            ax.plot(t, moments.mean[i] + 3 * moments.std[i], "C3:", lw=0.8)
-            ax.plot(t, moments.mean[i] - 3 * moments.std[i], "C3:", lw=0.8)
-        ax.set_title(state)
+    channels = list(channels)
+    fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
+                           title=title)
+    for ax in axes[len(channels):]:
+        ax.set_visible(False)
+    for i, (ax, state) in enumerate(zip(axes, channels)):
+        m, s = measured_mean[i], measured_std[i]
+        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
+        ax.plot(time, m, color="C0")
+        if model is not None:
+            ax.plot(time, model[0][i], "C3--", label="identified")
+            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8)
+            ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
+        ax.set_title(state if state in STATES else f"{state} [{CHANNEL_UNITS[state]}]")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     save_figure(fig, path)

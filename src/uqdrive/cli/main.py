@@ -154,15 +154,26 @@ def _identify(args) -> None:
         s = identify_with_model(config, args.measured, args.model, args.out)
         _speed_notice(config, args.measured)
         print(f"wrote {Path(args.out) / 'estimate.json'}: mu N({s['mu'][0]:.4f}, {s['mu'][1]:.4f}), l_f N({s['l_f'][0]:.4f}, "
-              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}")
+              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}"
+              f" ({'converged' if s['converged'] else 'DID NOT CONVERGE, see the warnings'})")
+        _report_warnings(s)
         return
     summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, args.out,
                             state_scale=args.state_scale, overwrite=args.force)
     _speed_notice(config, args.measured)
-    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see warnings in estimate.json"
+    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see the warnings"
     fmt = lambda v, n: tuple(None if x is None else round(x, n) for x in v)  # noqa: E731
     print(f"wrote {Path(args.out) / 'estimate.json'}: mu N{fmt(summary['mu'], 4)}, l_f N{fmt(summary['l_f'], 4)}, "
           f"F_w_mean U{fmt(summary['F_w_mean'], 1)} ({state}, {summary['iterations']} iterations, {summary['n_spun']} lost control)")
+    _report_warnings(summary)
+
+
+def _report_warnings(summary) -> None:
+    """Every warning of a fit on stderr (through the warnings main() prints), every note on stdout."""
+    for note in summary.get("notes", []):
+        print(f"note: {note}")
+    for message in summary.get("warnings", []):
+        warnings.warn(message, UserWarning, stacklevel=2)
 
 
 def _add_config(sub) -> None:
@@ -238,6 +249,7 @@ def _discover(args) -> None:
     named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
     print(f"wrote {out / 'verdict.json'}: effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
           + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
+    _report_warnings(v)
 
 
 def _add_vehicles(sub) -> None:
@@ -279,6 +291,7 @@ SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_ve
 
 # -- parser and shared error handling -------------------------------------------------------------
 def build_parser() -> OneLineParser:
+    """The argument parser of the `uqdrive` command and its subcommands (one-line refusals, exit 2)."""
     parser = OneLineParser(prog="uqdrive", description="uqdrive: simulate single-track vehicle ensembles and identify the "
                                                         "distributions of their uncertain parameters from simulated or measured ones.",
                            epilog="Exit codes: 0 done, 2 refused input (one line on stderr: the field and the fix), "
@@ -311,6 +324,8 @@ def _signals_exit_cleanly():
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the `uqdrive` command line on ``argv`` (``sys.argv[1:]`` if None); return the exit status
+    (0 done, 2 refused input, 128 + N interrupted by signal N)."""
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as exc:  # --help (0) or a refused flag (2, one line already printed)

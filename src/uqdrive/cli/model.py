@@ -16,7 +16,8 @@ from .._version import __version__
 from ..config import config_hash
 from ..inference.discrepancy.band import moment_statistics, statistic_scale
 from ..inference.discrepancy.fit import StructureFit
-from ..io import DataError, atomic_path, read_ensemble
+from ..inference.sampling import run_influence, sampling_errors
+from ..io import DataError, check_run_count, read_ensemble, speed_profile
 from ..rng import rng_stream
 from ..vehicle.augmented import AugmentedSimulator
 from ..vehicle.effects import ModelStructure, structure_from_effects
@@ -28,6 +29,7 @@ __all__ = ["is_model_file", "load_model", "simulate_model", "identify_with_model
 
 
 def is_model_file(value: str) -> bool:
+    """Whether a ``--model`` value names a model file (``.yaml``/``.yml``) rather than a built-in model."""
     return value.endswith((".yaml", ".yml"))
 
 
@@ -77,9 +79,25 @@ def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: i
 
 def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, out: Path, model_samples: int = 1000) -> dict:
     """Identify mu, l_f and the mean wind with the augmented model (its effects held at their
-    fitted values) on common random numbers; write ``out/estimate.json``."""
+    fitted values) on common random numbers; write ``out/estimate.json`` and ``out/fit.png``
+    with the fields of plain ``uqdrive identify`` (warnings, standard errors, intervals, the
+    goodness of fit, ``converged`` by the same rules).
+
+    The residuals are the gaps in units of the statistics' sampling scale, which already holds
+    the model's own Monte Carlo error (factor 1 + n / model_samples); the standard errors and the
+    misfit's reference take the realisations' influences with that factor.
+    """
+    from .identify import fit_figure, fit_notes, fit_warnings, write_outputs
+
     structure, dist = load_model(path)
     ds = read_ensemble(measured)
+    check_run_count(ds.sizes["sample"], str(measured), "identify")
+    missing = [s for s in STATES if s not in ds]
+    if missing or speed_profile(ds) is not None:
+        raise DataError(f"{measured}: identify --model simulates all four states at one speed and this file "
+                        f"{'lacks ' + ', '.join(missing) if missing else 'has a changing v'}: identify it without --model")
+    if "v_c" not in ds.attrs:
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
     x = np.stack([np.asarray(ds[s].values, float) for s in STATES])
     thr = config["montecarlo"]["spin_threshold"]
     spun = spin_mask(x[2], thr)
@@ -95,16 +113,39 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])
     measured_stats = moment_statistics(x, index)
-    scale = statistic_scale(x, index, model_ratio=x.shape[1] / model_samples)
+    ratio = x.shape[1] / model_samples
+    scale = statistic_scale(x, index, model_ratio=ratio)
     fit = StructureFit(sim, index, noise, thr if config["montecarlo"]["spin_policy"] == "exclude" else None, base=structure)
-    fit.fit(measured_stats, scale, _theta(dist))
+    theta0 = _theta(dist)
+    fit.fit(measured_stats, scale, theta0)
     th = fit.theta_
+    names = tuple(fit.parameter_names)
+    bounds = list(zip(*fit.parameter_bounds))
+    influence = run_influence(x[:, :, index], tuple((1.0 + ratio) / scale[k] ** 2 for k in range(2)))
+    lo, _ = fit.parameter_bounds
+    zero = [i for i, n in enumerate(names) if n.endswith("_std") and th[i] <= lo[i] + 1e-6]
+    se, upper, ref = sampling_errors(fit.jacobian_, influence, th, zero, rng_stream(config["seed"], "identify_reference"))
+    upper = {names[i]: u for i, u in upper.items()}
+    warnings_ = fit_warnings(th, theta0, bounds, names, bool(fit.success_), fit.message_, standard_errors=se, reference=ref,
+                             cost=fit.chi2_, n_runs=int(keep.sum()))
+    z = 1.959963984540054
+    intervals = {n: [0.0, upper[n]] if n in upper else ([float(v - z * e), float(v + z * e)] if np.isfinite(e) else [None, None])
+                 for n, v, e in zip(names, th, se)}
+    finite = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731
     summary = {"mu": [float(th[0]), float(th[1])], "l_f": [float(th[2]), float(th[3])], "F_w_mean": [float(th[4]), float(th[5])],
-               "cost": fit.chi2_, "converged": bool(fit.success_), "iterations": int(fit.nfev_), "model": str(path),
-               "effects": {name: dict(p) for name, p in structure.effects}, "samples_used": int(keep.sum()),
-               "n_spun": int(spun.sum()), "spun_indices": [int(i) for i in np.flatnonzero(spun)], "message": fit.message_,
-               "measured": str(measured)}
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / "estimate.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+               "cost": fit.chi2_, "converged": bool(fit.success_) and not warnings_, "warnings": warnings_,
+               "notes": fit_notes(names, th, bounds, upper), "iterations": int(fit.nfev_),
+               "fixed": {"m_load": float(dist.get("m_load", config["uncertainty"]["m_load"])["mean"])},
+               "standard_errors": {k: [finite(se[2 * i]), finite(se[2 * i + 1])] for i, k in enumerate(("mu", "l_f", "F_w_mean"))},
+               "intervals_95": intervals,
+               "goodness_of_fit": {"misfit": float(fit.chi2_), "expected": finite(ref.expected), "ratio": finite(fit.chi2_ / ref.expected),
+                                   "threshold": finite(ref.threshold), "level": ref.level, "p_value": finite(ref.p_value(fit.chi2_)),
+                                   "dof": finite(ref.dof), "passed": bool(fit.chi2_ <= ref.threshold)},
+               "model": str(path), "effects": {name: dict(p) for name, p in structure.effects}, "samples": int(spun.size),
+               "samples_used": int(keep.sum()), "n_spun": int(spun.sum()), "spun_indices": [int(i) for i in np.flatnonzero(spun)],
+               "message": fit.message_, "measured": str(measured)}
+    time = sim.output_time[index]
+    model_stats = fit.statistics_
+    write_outputs(out, summary, lambda p: fit_figure(time, measured_stats[0], measured_stats[1], (model_stats[0], model_stats[1]), p,
+                                                     title="Identified augmented model vs measured ensemble: mean +- 3 std"))
     return summary

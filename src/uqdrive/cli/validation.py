@@ -21,6 +21,7 @@ class OneLineParser(argparse.ArgumentParser):
     """
 
     def error(self, message: str):  # noqa: D102 (argparse API)
+        """Print ``message`` as one line naming the help command and exit with status 2."""
         message = " ".join(str(message).split())
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 

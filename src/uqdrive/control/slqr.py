@@ -36,6 +36,7 @@ class LaneKeepingCase:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any], horizon: float | None = None) -> "LaneKeepingCase":
+        """The case of the config's ``control`` section (initial offset range, yaw, horizon) on ``time.dt``."""
         c = config["control"]
         return cls(c["y0"][0], c["y0"][1], c["psi0_deg"], c["horizon"] if horizon is None else horizon, config["time"]["dt"])
 

@@ -115,6 +115,7 @@ class BoxPrior:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "BoxPrior":
+        """The box of the config's ``bayes.prior`` (low, high per parameter, in ``theta_names`` order)."""
         b = config["bayes"]["prior"]
         names = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
         return cls(np.array([b[n][0] for n in names], float), np.array([b[n][1] for n in names], float))

@@ -12,7 +12,7 @@ import numpy as np
 import sympy as sp
 
 
-__all__ = ["ObservabilityResult", "observability_analysis", "observability_matrix"]
+__all__ = ["ObservabilityResult", "observability_analysis", "observability_matrix", "channel_observability", "unidentifiable_parameters"]
 
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
 
@@ -30,8 +30,9 @@ class ObservabilityResult:
     removal_rank : dict
         Rank after deleting each column; an unchanged rank means that variable's
         identifiability cannot be guaranteed.
-    singular_values : ndarray
-    null_vector : ndarray
+    singular_values : ndarray, shape (8,)
+        Singular values of the column-scaled O_NL, largest first.
+    null_vector : ndarray, shape (8,)
         Right singular vector of the smallest singular value (in column-scaled units): the
         direction along which the output does not change.
     """
@@ -44,6 +45,7 @@ class ObservabilityResult:
 
     @property
     def unidentifiable(self) -> list:
+        """Parameters whose removal keeps the rank: those the outputs cannot distinguish."""
         return [n for n, r in self.removal_rank.items() if r == self.rank]
 
 
@@ -182,3 +184,83 @@ def observability_analysis(config: Mapping[str, Any], state=None, tol: float = 1
     null = np.linalg.svd(values)[2][-1]
     removal = {names[j]: rank(np.delete(values, j, axis=1))[0] for j in range(n)}
     return ObservabilityResult(names, r, removal, sv, null / np.abs(null).max())
+
+
+#: What to record to separate a parameter that a channel set leaves open.
+_RECORD_HINT = {
+    "mu": "the yaw rate psi_dot or the lateral acceleration a_y",
+    "l_f": "both the yaw rate psi_dot and the lateral acceleration a_y (or beta)",
+    "F_w_mean": "the yaw rate psi_dot and the lateral acceleration a_y",
+    "m_load": "the load (pass --m-load): the mass only scales the wind's effect",
+}
+
+
+def _lst_outputs(config: Mapping[str, Any], channels):
+    """Symbolic outputs h(x, theta, delta) of ``channels``: states as they are and
+    a_y = v (beta_dot + psi_dot) of the LST (:func:`uqdrive.vehicle.single_track.lateral_acceleration_map`)."""
+    x, f, delta = _lst_symbolic(config)
+    v = sp.Float(config["vehicle"]["speed_kmh"] / 3.6)
+    by_name = {"psi": x[0], "psi_dot": x[1], "beta": x[2], "y": x[3], "a_y": sp.expand(v * (f[2] + x[1]))}
+    return x, f, delta, [by_name[c] for c in channels]
+
+
+def channel_observability(config: Mapping[str, Any], channels, parameters=PARAMETERS, state=None, tol: float = 1e-9) -> ObservabilityResult:
+    """The rank test of :func:`observability_analysis` for the measured ``channels`` (a subset of
+    psi, psi_dot, beta, y, a_y) with only ``parameters`` unknown (the others at their config
+    values, as identify fixes m_load).
+
+    The outputs are affine in the state, h = H(theta) x + d(theta) (a_y = C x + D u), so the Lie
+    derivatives are L^0 h = H x + d and L^k h = H A^(k-1) (A x + b) (thesis (3.9)-(3.11)); the
+    Jacobian in the augmented state z = (x, theta) is taken by complex step, exact to rounding.
+    """
+    x, f, delta, outputs = _lst_outputs(config, channels)
+    states, params = list(x[:4]), list(x[4:])
+    free = [p for p in params if str(p) in parameters]
+    drift = f[:4, :]
+    h = sp.Matrix(outputs)
+    fns = [sp.lambdify(params + [delta], e, "numpy") for e in (drift.jacobian(states), drift.subs({s: 0 for s in states}),
+                                                              h.jacobian(states), h.subs({s: 0 for s in states}))]
+    unc = config["uncertainty"]
+    nominal = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
+               "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"]) + 100.0}
+    state = state if state is not None else {"psi": 0.05, "psi_dot": 0.2, "beta": 0.01, "y": 1.0}
+    d0 = np.deg2rad(config["steering"]["delta_max_deg"])
+    z0 = np.array([state[str(s)] for s in states] + [nominal[str(p)] for p in free], complex)
+    n = 4 + len(free)
+
+    def lie(z):
+        p = {str(s): nominal[str(s)] for s in params}
+        p.update({str(s): z[4 + j] for j, s in enumerate(free)})
+        args = [p[str(s)] for s in params] + [d0]
+        A, b, H, d = (np.array(fn(*args), dtype=complex).reshape(shape) for fn, shape in
+                      zip(fns, [(4, 4), (4,), (len(outputs), 4), (len(outputs),)]))
+        xs = z[:4]
+        rows, drive, Ak = [H @ xs + d], A @ xs + b, np.eye(4)
+        for _ in range(1, n):
+            rows.append(H @ Ak @ drive)
+            Ak = Ak @ A
+        return np.concatenate(rows)
+
+    step = 1e-20
+    O = np.column_stack([lie(z0 + 1j * step * max(abs(z0[j]), 1.0) * np.eye(n)[j]).imag / (step * max(abs(z0[j]), 1.0)) for j in range(n)])
+    scale = np.maximum(np.abs(z0.real), 1e-3)
+    O = O * scale
+    norms = np.linalg.norm(O, axis=1, keepdims=True)
+    O = O[norms[:, 0] > 0] / norms[norms[:, 0] > 0]
+    names = tuple(str(s) for s in states + free)
+
+    def rank(M):
+        sv = np.linalg.svd(M, compute_uv=False)
+        return int(np.sum(sv > tol * sv[0])), sv
+
+    r, sv = rank(O)
+    null = np.linalg.svd(O)[2][-1]
+    removal = {names[j]: rank(np.delete(O, j, axis=1))[0] for j in range(n)}
+    return ObservabilityResult(names, r, removal, sv, null / np.abs(null).max())
+
+
+def unidentifiable_parameters(config: Mapping[str, Any], channels, parameters=PARAMETERS) -> dict:
+    """Parameters of ``parameters`` that the ``channels`` cannot separate (rank test of
+    :func:`channel_observability`), each with what to record instead."""
+    result = channel_observability(config, channels, parameters)
+    return {p: _RECORD_HINT.get(p, "more channels") for p in parameters if p in result.unidentifiable}

@@ -13,6 +13,7 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
+from .sampling import run_influence, sampling_errors
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
 
@@ -26,7 +27,10 @@ class MomentModel(Protocol):
 
     theta_names: tuple
 
-    def moments(self, theta, gradient: bool = False): ...
+    def moments(self, theta, gradient: bool = False):
+        """Mean and variance of the states, shape (4, T) each in the states' units, at the
+        distribution parameters ``theta`` (shape (n_theta,), ``theta_names`` order); with
+        ``gradient`` also their derivatives, shape (n_theta, 4, T)."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +64,8 @@ COSTS: dict[str, Callable] = {"std": _std, "inp": _inp, "dst": _dst}
 
 
 def cost_weights(name: str, ctx: WeightContext, shape) -> np.ndarray:
+    """Weights of the cost (5.25) by the registered scheme ``name`` (STD, INP, DST: ``COSTS``), broadcast
+    to ``shape`` (n_states, T); an unknown name raises ValueError listing the known ones."""
     try:
         scheme = COSTS[name.lower()]
     except KeyError:
@@ -178,7 +184,7 @@ class DistributionEstimator:
     Parameters
     ----------
     model : MomentModel
-        E.g. :class:`uqdrive.pce_vehicle.LSTChaosModel`; may be any model with the protocol.
+        E.g. :class:`uqdrive.vehicle.chaos.LSTChaosModel`; may be any model with the protocol.
     cost : {"std", "inp", "dst"}
         Weight scheme, see :data:`COSTS`.
     bounds : sequence of (low, high), optional
@@ -195,18 +201,29 @@ class DistributionEstimator:
     optimiser : {"lbfgsb", "gauss_newton"}
         Local optimiser, see :data:`OPTIMISERS`: quasi-Newton with the adjoint gradient (the
         thesis' method class) or trust-region Gauss-Newton with forward sensitivities.
+    noise_variance : ndarray, shape (n_states,), optional
+        Variance of white measurement noise in the data, added to the model's variance before
+        its std is compared with the measured one (default: none).
 
     Attributes
     ----------
-    theta_ : ndarray
-        Estimate; standard deviations reported as |sigma|.
+    theta_ : ndarray, shape (n_theta,)
+        Estimate in ``model.theta_names`` order, in the parameters' units; standard deviations reported as |sigma|.
     cost_, n_iter_, n_eval_, converged_, message_ : fit diagnostics
-    theta_std_ : ndarray
-        Gauss-Newton standard errors (see :meth:`fit`).
+    theta_std_ : ndarray, shape (n_theta,)
+        Standard errors: sandwich (sampling error of the statistics) when :meth:`fit` is given the
+        realisations (NaN for a std at zero), else Gauss-Newton (see :meth:`_fit`).
+    gauss_newton_std_ : ndarray, shape (n_theta,)
+        The Gauss-Newton standard errors s^2 (J'J)^-1 (residuals taken as independent).
+    upper_bounds_, misfit_reference_ : dict, MisfitReference or None
+        With the realisations: one-sided 95 % upper bound of each std at zero (by name), and the
+        cost's distribution at the optimum if the model is right.
+    start_results_ : list of (theta, cost, success)
+        Each start's local optimum (the first is the given start's), theta with |sigma|.
     """
 
     def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
-                 state_scale: str = "none", optimiser: str = "lbfgsb"):
+                 state_scale: str = "none", optimiser: str = "lbfgsb", noise_variance=None):
         if cost.lower() not in COSTS:
             raise ValueError(f"unknown cost '{cost}'; choose one of {', '.join(COSTS)}")
         if state_scale.lower() not in STATE_SCALES:
@@ -221,6 +238,8 @@ class DistributionEstimator:
         self.starts = int(starts)
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.max_iter = int(max_iter)
+        self.noise_variance = noise_variance
+        self._nv = 0.0 if noise_variance is None else np.asarray(noise_variance, float)[:, None]
 
     # -- objective --------------------------------------------------------------------------
     def _objective(self, theta, gradient=True):
@@ -234,7 +253,7 @@ class DistributionEstimator:
                 r = self.model.moments(theta, gradient=gradient)
         except (ValueError, np.linalg.LinAlgError):
             return None
-        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        std = np.sqrt(np.maximum(r.variance + self._nv, 1e-300))
         em, es = r.mean - self._mean, std - self._std
         if not (np.all(np.isfinite(em)) and np.all(np.isfinite(es))):
             return None
@@ -260,15 +279,18 @@ class DistributionEstimator:
         J, g, _ = out
         return J / self._J0, g * self._scale / self._J0
 
-    def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
+    def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None, runs=None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
 
-        See :meth:`_fit` for the error bars. The model's matrices are small (tens of states), where
-        BLAS threads only add overhead (they double the cost of the adjoint gradient), so the fit
-        runs with one BLAS thread, as scikit-learn does with threadpoolctl.
+        ``runs`` (n_states, n, T), optional: the realisations behind the statistics, for sandwich
+        standard errors and the misfit's reference (goodness of fit). The model's matrices are
+        small, where BLAS threads only add overhead, so the fit runs with one BLAS thread.
         """
         with single_blas_thread():
-            return self._fit(measured_mean, measured_std, theta0, context)
+            self._fit(measured_mean, measured_std, theta0, context)
+            if runs is not None:
+                self._sampling_errors(np.asarray(runs, float))
+            return self
 
     def _fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
@@ -292,6 +314,7 @@ class DistributionEstimator:
         self._scale = np.where(np.abs(theta0) > 1e-8, np.abs(theta0), 1.0)
         starts = [theta0] + self._global_candidates()
         best, n_iter, n_eval = None, 0, 0
+        self.start_results_ = []
         lo, hi = np.array(self.bounds, float).T
         box = list(zip(lo / self._scale, hi / self._scale))
 
@@ -302,6 +325,7 @@ class DistributionEstimator:
             res = local(np.clip(start, lo, hi) / self._scale)
             n_iter += res.nit
             n_eval += res.nfev
+            self.start_results_.append((self._absolute_std(res.x * self._scale), float(res.fun * self._J0), bool(res.success)))
             if best is None or res.fun < best.fun:
                 best = res
         success, message = bool(best.success), str(best.message)
@@ -323,15 +347,40 @@ class DistributionEstimator:
         self.message_ = message
         if not self.converged_:
             warnings.warn(f"identification did not converge: {self.message_}", RuntimeWarning, stacklevel=2)
-        for i, name in enumerate(self.model.theta_names):
-            if name.endswith("_std"):
-                theta[i] = abs(theta[i])  # the cost is even in sigma (FACTS)
+        theta = self._absolute_std(theta)
         self.theta_ = theta
         self.cost_ = float(final[0]) if final is not None else float("nan")
         self.n_iter_, self.n_eval_ = int(n_iter), int(n_eval)
         self.moments_ = final[2] if final is not None else None
         self.theta_std_ = self._gauss_newton_std(self.model.moments(theta, gradient=True)) if final is not None else np.full(theta.size, np.nan)
+        self.gauss_newton_std_ = self.theta_std_
+        self.upper_bounds_, self.misfit_reference_ = {}, None
         return self
+
+    def _absolute_std(self, theta):
+        theta = np.array(theta, float)
+        for i, name in enumerate(self.model.theta_names):
+            if name.endswith("_std"):
+                theta[i] = abs(theta[i])  # the cost is even in sigma (FACTS)
+        return theta
+
+    def at_zero(self) -> list[int]:
+        """Indices of the stds estimated at the lower bound of their box (no spread)."""
+        lo, hi = np.array(self.bounds, float).T
+        return [i for i, name in enumerate(self.model.theta_names)
+                if name.endswith("_std") and self.theta_[i] <= lo[i] + 1e-6 * (hi[i] - lo[i])]
+
+    def _sampling_errors(self, runs) -> None:
+        """Sandwich standard errors and the misfit's reference from the realisations ``runs``
+        (:func:`uqdrive.inference.sampling.sampling_errors`; a std at zero gets a one-sided bound)."""
+        if self.moments_ is None:
+            return
+        if runs.ndim != 3 or runs.shape[0] != self._mean.shape[0] or runs.shape[2] != self._mean.shape[1]:
+            raise ValueError(f"runs must have shape (n_states, n, T) = ({self._mean.shape[0]}, n, {self._mean.shape[1]}), got {runs.shape}")
+        _, jac = self._weighted_residuals(self.model.moments(self.theta_, gradient=True), jacobian=True)
+        zero = self.at_zero()
+        self.theta_std_, upper, self.misfit_reference_ = sampling_errors(jac, run_influence(runs, self._w), self.theta_, zero, self.rng)
+        self.upper_bounds_ = {self.model.theta_names[i]: u for i, u in upper.items()}
 
     def _global_candidates(self):
         if self.starts <= 0:
@@ -354,7 +403,7 @@ class DistributionEstimator:
     def _weighted_residuals(self, r, jacobian: bool = False):
         """Residuals of (5.25), sqrt(w) [mean error, std error] flattened (n,), and with
         ``jacobian`` their derivative (n, p) from the model's sensitivities."""
-        std = np.sqrt(np.maximum(r.variance, 1e-300))
+        std = np.sqrt(np.maximum(r.variance + self._nv, 1e-300))
         sw = np.sqrt(self._w)
         res = np.concatenate([(sw * (r.mean - self._mean)).ravel(), (sw * (std - self._std)).ravel()])
         if not jacobian:

@@ -200,7 +200,7 @@ def linear_recursion_batched(blocks, out):
 
     Returns
     -------
-    ndarray
+    ndarray, shape (B, K + 1, N)
         ``out``.
     """
     for group, Phi_b in blocks:

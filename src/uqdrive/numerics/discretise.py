@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["foh_discretise", "foh_discretise_derivatives"]
+__all__ = ["foh_discretise", "foh_discretise_derivatives", "foh_discretise_derivatives_batched"]
 
 
 def foh_discretise(A, E, h: float):
@@ -172,3 +172,63 @@ def _phi_functions_taylor_derivatives(X, D, rho: float):
         dphi1 = dphi1 + dterm / (k + 1)
         dphi2 = dphi2 + dterm / ((k + 1) * (k + 2))
     return (expX, phi1, phi2), (dexp, dphi1, dphi2)
+
+
+def foh_discretise_derivatives_batched(A, E, h: float, dA, dE):
+    """:func:`foh_discretise_derivatives` of a stack of systems, one NumPy call per series term
+    and doubling for the whole stack (e.g. the steps of a time-varying system).
+
+    Parameters
+    ----------
+    A : ndarray, shape (K, d, d)
+    E : ndarray, shape (K, d, r)
+    h : float
+        Step (s).
+    dA : ndarray, shape (K, p, d, d)
+    dE : ndarray, shape (K, p, d, r)
+
+    Returns
+    -------
+    (Phi, P, Q) with shapes (K, d, d), (K, d, r), (K, d, r), and (dPhi, dP, dQ) with a p axis
+    after K.
+    """
+    A, E = np.asarray(A, float), np.asarray(E, float)
+    dA, dE = np.asarray(dA, float), np.asarray(dE, float)
+    K, n_p, d = dA.shape[0], dA.shape[1], A.shape[-1]
+    X, rho, s = _scaled(A, h)
+    hs = h / 2.0**s
+    moving = np.flatnonzero(np.any(dA != 0, axis=(0, 2, 3)))  # directions that move A (not the wind's)
+    D = dA[:, moving] * hs
+    Xb = X[:, None]
+    eye = np.eye(X.shape[-1])
+    Phi, phi1, phi2 = eye + X, eye + X / 2.0, eye / 2.0 + X / 6.0
+    dPhi, dphi1, dphi2 = D.copy(), D / 2.0, D / 6.0
+    term, dterm, k, bound = X, D, 1, rho * rho / 2.0
+    while (bound * (k + 2) / max(rho, 1e-300) > 1e-17) and k < 30:
+        k += 1
+        dterm = (dterm @ Xb + term[:, None] @ D) / k
+        term = (term @ X) / k
+        bound *= rho / (k + 1)
+        Phi, phi1, phi2 = Phi + term, phi1 + term / (k + 1), phi2 + term / ((k + 1) * (k + 2))
+        dPhi, dphi1, dphi2 = dPhi + dterm, dphi1 + dterm / (k + 1), dphi2 + dterm / ((k + 1) * (k + 2))
+    J0, J1 = phi1 * hs, phi2 * (hs * hs)
+    dJ0, dJ1 = dphi1 * hs, dphi2 * (hs * hs)
+    for _ in range(s):
+        Pb = Phi[:, None]
+        dJ1 = dJ1 + dPhi @ J1[:, None] + Pb @ dJ1 + hs * dJ0
+        J1 = J1 + Phi @ J1 + hs * J0
+        dJ0 = dJ0 + dPhi @ J0[:, None] + Pb @ dJ0
+        J0 = J0 + Phi @ J0
+        dPhi = dPhi @ Pb + Pb @ dPhi
+        Phi = Phi @ Phi
+        hs *= 2.0
+    Q = (J1 / h) @ E
+    P = J0 @ E - Q
+    dQ = (J1 / h)[:, None] @ dE
+    dP = J0[:, None] @ dE - dQ
+    dQ_moving = (dJ1 / h) @ E[:, None]
+    dQ[:, moving] += dQ_moving
+    dP[:, moving] += dJ0 @ E[:, None] - dQ_moving
+    dPhi_all = np.zeros((K, n_p, d, d))
+    dPhi_all[:, moving] = dPhi
+    return (Phi, P, Q), (dPhi_all, dP, dQ)

@@ -95,6 +95,7 @@ class GalerkinProjector:
 
     @property
     def n_terms(self) -> int:
+        """Number of PCE basis terms P."""
         return self.chaos.n_terms
 
     @property

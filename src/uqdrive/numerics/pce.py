@@ -45,10 +45,12 @@ class PolynomialChaos:
 
     @property
     def n_germs(self) -> int:
+        """Number of germs (random input variables)."""
         return len(self.families)
 
     @property
     def n_terms(self) -> int:
+        """Number of basis terms P (total-order multi-indices)."""
         return self.indices.shape[0]
 
     def evaluate_basis(self, xi) -> np.ndarray:

@@ -30,6 +30,7 @@ def decoupled_blocks(pattern) -> list[np.ndarray]:
     Returns
     -------
     list of ndarray of int (read-only)
+        One index array, shape (b,), per block of size b; together they cover range(N).
     """
     pattern = np.asarray(pattern, bool)
     symmetric = pattern | pattern.T
@@ -158,8 +159,8 @@ def linear_recursion(Phi, drive, x0=None, groups=None):
         d_k; the middle axes (e.g. parameter sensitivities) are independent right-hand sides.
     x0 : ndarray, shape (..., N), optional
         Initial state (zero by default).
-    groups : list of ndarray, optional
-        Block structure of Phi from :func:`identical_block_groups` (computed if omitted); each
+    groups : list of ndarray of int, optional
+        Index arrays, shape (n_blocks, b) each: block structure of Phi from :func:`identical_block_groups` (computed if omitted); each
         group of identical blocks is advanced as one batch.
 
     Returns
@@ -182,12 +183,12 @@ def linear_recursion_in_place(Phi, out, groups=None):
     out : ndarray, shape (K + 1, ..., N)
         x_0 in ``out[0]`` and d_0..d_{K-1} in ``out[1:]`` on entry; x_0..x_K on return. Callers
         that form the drive straight in ``out`` save a copy of the largest array.
-    groups : list of ndarray, optional
-        As for :func:`linear_recursion`.
+    groups : list of ndarray of int, optional
+        As for :func:`linear_recursion`, shape (n_blocks, b) each.
 
     Returns
     -------
-    ndarray
+    ndarray, shape (K + 1, ..., N)
         ``out``.
     """
     Phi = np.asarray(Phi, float)
@@ -220,8 +221,8 @@ def reverse_linear_recursion(Phi, G, groups=None):
     ----------
     Phi : ndarray, shape (N, N)
     G : ndarray, shape (K + 1, ..., N)
-    groups : list of ndarray, optional
-        As for :func:`linear_recursion` (the blocks of Phi^T are those of Phi).
+    groups : list of ndarray of int, optional
+        As for :func:`linear_recursion`, shape (n_blocks, b) each (the blocks of Phi^T are those of Phi).
 
     Returns
     -------

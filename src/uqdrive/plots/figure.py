@@ -32,6 +32,8 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
 
 
 def state_axes(nrows=2, ncols=2, title=""):
+    """A figure with an ``nrows`` x ``ncols`` grid of axes sharing the time axis (one per state), and
+    its flattened axes."""
     fig, axes = plt.subplots(nrows, ncols, figsize=(10, 6.5), sharex=True, constrained_layout=True)
     if title:
         fig.suptitle(title)
@@ -46,6 +48,7 @@ def time_axis(fig, axes):
 
 
 def label_state(ax, state):
+    """Label ``ax`` with the state's name and unit (``STATE_UNITS``) and add a light grid."""
     ax.set_ylabel(f"{state} [{STATE_UNITS[state]}]")
     ax.set_title(STATE_NAMES[state])
     ax.grid(alpha=0.3)

@@ -24,6 +24,7 @@ __all__ = ["weights", "lqr_mean_gain", "slqr_gain", "closed_loop_monte_carlo", "
 
 
 def weights(config):
+    """LQR weights of the config: Q = diag(``control.Q_diag``) (4 x 4) and the scalar R."""
     c = config["control"]
     return np.diag(c["Q_diag"]), float(c["R"])
 

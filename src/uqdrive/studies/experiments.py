@@ -33,7 +33,7 @@ def guess_stream_index(name: str) -> int:
 
 def experiment_config(config: Mapping[str, Any], name: str) -> dict:
     """The config an experiment runs with: the no-wind-moment variant sets M_c = 0 (thesis
-    Table 6.2's LST row is reproduced only so; see README)."""
+    Table 6.2's LST row is reproduced only so; see docs/reproduction.md)."""
     cfg = copy.deepcopy(dict(config))
     if name == "no_wind_moment":
         cfg["vehicle"] = dict(cfg["vehicle"], M_c=0.0)

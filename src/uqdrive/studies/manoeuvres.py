@@ -12,7 +12,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MANOEUVRES", "chirp", "double_lane_change", "slalom", "steering_command", "step_steer"]
+from ..vehicle.channels import speed_ramp
+
+__all__ = ["MANOEUVRES", "SPEED_PROFILES", "braking_in_turn", "braking_in_turn_speed", "chirp", "double_lane_change", "slalom",
+           "speed_command", "steering_command", "step_steer"]
 
 
 def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0, phase: float = 0.0):
@@ -21,7 +24,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Parameters
     ----------
-    t : array_like
+    t : array_like, shape (T,)
         Time (s).
     amplitude_deg : float
         Amplitude A (deg).
@@ -34,7 +37,7 @@ def slalom(t, amplitude_deg: float = 5.0, period: float = 4.0, sign: float = 1.0
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -47,7 +50,7 @@ def step_steer(t, amplitude_deg: float = 2.0, t_start: float = 1.0, ramp: float 
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -61,7 +64,7 @@ def chirp(t, amplitude_deg: float = 2.0, f0: float = 0.1, f1: float = 1.5, durat
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -76,7 +79,7 @@ def double_lane_change(t, amplitude_deg: float = 2.0, t_start: float = 1.0, dura
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         Steering angle (rad).
     """
     t = np.asarray(t, dtype=float)
@@ -86,6 +89,31 @@ def double_lane_change(t, amplitude_deg: float = 2.0, t_start: float = 1.0, dura
         inside = (t >= start) & (t <= start + duration)
         out = np.where(inside, s * a * np.sin(2.0 * np.pi * (t - start) / duration), out)
     return sign * out
+
+
+def braking_in_turn(t, amplitude_deg: float = 2.0, t_start: float = 1.0, ramp: float = 0.4, sign: float = 1.0):
+    """Steering of braking in a turn (ISO 7975): a step steer into a steady turn, held while the
+    car brakes (:func:`braking_in_turn_speed` gives the speed).
+
+    Returns
+    -------
+    ndarray
+        Steering angle (rad).
+    """
+    return step_steer(t, amplitude_deg, t_start, ramp, sign)
+
+
+def braking_in_turn_speed(t, start_kmh: float = 80.0, end_kmh: float = 50.0, t_brake: float = 3.0, duration: float = 3.0):
+    """Speed of braking in a turn: constant until ``t_brake``, then a linear decrease to
+    ``end_kmh`` over ``duration`` s (80 -> 50 km/h in 3 s is -2.8 m/s^2, 0.28 g), constant after.
+
+    Returns
+    -------
+    ndarray
+        v(t) (m/s).
+    """
+    return speed_ramp(t, start_kmh, end_kmh, t_brake, duration)
+
 
 
 def pulse(t, amplitude_deg: float = 2.0, t_start: float = 1.0, width: float = 0.5, sign: float = 1.0):
@@ -102,7 +130,7 @@ def pulse(t, amplitude_deg: float = 2.0, t_start: float = 1.0, width: float = 0.
     return sign * np.deg2rad(amplitude_deg) * on.astype(float)
 
 
-#: Manoeuvre name -> function(t, **params) returning the steering angle (rad).
+#: Manoeuvre name -> function(t, ``**params``) returning the steering angle (rad).
 MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
     "slalom": slalom,
     "step": step_steer,
@@ -111,9 +139,24 @@ MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
     "pulse": pulse,
 }
 
+#: Manoeuvres that change the speed: name -> (steering function, speed function (m/s)), each
+#: function(t, **params). Kept apart from :data:`MANOEUVRES` (the constant-speed benchmark of
+#: discover) because discover models a constant speed.
+SPEED_PROFILES: dict[str, tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]] = {
+    "braking_in_turn": (braking_in_turn, braking_in_turn_speed),
+}
+
 
 def steering_command(manoeuvre: str, t, params: Mapping[str, Any] | None = None) -> np.ndarray:
     """Commanded steering angle (rad) of the named manoeuvre on the times ``t`` (s)."""
     if manoeuvre not in MANOEUVRES:
         raise ValueError(f"unknown manoeuvre '{manoeuvre}'; choose one of {', '.join(MANOEUVRES)}")
     return MANOEUVRES[manoeuvre](t, **dict(params or {}))
+
+
+def speed_command(manoeuvre: str, t, params: Mapping[str, Any] | None = None) -> np.ndarray:
+    """Speed (m/s) of the named manoeuvre on the times ``t`` (s); only manoeuvres of
+    :data:`SPEED_PROFILES` change the speed."""
+    if manoeuvre not in SPEED_PROFILES:
+        raise ValueError(f"manoeuvre '{manoeuvre}' keeps a constant speed; speed profiles: {', '.join(SPEED_PROFILES)}")
+    return SPEED_PROFILES[manoeuvre][1](t, **dict(params or {}))

@@ -75,6 +75,7 @@ class Deviation:
     evidence: str
 
     def explains(self, quantity: str) -> bool:
+        """Whether this deviation covers the scorecard row ``quantity`` (a full match of one pattern)."""
         return any(re.fullmatch(p, quantity) for p in self.rows)
 
 
@@ -87,26 +88,26 @@ KNOWN_DEVIATIONS: dict[str, Deviation] = {
         "the same estimate with unit-free residuals (its 'unit-free residuals' row) is not fail",
         "The printed cost (5.25) adds residuals in SI units (as does the M_c = 0 variant), so y (m) decides the fit; with "
         "unit-free residuals the same estimate reproduces the number or deviates only for its own registered reason (its 'unit-free residuals' row).",
-        "README 'Residual units of the cost (5.25)'; results/tables/table_6_2.csv; "
+        "docs/reproduction.md 'Residual units of the cost (5.25)'; results/tables/table_6_2.csv; "
         "tests/test_identification_study.py::test_unit_free_residuals_reproduce_table_6_2"),
     "nlst_wind_wider": Deviation(
         (r"NLST-STD wind (lower|upper) bound \(thesis Table 6\.2, unit-free residuals\)",),
-        "the interval is wider than the thesis' on that side, by at most 100 N (README: 35-65 N)",
+        "the interval is wider than the thesis' on that side, by at most 100 N (docs/reproduction.md: 35-65 N)",
         "uqdrive's NLST realisations with mu < 0.5 slide without spinning (in the thesis' data all spun, FACTS) and widen the "
         "identified mean-wind interval; excluding them gives U(-391, 645).",
-        "README 'Spinning realisations' and 'Residual units'; results/tables/table_6_2.csv"),
+        "docs/reproduction.md 'Spinning realisations' and 'Residual units'; results/tables/table_6_2.csv"),
     "table_6_3_mirror": Deviation(
         (r"NLST-STD wind (lower|upper) bound \(thesis Table 6\.3(, unit-free residuals)?\)",),
         "the bound is nearer the mirror image of the thesis' Table 6.2 interval, (-high, -low), than the Table 6.3 value",
         "(5.3) is odd in (x, delta, F_w) and the wind draws are symmetric, so inverted steering mirrors the mean-wind estimate; "
         "the thesis' Table 6.3 keeps the interval where Table 6.2 had it, which no odd-symmetric model can give.",
-        "tests/test_vehicle.py::test_nlst_is_odd_in_state_steering_and_wind; results/tables/table_6_3.csv; README 'Inverted steering'"),
+        "tests/test_vehicle.py::test_nlst_is_odd_in_state_steering_and_wind; results/tables/table_6_3.csv; docs/reproduction.md 'Inverted steering'"),
     "slqr_grid": Deviation(
         (r"SLQR gain K\[[1-4]\]",),
         "always: the thesis states neither the time grid of (5.38), nor F_w,sigma, nor its optimiser",
         "The SLQR cost (5.38) is a plain sum on a time grid the thesis does not state (nor F_w,sigma); its optimum moves with "
         "the grid, approaching the LQR only at O(dt), and is flat in the beta gain.",
-        "tests/test_slqr.py::test_slqr_without_uncertainty_tends_to_the_lqr; results/tables/control_gains.csv; README 'Control'"),
+        "tests/test_slqr.py::test_slqr_without_uncertainty_tends_to_the_lqr; results/tables/control_gains.csv; docs/science.md 'Control'"),
     "gp_training_region": Deviation(
         (r"GP posterior (mean|variance) of the slope .*",),
         "lambda* lies outside the configured training slips (wheelslip.gp.training_slip), so the slope there is extrapolated",
@@ -125,19 +126,19 @@ KNOWN_DEVIATIONS: dict[str, Deviation] = {
         "the unit-free optimiser estimate's row of the same case is not fail",
         "The SI-residual optimiser estimate is the biased one (y dominates the literal cost (5.25), l_f's std collapses), "
         "so it falls outside the posterior where the unit-free estimate does not.",
-        "README 'emcee cross-check' (which optimiser is right); results/tables/posterior_summary.csv"),
+        "docs/reproduction.md 'emcee cross-check: results' (which optimiser is right); results/tables/posterior_summary.csv"),
     "bayes_gust_free_wind": Deviation(
         (r"posterior 95% interval contains optimiser estimate, unit-free residuals \(LST-LST.*\)",),
         "every parameter outside its interval is a mean-wind bound",
         "The optimiser's model has no gusts, so its mean-wind interval absorbs the gusts' variance and comes out wider "
         "(about 15 N per side) than the posterior's, whose model includes them (bayes.model_gusts).",
-        "README 'Wind yaw moment' and 'emcee cross-check'; results/tables/posterior_summary.csv"),
+        "docs/reproduction.md 'Wind yaw moment' and 'emcee cross-check: results'; results/tables/posterior_summary.csv"),
     "bayes_misspecified": Deviation(
         (r"posterior 95% interval contains optimiser estimate.* \(NLST-LST\)",),
         "the posterior interval of mu's mean excludes the truth (the model is confidently wrong)",
         "The LST lacks tyre saturation, so the optimiser (moment cost, gust-free model) and the posterior (whitened "
         "likelihood, gust model) settle on different pseudo-true values of a misspecified model.",
-        "row 'posterior 95% interval of mu mean excludes the truth'; results/tables/posterior_summary.csv; README 'emcee cross-check'"),
+        "row 'posterior 95% interval of mu mean excludes the truth'; results/tables/posterior_summary.csv; docs/reproduction.md 'emcee cross-check: results'"),
 }
 
 

@@ -98,7 +98,7 @@ def thesis_table_rows(datasets: Mapping[str, xr.Dataset], which: str) -> list[di
 
 #: Tolerances of the Table 6.2/6.3 rows (issue 4): mu mean 0.02 (LST) and 0.03 (NLST), l_f mean
 #: 0.02 m, wind bounds 30 N; a registered wider NLST wind interval may exceed the thesis' by at
-#: most NLST_WIND_EXCESS (README: 35-65 N), on the wide side only.
+#: most NLST_WIND_EXCESS (docs/reproduction.md: 35-65 N), on the wide side only.
 TABLE_TOLERANCE = {"LST mu": 0.02, "NLST mu": 0.03, "l_f": 0.02, "wind": 30.0}
 NLST_WIND_EXCESS = 100.0
 #: theta index and label of the scorecard's quantities.

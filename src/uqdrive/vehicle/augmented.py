@@ -16,6 +16,7 @@ import numpy as np
 from ..numerics.integrate import lti_foh_response
 from .effects import ModelStructure
 from .single_track import VehicleParameters, lst_matrices
+from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
 from .track_rk4 import integrate_single_track
 from .uncertainty import kle_nystrom
 
@@ -68,6 +69,7 @@ class Germs:
 
     @property
     def n(self) -> int:
+        """Number of realisations."""
         return int(self.mu.size)
 
     def head(self, n: int) -> "Germs":
@@ -301,7 +303,8 @@ class AugmentedSimulator:
         thetas = [np.asarray(th, float) for th in thetas]
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
-        if not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1:
+        if (not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1
+                or any(uses_chassis_terms(s) for s in structures)):
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
         n = self.germs.n
         parts = [self.parameters(th) for th in thetas]
@@ -332,6 +335,8 @@ class AugmentedSimulator:
         W_gust = W.copy()
         if not self.gust_yaw_moment:
             W_gust[:, 1] = 0.0
+        if s.compliance_steer:  # delta - K a_y with a_y = v psi_dot: a feedback of psi_dot through B
+            A[:, :, 1] -= B * (compliance_gain(s.compliance_steer, p.g) * p.v_c)
         const = W * wind[:, None]
         const[:, 2] += s.lateral_acceleration / p.v_c
         held = self._held_input(s)
@@ -359,7 +364,7 @@ class AugmentedSimulator:
         so a realisation's last bits depend on the product it was computed in (and on nothing
         else: the RK4 is element-wise); see :meth:`simulate_many`.
         """
-        sub = max(1, int(np.ceil(self.dt / _RK4_MAX_STEP - 1e-9)))
+        sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, p.v_c, _RK4_MAX_STEP) - 1e-9)))
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)
@@ -382,6 +387,8 @@ class AugmentedSimulator:
             start += size
         F_w_half += wind
         E = self.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature
+        if uses_chassis_terms(s):
+            return integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
 
@@ -403,6 +410,7 @@ def ensemble_moments(x, spin_threshold: float | None = None):
     Parameters
     ----------
     x : ndarray, shape (4, n, T)
+        n realisations of the four states, each in its unit (rad, rad/s, rad, m).
     spin_threshold : float, optional
         |beta| (rad) above which a realisation counts as lost control (excluded).
 

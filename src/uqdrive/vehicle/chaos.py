@@ -18,7 +18,8 @@ from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
 from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
 from ..numerics.threads import with_single_blas_thread
-from .single_track import VehicleParameters, lst_matrices, steering_input
+from .single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed, steering_input
+from .uncertainty import known_quantities
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
 
@@ -59,6 +60,7 @@ class ChaosMoments:
 
     @property
     def std(self) -> np.ndarray:
+        """Standard deviation, shape (4, T), in each state's unit (negative round-off variance -> 0)."""
         return np.sqrt(np.maximum(self.variance, 0.0))
 
     @functools.cached_property
@@ -99,6 +101,9 @@ class LSTChaosModel:
     steer : {"normal", "inverted"}
     fixed : mapping, optional
         Values of fixed parameters (default: the config means; the mean wind's midpoint).
+        A quantity the config declares known (``std: 0``, ``low == high``,
+        :func:`uqdrive.vehicle.uncertainty.known_quantities`) is fixed at its value whether or
+        not ``uncertain`` names it: it has no germ and no entries in ``theta``.
     delta : ndarray, shape (T,), optional
         Measured steering angle on the output grid (rad); overrides (5.5)/(5.7) and ``steer``.
 
@@ -132,7 +137,9 @@ class LSTChaosModel:
             raise ValueError(f"unknown uncertain parameter(s) {unknown}; choose from {list(DISTRIBUTIONS)}")
         if order < 0:
             raise ValueError(f"PCE order must be non-negative, got {order}")
-        self.uncertain = tuple(uncertain)
+        known = known_quantities(config)
+        self.known = {u: v for u, v in known.items() if u in uncertain}
+        self.uncertain = tuple(u for u in uncertain if u not in known)
         unc = config["uncertainty"]
         defaults = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
                     "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
@@ -173,10 +180,12 @@ class LSTChaosModel:
 
     @staticmethod
     def theta_from_config(config: Mapping[str, Any], uncertain: Sequence[str]) -> np.ndarray:
-        """The config's true distribution parameters in ``theta`` order."""
+        """The config's true distribution parameters in ``theta`` order (the quantities the
+        config declares known are left out, as the model leaves them out of ``theta``)."""
         unc = config["uncertainty"]
+        known = known_quantities(config)
         out = []
-        for u in uncertain:
+        for u in (u for u in uncertain if u not in known):
             d = unc[u]
             out += [d["mean"], d["std"]] if DISTRIBUTIONS[u] == "normal" else [d["low"], d["high"]]
         return np.array(out, float)
@@ -239,19 +248,21 @@ class LSTChaosModel:
         if np.any(values["l_f"] <= 0.0) or np.any(values["l_f"] >= self.vehicle.wheelbase):
             raise ValueError("l_f must stay inside (0, wheelbase) at every quadrature node")
 
-    def _system(self, values):
+    def _system(self, values, v=None, v_dot=0.0):
         """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the linear germs'
-        signals (the mean wind's germ, then the KLE germs)."""
+        signals (the mean wind's germ, then the KLE germs); at the vehicle's speed, or at the
+        speed ``v`` (m/s) changing at ``v_dot`` (m/s^2) (:func:`lst_matrices_at_speed`)."""
         p = replace(self.vehicle, mu=values["mu"], m_load=values["m_load"], l_f=values["l_f"])
-        A, B, W = lst_matrices(p)
+        A, B, W = lst_matrices(p) if v is None else lst_matrices_at_speed(p, v, v_dot)
         E = np.stack([B, W * values["F_w_mean"][:, None]], axis=-1)
         gusts = gust_input_column(W, self.gust_yaw_moment)[:, :, None] * self.wind_scale
         F = np.concatenate([W[:, :, None] * values["F_w_half"][:, None, None]] * len(self.input_germs) + [gusts], axis=-1)
         return A, E, F
 
-    def _system_derivatives(self, values, dvalues):
+    def _system_derivatives(self, values, dvalues, system=None):
         """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter, all
-        parameters in one evaluation of the vehicle matrices (stacked along the node axis)."""
+        parameters in one evaluation of the vehicle matrices (stacked along the node axis);
+        ``system`` (default :meth:`_system`) maps node values to the matrices differentiated."""
         moving = [name for name in dvalues if np.any(dvalues[name])]
         n_theta, Q = len(self.theta_names), self.projector.nodes.shape[0]
         if not moving:
@@ -265,7 +276,7 @@ class LSTChaosModel:
         weights = np.stack([dvalues[name] for name in moving])  # (n_moving, n_theta, Q)
         return tuple(
             np.einsum("kpq,kq...->pq...", weights, (x.imag / _STEP).reshape((len(moving), Q) + x.shape[1:]))
-            for x in self._system(shifted)
+            for x in (system or self._system)(shifted)
         )
 
     def expanded_system(self, theta):
@@ -320,7 +331,7 @@ class LSTChaosModel:
         Parameters
         ----------
         thetas : ndarray, shape (B, n_theta)
-            Distribution parameters in ``theta_names`` order.
+            Distribution parameters in ``theta_names`` order, each in its parameter's units.
         every : int, optional
             Moments at ``time[::every]`` only (up to the last multiple): the same discretised
             model observed less often, with less work.

@@ -45,6 +45,18 @@ class ModelStructure:
         Measured channel = gain * state + offset, per state (psi, psi_dot, beta, y), SI units.
     effects : tuple of (name, parameters)
         The named effects that built this structure, for provenance and ``model.yaml``.
+    pitch_height : float
+        Centre-of-gravity height h (m) of the longitudinal load transfer
+        F_zf = m (g l_r - a_x h) / L; 0: static axle loads.
+    load_sensitivity : float
+        Tyre load sensitivity p_Dz (-) of the peak mu F_z (1 + p_Dz dfz); 0: forces proportional
+        to the load (then the lateral load transfer has no effect).
+    roll_share_front : float
+        Front share chi_f (-) of the lateral load transfer m a_y h / t (roll-stiffness distribution).
+    compliance_steer : float
+        Front steer angle change per lateral acceleration (deg/g), positive: out of the turn.
+    relaxation_length : float
+        Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
     """
 
     tyre: str = "linear"
@@ -58,11 +70,17 @@ class ModelStructure:
     output_offset: tuple = (0.0, 0.0, 0.0, 0.0)
     output_gain: tuple = (1.0, 1.0, 1.0, 1.0)
     effects: tuple = field(default=())
+    pitch_height: float = 0.0
+    load_sensitivity: float = 0.0
+    roll_share_front: float = 0.5
+    compliance_steer: float = 0.0
+    relaxation_length: float = 0.0
 
     @property
     def nonlinear(self) -> bool:
-        """True when the model needs numerical integration (no exact discretisation)."""
-        return self.tyre != "linear"
+        """True when the model needs numerical integration (no exact discretisation): a
+        Magic-Formula tyre, load transfer or tyre relaxation (compliance steer alone is linear)."""
+        return self.tyre != "linear" or self.pitch_height != 0 or self.load_sensitivity != 0 or self.relaxation_length > 0
 
 
 @dataclass(frozen=True)
@@ -83,7 +101,13 @@ class Effect:
     signature: str
 
     def apply(self, structure: ModelStructure, values) -> ModelStructure:  # pragma: no cover - abstract
+        """The structure with this effect's parameters ``values`` (physical units, in ``parameters``
+        order) set in its fields."""
         raise NotImplementedError
+
+    def prior_start(self, config: Mapping | None = None) -> tuple:
+        """Start values of the parameters for a car's ``config`` (default: ``start``)."""
+        return self.start
 
     def augment(self, structure: ModelStructure, values) -> ModelStructure:
         """``apply`` plus the provenance entry (name and parameter values)."""
@@ -96,37 +120,51 @@ class Effect:
 
 
 class TyreSaturation(Effect):
+    """Non-linear tyre: the Magic Formula (2.2) with curvature factor E (-) replaces the linear tyre."""
+
     def apply(self, s, v):
         return replace(s, tyre="magic_formula", tyre_curvature=float(v[0]))
 
 
 class ActuatorLag(Effect):
+    """First-order lag with time constant T (s) between commanded and actual steering angle."""
+
     def apply(self, s, v):
         return replace(s, steering_lag=float(v[0]))
 
 
 class ActuatorDelay(Effect):
+    """Dead time tau (s) between commanded and actual steering angle."""
+
     def apply(self, s, v):
         return replace(s, steering_delay=float(v[0]))
 
 
 class RoadBank(Effect):
+    """Road bank angle phi (deg): a constant lateral acceleration g sin(phi) without yaw moment."""
+
     def apply(self, s, v):
         return replace(s, lateral_acceleration=9.81 * float(np.sin(np.deg2rad(v[0]))))
 
 
 class WindGust(Effect):
+    """Time-variant side wind scaled by gust_scale (-) against the configured F_w,sigma."""
+
     def apply(self, s, v):
         return replace(s, gust_scale=float(v[0]))
 
 
 class LateralKinematics(Effect):
+    """Lateral velocity along the course angle: weight k (-) of beta in y_dot = v (psi + k beta)."""
+
     def apply(self, s, v):
         return replace(s, course_weight=float(v[0]), course_exact=True)
 
 
 @dataclass(frozen=True)
 class SensorBias(Effect):
+    """Constant offset on one measured channel, in that channel's unit."""
+
     channel: str = "psi"
 
     def apply(self, s, v):
@@ -137,12 +175,39 @@ class SensorBias(Effect):
 
 @dataclass(frozen=True)
 class SensorScale(Effect):
+    """Gain error (-) of one measured channel's sensor."""
+
     channel: str = "psi"
 
     def apply(self, s, v):
         gain = list(s.output_gain)
         gain[STATES.index(self.channel)] = float(v[0])
         return replace(s, output_gain=tuple(gain))
+
+
+class LongitudinalLoadTransfer(Effect):
+    def apply(self, s, v):
+        return replace(s, pitch_height=float(v[0]))
+
+    def prior_start(self, config=None):
+        """The vehicle section's ``cg_height`` where given."""
+        h = None if config is None else config.get("vehicle", {}).get("cg_height")
+        return self.start if h is None else (float(h),)
+
+
+class LateralLoadTransfer(Effect):
+    def apply(self, s, v):
+        return replace(s, roll_share_front=float(v[0]), load_sensitivity=float(v[1]))
+
+
+class ComplianceSteer(Effect):
+    def apply(self, s, v):
+        return replace(s, compliance_steer=float(v[0]))
+
+
+class TyreRelaxation(Effect):
+    def apply(self, s, v):
+        return replace(s, relaxation_length=float(v[0]))
 
 
 _BIAS_BOUND = {"psi": 0.2, "psi_dot": 0.2, "beta": 0.05, "y": 5.0}
@@ -194,6 +259,28 @@ EFFECTS: dict[str, Effect] = {
         "y only: its mean follows v sin(psi + k beta), psi, psi_dot, beta untouched"),
     **channel_effects("sensor_bias"),
     **channel_effects("sensor_scale"),
+    "longitudinal_load_transfer": LongitudinalLoadTransfer(
+        "longitudinal_load_transfer", ("h",), ("m",), ((0.0, 1.5),), (0.55,),
+        "load moved between the axles by the longitudinal force that holds the speed in a turn: "
+        "F_zf = m (g l_r - a_x h) / L with a_x = -v psi_dot sin(beta); h the centre-of-gravity height",
+        "grows with psi_dot * beta: the yaw-rate gain and beta change where the side slip is large, "
+        "nothing in straight driving; stronger with a saturating tyre"),
+    "lateral_load_transfer": LateralLoadTransfer(
+        "lateral_load_transfer", ("chi_f", "p_Dz"), ("-", "-"), ((0.0, 1.0), (-1.0, 0.0)), (0.55, -0.1),
+        "load moved from the inner to the outer wheels, m a_y h / t split chi_f : 1 - chi_f front : rear, "
+        "with a load-sensitive tyre peak mu F_z (1 + p_Dz dfz): the axle's force falls by p_Dz (dF / F_z0)^2",
+        "psi_dot and beta peaks change quadratically in the lateral acceleration (none at small a_y); "
+        "chi_f > l_r / L adds understeer"),
+    "compliance_steer": ComplianceSteer(
+        "compliance_steer", ("K",), ("deg/g",), ((-3.0, 3.0),), (0.3,),
+        "front steer angle change -K a_y from roll steer and the steering's compliance (a_y = v psi_dot)",
+        "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
+        "beta with it; phase untouched at low frequency"),
+    "tyre_relaxation": TyreRelaxation(
+        "tyre_relaxation", ("sigma",), ("m",), ((0.05, 2.0),), (0.5,),
+        "slip angles lag their steady values by the tyre's relaxation length: time constant sigma / v",
+        "every channel's response delayed and its yaw-rate peak raised at high input frequencies; "
+        "steady states untouched"),
 }
 
 #: Families that name several registry entries at once.

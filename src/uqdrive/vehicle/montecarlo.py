@@ -15,7 +15,9 @@ from ..config import config_hash, restrict_config
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
-from .single_track import STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, lst_matrices, make_nlst_rhs, steering_input
+from .channels import configured_speed, lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lst_matrices, make_nlst_rhs,
+                           steering_input, wind_yaw_moment)
 
 __all__ = [
     "MODELS",
@@ -44,19 +46,23 @@ class TimeGrid:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "TimeGrid":
+        """The grid of the config's ``time`` section (t_end, dt, step in s)."""
         t = config["time"]
         return cls(t["t_end"], t["dt"], t["step"])
 
     @property
     def n_out(self) -> int:
+        """Number of output intervals, t_end / dt."""
         return int(round(self.t_end / self.dt))
 
     @property
     def substeps(self) -> int:
+        """Integration steps per output interval, dt / step."""
         return int(round(self.dt / self.step))
 
     @property
     def output(self) -> np.ndarray:
+        """Output times, shape (n_out + 1,) (s)."""
         return np.arange(self.n_out + 1) * self.dt
 
     def fine(self, refine: int = 1) -> np.ndarray:
@@ -74,22 +80,6 @@ def kle_from_config(config: Mapping[str, Any]) -> KarhunenLoeve:
 def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
     """Coefficients c (n, n_c) with F_w(t) = F_w_mean + c @ f(t), from (5.1) and (5.21)."""
     return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
-
-
-def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
-    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
-    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
-
-
-def gust_input_column(W, gust_yaw_moment: bool):
-    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
-    gusts act laterally only (config ``wind.gust_yaw_moment``; see README, modelling choices)."""
-    if gust_yaw_moment:
-        return W
-    W = np.array(W, copy=True)
-    W[..., 1] = 0.0
-    return W
 
 
 def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
@@ -110,7 +100,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     wind_coeffs : ndarray, shape (n, n_c)
         Wind mode coefficients (N), see (5.1), (5.21).
     eigenfunctions : ndarray, shape (n_c, n_fine)
-        KLE eigenfunctions on the fine grid.
+        KLE eigenfunctions on the fine grid (-): the gusts are ``wind_coeffs @ eigenfunctions`` (N).
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -140,9 +130,11 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     delta_half : ndarray, shape (2 n_fine - 1,)
         Steering angle on the half-step grid (rad).
     wind_mean : ndarray, shape (n,)
+        Mean side wind per realisation (N).
     wind_coeffs : ndarray, shape (n, n_c)
+        Wind mode coefficients (N), as for :func:`simulate_lst`.
     eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid.
+        KLE eigenfunctions on the half-step grid (-), as ``eigenfunctions`` of :func:`simulate_lst`.
     grid : TimeGrid
     gust_yaw_moment : bool
         Whether the time-variant wind also exerts the yaw moment M_c F_w.
@@ -172,7 +164,9 @@ def spin_mask(beta, threshold: float):
     Parameters
     ----------
     beta : ndarray, shape (n, n_time)
+        Side-slip angle of each realisation (rad).
     threshold : float
+        |beta| (rad) above which a realisation lost control.
 
     Returns
     -------
@@ -189,7 +183,8 @@ def ensemble_hash(config: Mapping[str, Any], samples: int, seed: int, chunk: int
     """:func:`uqdrive.config.config_hash` of what an ensemble depends on: the settings it reads
     and its effective size, seed and chunk (an override of ``samples`` or ``seed`` counts), so the
     CLI and the workflow write the same hash for the same ensemble, whatever else their configs hold."""
-    settings = {"settings": restrict_config(config, ENSEMBLE_SETTINGS), "samples": int(samples), "seed": int(seed)}
+    keys = ENSEMBLE_SETTINGS + (("montecarlo.speed_profile",) if config["montecarlo"].get("speed_profile") else ())
+    settings = {"settings": restrict_config(config, keys), "samples": int(samples), "seed": int(seed)}
     if chunk is not None:
         settings["chunk"] = int(chunk)
     return config_hash(settings)
@@ -249,17 +244,29 @@ def simulate_ensemble(
     t_fine = grid.fine(refine)
     delta_fine = steering_input(t_fine, delta_max, st["period"], STEERS[steer])
     f_fine = kle.eigenfunctions(t_fine)
-    simulate = simulate_lst if model == "lst" else simulate_nlst
-    x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+    speed_fine = configured_speed(config, t_fine)
+    if speed_fine is None:
+        simulate = simulate_lst if model == "lst" else simulate_nlst
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+    else:
+        simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, speed_fine, config["wind"]["gust_yaw_moment"])
 
     t = grid.output
+    speed = np.full(t.size, float(p.v_c)) if speed_fine is None else configured_speed(config, t)
+    wind = draws["F_w_mean"][:, None] + coeffs @ kle.eigenfunctions(t)
+    delta_out = steering_input(t, delta_max, st["period"], STEERS[steer])
+    a_y = lateral_acceleration(model, x, p, delta_out, wind, speed)
     threshold = config["montecarlo"]["spin_threshold"]
     spun = spin_mask(x[2], threshold)
     data_vars = {
         name: (("sample", "time"), x[i], {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
         for i, name in enumerate(STATES)
     }
-    data_vars["delta"] = ("time", steering_input(t, delta_max, st["period"], STEERS[steer]), {"units": "rad", "long_name": "front steering angle"})
+    data_vars["a_y"] = (("sample", "time"), a_y, {"units": A_Y_UNIT, "long_name": "lateral acceleration at the centre of gravity"})
+    data_vars["delta"] = ("time", delta_out, {"units": "rad", "long_name": "front steering angle"})
+    if speed_fine is not None:
+        data_vars["v"] = ("time", speed, {"units": "m/s", "long_name": "vehicle speed"})
     units = {"mu": "1", "m_load": "kg", "l_f": "m", "F_w_mean": "N"}
     for name, value in draws.items():
         data_vars[name] = ("sample", value, {"units": units[name], "long_name": f"drawn {name}"})
@@ -269,7 +276,7 @@ def simulate_ensemble(
         "title": f"uqdrive Monte Carlo ensemble ({model.upper()}, {steer} steering)",
         "model": model,
         "steer": steer,
-        "v_c": float(p.v_c),
+        **({"v_c": float(p.v_c)} if speed_fine is None else {}),
         "noise_A": 0.0,
         "n_spun": int(spun.sum()),
         "spin_threshold": float(threshold),
@@ -294,6 +301,7 @@ def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str
     Parameters
     ----------
     draws : mapping of str to ndarray, shape (n,)
+        Parameter values per realisation: mu (-), m_load (kg), l_f (m), F_w_mean (N).
 
     Returns
     -------

@@ -19,7 +19,7 @@ def noise_scale(signal, A: float):
     Parameters
     ----------
     signal : ndarray, shape (n, n_time)
-        One state of n realisations; |s|_max is taken over time for each realisation
+        One state of n realisations, in that state's unit; |s|_max is taken over time for each realisation
         ("each individual signal" of sec. 5.1).
     A : float
         Noise intensity of Table 5.3.
@@ -44,6 +44,7 @@ def added_noise_variance(signal, A: float, mask=None) -> float:
     Parameters
     ----------
     signal : ndarray, shape (n, n_time)
+        One state of n realisations, in that state's unit.
     A : float
     mask : ndarray of bool, shape (n,), optional
         Realisations that enter the statistics.
@@ -79,6 +80,7 @@ def estimate_noise_variance(signal, dt_axis: int = -1, order: int = 2) -> float:
     Parameters
     ----------
     signal : ndarray, shape (n, n_time)
+        One noisy state of n realisations, in that state's unit.
     order : int
         Order k of the differences.
     """

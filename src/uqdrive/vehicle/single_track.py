@@ -20,6 +20,10 @@ __all__ = [
     "nlst_rhs",
     "make_nlst_rhs",
     "steering_input",
+    "lateral_acceleration_map",
+    "lst_matrices_at_speed",
+    "gust_input_column",
+    "wind_yaw_moment",
 ]
 
 #: State vector x = [psi, psi_dot, beta, y] of (5.3)/(5.4).
@@ -47,11 +51,11 @@ class VehicleParameters:
 
     Attributes
     ----------
-    mu : float or ndarray
+    mu : float or ndarray, shape (n,)
         Tyre-road friction coefficient, the Magic-Formula peak factor D (-).
-    m_load : float or ndarray
+    m_load : float or ndarray, shape (n,)
         Mass of the load (kg).
-    l_f : float or ndarray
+    l_f : float or ndarray, shape (n,)
         Distance from the centre of gravity to the front axle (m).
     m_base, J0, wheelbase, c_Sf, c_Sr, v_c, M_c, g, C, E : float
         Base mass (kg), specific yaw inertia I_z/m (m^2), wheelbase L (m), front and rear
@@ -135,16 +139,16 @@ def magic_formula(slip, F_z, B, C, D, E):
 
     Parameters
     ----------
-    slip : array_like
+    slip : array_like, any shape
         Slip angle (rad) or slip ratio (-).
-    F_z : array_like
-        Normal load (N); broadcast against ``slip``.
-    B, C, D, E : array_like
+    F_z : array_like, shape broadcastable against ``slip``
+        Normal load (N).
+    B, C, D, E : array_like, shape broadcastable against ``slip``
         Stiffness, shape, peak and curvature factors (-).
 
     Returns
     -------
-    ndarray
+    ndarray, the broadcast shape of the arguments
         Tyre force (N), F_z D sin(C atan(B x - E (B x - atan(B x)))).
     """
     bx = B * slip
@@ -277,7 +281,7 @@ def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
 
     Parameters
     ----------
-    t : array_like
+    t : array_like, shape (T,)
         Time (s).
     delta_max : float
         Amplitude (rad).
@@ -286,7 +290,74 @@ def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
 
     Returns
     -------
-    ndarray
+    ndarray, shape (T,)
         delta(t) = sign * delta_max * cos(2 pi t / period) (rad).
     """
     return sign * delta_max * np.cos(2.0 * np.pi * np.asarray(t, dtype=float) / period)
+
+
+#: Lateral acceleration at the centre of gravity, the channel an IMU records besides the yaw rate.
+A_Y_UNIT = "m/s^2"
+
+
+def lateral_acceleration_map(p: VehicleParameters):
+    """Output map a_y = C x + D_delta delta + D_w F_w of the linear single-track model.
+
+    a_y is the lateral acceleration of the centre of gravity in the vehicle frame, the sum of the
+    lateral forces over the mass, (c_f alpha_f + c_r alpha_r + F_w) / m with the linear slip
+    angles of (5.4). At constant speed it equals v (beta_dot + psi_dot); while the speed changes
+    it equals v (beta_dot + psi_dot) + v_dot beta (the derivative of v_y = v beta). A sensor
+    mounted x_s metres ahead of the centre of gravity reads a_y + x_s psi_ddot.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Scalar or per-realisation parameters; ``v_c`` may be an array broadcasting with them.
+
+    Returns
+    -------
+    C : ndarray, shape (..., 4)
+        [0, (c_r l_r - c_f l_f) / (m v), -(c_f + c_r) / m, 0] (m/s^2 per unit of each state).
+    D_delta : ndarray, shape (...)
+        c_f / m (m/s^2 per rad of steering).
+    D_w : ndarray, shape (...)
+        1 / m (m/s^2 per N of side wind).
+    """
+    m, v = p.m, p.v_c
+    l_f, l_r, c_f, c_r = _as_array(p.l_f), p.l_r, p.c_f, p.c_r
+    shape = np.broadcast_shapes(np.shape(m), np.shape(l_f), np.shape(c_f), np.shape(v))
+    dtype = np.result_type(m, l_f, c_f, float)
+    C = np.zeros(shape + (4,), dtype)
+    C[..., 1] = (c_r * l_r - c_f * l_f) / (m * v)
+    C[..., 2] = -(c_f + c_r) / m
+    return C, np.broadcast_to(c_f / m, shape), np.broadcast_to(1.0 / m, shape)
+
+
+def lst_matrices_at_speed(p: VehicleParameters, v, v_dot=0.0):
+    """:func:`lst_matrices` at the speed ``v`` (m/s) while it changes at ``v_dot`` (m/s^2).
+
+    With v_y = v beta, the lateral balance m (d v_y / dt + v psi_dot) = F_y gives
+    beta_dot = F_y / (m v) - psi_dot - (v_dot / v) beta: the state matrix of (5.4) at the local
+    speed with -v_dot / v added to its (beta, beta) entry. For v_dot = 0 this is exactly
+    :func:`lst_matrices` of ``p`` with ``v_c = v``.
+    """
+    A, B, W = lst_matrices(replace(p, v_c=v))
+    if v_dot:
+        A[..., 2, 2] -= v_dot / v
+    return A, B, W
+
+
+def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
+    """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``)."""
+    return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
+
+
+def gust_input_column(W, gust_yaw_moment: bool):
+    """Input column of the time-variant wind: W of (5.4), without its yaw-moment entry when the
+    gusts act laterally only (config ``wind.gust_yaw_moment``; see docs/reproduction.md, "Wind yaw moment")."""
+    if gust_yaw_moment:
+        return W
+    W = np.array(W, copy=True)
+    W[..., 1] = 0.0
+    return W

@@ -9,7 +9,8 @@ import xarray as xr
 
 from ..numerics.metrics import kl_divergence_normal
 from .noise import add_noise, added_noise_variance, estimate_noise_variance
-from .single_track import STATE_UNITS, STATES
+from .channels import CHANNEL_UNITS
+from .single_track import STATES
 
 __all__ = ["SPIN_POLICIES", "used_samples", "ensemble_statistics", "noise_statistics", "kl_divergence_series"]
 
@@ -26,13 +27,13 @@ def used_samples(ds: xr.Dataset, policy: str) -> np.ndarray:
     return ds["spun"].values == 0
 
 
-def _stack_states(ds: xr.Dataset, mask) -> np.ndarray:
-    return np.stack([ds[s].values[mask] for s in STATES])  # (state, n_used, time)
+def _stack_states(ds: xr.Dataset, mask, channels=STATES) -> np.ndarray:
+    return np.stack([ds[s].values[mask] for s in channels])  # (state, n_used, time)
 
 
-def _stats_dataset(mean, std, ds, mask, policy, extra_dims=(), extra_coords=None) -> xr.Dataset:
+def _stats_dataset(mean, std, ds, mask, policy, extra_dims=(), extra_coords=None, channels=STATES) -> xr.Dataset:
     dims = extra_dims + ("state", "time")
-    coords = {"state": list(STATES), "time": ds["time"]}
+    coords = {"state": list(channels), "time": ds["time"]}
     coords.update(extra_coords or {})
     attrs = {k: v for k, v in ds.attrs.items() if k not in ("title",)}
     attrs.update(
@@ -42,7 +43,7 @@ def _stats_dataset(mean, std, ds, mask, policy, extra_dims=(), extra_coords=None
             "n_samples": int(mask.size),
             "n_used": int(mask.sum()),
             "n_spun_total": int(ds.attrs.get("n_spun", 0)),
-            "state_units": ", ".join(f"{s}: {STATE_UNITS[s]}" for s in STATES),
+            "state_units": ", ".join(f"{s}: {CHANNEL_UNITS[s]}" for s in channels),
         }
     )
     return xr.Dataset(
@@ -55,8 +56,9 @@ def _stats_dataset(mean, std, ds, mask, policy, extra_dims=(), extra_coords=None
     )
 
 
-def ensemble_statistics(ds: xr.Dataset, policy: str = "exclude") -> xr.Dataset:
-    """Mean and sample standard deviation of every state over the used realisations.
+def ensemble_statistics(ds: xr.Dataset, policy: str = "exclude", channels=STATES) -> xr.Dataset:
+    """Mean and sample standard deviation of every state (or of ``channels``, names of
+    :data:`uqdrive.vehicle.channels.CHANNELS`) over the used realisations.
 
     Returns
     -------
@@ -65,8 +67,8 @@ def ensemble_statistics(ds: xr.Dataset, policy: str = "exclude") -> xr.Dataset:
         and how many realisations were used and excluded.
     """
     mask = used_samples(ds, policy)
-    x = _stack_states(ds, mask)
-    return _stats_dataset(x.mean(axis=1), x.std(axis=1, ddof=1), ds, mask, policy)
+    x = _stack_states(ds, mask, channels)
+    return _stats_dataset(x.mean(axis=1), x.std(axis=1, ddof=1), ds, mask, policy, channels=tuple(channels))
 
 
 def noise_statistics(ds: xr.Dataset, levels, rngs, policy: str = "exclude") -> xr.Dataset:

@@ -11,6 +11,8 @@ import numpy as np
 
 __all__ = [
     "PARAMETER_NAMES",
+    "known_quantities",
+    "known_value",
     "ParameterDistribution",
     "normal_from_germ",
     "uniform_from_germ",
@@ -21,6 +23,23 @@ __all__ = [
 
 #: Stationary uncertainties in germ order xi_1..xi_4 of (5.8)-(5.11).
 PARAMETER_NAMES = ("mu", "m_load", "l_f", "F_w_mean")
+
+
+def known_value(spec: Mapping[str, float]) -> float | None:
+    """The value of a quantity declared known (``std: 0`` or ``low == high``), else None."""
+    if "std" in spec:
+        return float(spec["mean"]) if spec["std"] == 0 else None
+    return float(spec["low"]) if spec["low"] == spec["high"] else None
+
+
+def known_quantities(config: Mapping[str, Any]) -> dict[str, float]:
+    """Uncertain quantities the config declares known, name -> value: a normal with std 0, a
+    uniform with low == high. A known quantity has no germ in the chaos model and is not
+    identified; Monte Carlo draws give it its value in every realisation ((5.8)-(5.11) with a
+    zero spread)."""
+    unc = config["uncertainty"]
+    out = {name: known_value(unc[name]) for name in PARAMETER_NAMES}
+    return {name: value for name, value in out.items() if value is not None}
 
 
 def normal_from_germ(xi, mean, std):
@@ -48,6 +67,7 @@ class ParameterDistribution:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "ParameterDistribution":
+        """The distributions of the config's ``uncertainty`` section."""
         u = config["uncertainty"]
         return cls(
             mu=(u["mu"]["mean"], u["mu"]["std"]),
@@ -79,8 +99,7 @@ def squared_exponential_covariance(t1, t2, Tc: float):
 
     Parameters
     ----------
-    t1 : ndarray, shape (n1,)
-    t2 : ndarray, shape (n2,)
+    t1, t2 : ndarray, shape (n1,) and (n2,)
         Times (s).
     Tc : float
         Correlation time constant (s).
@@ -120,6 +139,7 @@ class KarhunenLoeve:
 
     @property
     def n_modes(self) -> int:
+        """Number of KLE modes kept."""
         return int(self.eigenvalues.size)
 
     @property

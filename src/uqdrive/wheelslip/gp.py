@@ -52,12 +52,12 @@ def arcsine_kernel(X1, X2, v1: float, g):
 
     Parameters
     ----------
-    X1 : ndarray, shape (n1,) or (n1, D)
-    X2 : ndarray, shape (n2,) or (n2, D)
+    X1, X2 : ndarray, shape (n1,) or (n1, D), and (n2,) or (n2, D)
+        Inputs in their own units (here the wheel slip, (-)).
     v1 : float or ndarray, shape (...)
-        Signal scale.
+        Signal scale, in the output's unit squared (friction coefficient: (-)).
     g : ndarray, shape (D + 1,) or (..., D + 1)
-        Diagonal of G: bias weight g0, then one weight per input; a stack of them (with v1 of
+        Diagonal of G (-, per input unit squared): bias weight g0, then one weight per input; a stack of them (with v1 of
         the stack's shape) gives a stack of covariances.
 
     Returns
@@ -218,7 +218,7 @@ class ArcsineGP:
         Parameters
         ----------
         log_thetas : ndarray, shape (W, D + 3)
-            Log hyperparameters [log v1, log g_0..g_D, log v0] per row.
+            Log hyperparameters [log v1, log g_0..g_D, log v0] per row (logs of unit-free values).
 
         Returns
         -------
@@ -270,8 +270,9 @@ class ArcsineGP:
         Parameters
         ----------
         log_thetas : ndarray, shape (R, D + 3)
-            Log hyperparameters [log v1, log g_0..g_D, log v0] per row.
+            Log hyperparameters [log v1, log g_0..g_D, log v0] per row (logs of unit-free values).
         x : float or ndarray, shape (D,)
+            Input at which the slope is taken (wheel slip, (-)).
         j : int
             Input of the slope.
 
@@ -299,7 +300,9 @@ class ArcsineGP:
         Parameters
         ----------
         X : ndarray, shape (n,) or (n, D)
+            Inputs (wheel slip, (-)).
         y : ndarray, shape (n,)
+            Observations (friction coefficient, (-)).
         noise_free : ndarray of bool, shape (n,), optional
         """
         X = np.asarray(X, float)

@@ -47,6 +47,7 @@ class QuarterCar:
 
     @classmethod
     def from_config(cls, config: Mapping[str, Any]) -> "QuarterCar":
+        """The quarter car of the config's ``wheelslip`` section."""
         w = config["wheelslip"]
         return cls(**{f: w[f] for f in cls.__dataclass_fields__})
 

@@ -1,5 +1,5 @@
 """Before `make reproduce` runs Snakemake: clear a stale lock, and never start beside a run or the
-jobs of a run that still work in this folder (README "Reliability").
+jobs of a run that still work in this folder (docs/workflow.md, "Resuming, repeatability, refusals").
 
 A Snakemake run killed hard (kill -9, out of memory, power loss) leaves its lock in
 .snakemake/locks, and the next run stops with "Directory cannot be locked" (LockException); its

@@ -268,6 +268,8 @@ class NullBand:
         return scan(z, self.windows) / self.cell_scale
 
     def max_statistic(self, z) -> float:
+        """Largest absolute scan cell of the standardised gap ``z`` (shape (2, 4, K)), compared with the
+        threshold."""
         return float(np.abs(self.cells(z)).max())
 
     def p_value(self, z) -> float:

@@ -19,7 +19,7 @@ from ...vehicle.noise import estimate_noise_variance
 from ...vehicle.single_track import STATES
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, resolvable
-from .fit import StructureFit
+from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
@@ -195,7 +195,7 @@ class DiscrepancyFinder:
         if start_effects:
             base = self._joint(ctx, theta0, list(start_effects), start_effects)
         else:
-            base = StructureFit(sim, index, noise, spin).fit(self.measured_, self.scale_, theta0)
+            base = StructureFit(sim, index, noise, spin, fixed=known_theta(self.config)).fit(self.measured_, self.scale_, theta0)
         lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
         self.baseline_ = base
         self.band_ = band = self._null_band(ctx, base, key=0)
@@ -400,7 +400,7 @@ class DiscrepancyFinder:
         eff = EffectSet(names, {k: values[k] for k in names if k in values})
         structure = eff.augment(ModelStructure(), eff.start)
         budget = max_nfev or (25 if structure.nonlinear else 60)
-        f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget)
+        f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=known_theta(self.config))
         return f.fit(self.measured_, self._scale_for(structure, ctx.n), theta_start)
 
     # -- verdict ------------------------------------------------------------------------------

@@ -12,14 +12,27 @@ from scipy.optimize import least_squares
 
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
+from ...vehicle.uncertainty import known_quantities
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit", "known_theta"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
 THETA_BOUNDS = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
 #: Typical magnitudes, so that the optimiser steps every parameter alike.
 THETA_SCALE = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)
+
+
+def known_theta(config) -> dict[int, float]:
+    """The distribution parameters the config declares known, as :class:`StructureFit`'s
+    ``fixed``: a known mu or l_f holds its mean and a std of 0, a known mean wind both bounds."""
+    where = {"mu": (0, 1), "l_f": (2, 3), "F_w_mean": (4, 5)}
+    out = {}
+    for name, value in known_quantities(config).items():
+        if name in where:
+            i, j = where[name]
+            out.update({i: value, j: value if name == "F_w_mean" else 0.0})
+    return out
 
 
 class StructureFit:
@@ -42,6 +55,9 @@ class StructureFit:
         False keeps theta at its start (screening of an effect at the baseline's estimate).
     max_nfev : int
         Budget of model evaluations.
+    fixed : mapping of int to float, optional
+        Known distribution parameters (index into :data:`THETA_NAMES` -> value): held at their
+        value, not fitted (their columns of ``jacobian_`` are zero).
 
     Attributes
     ----------
@@ -67,8 +83,9 @@ class StructureFit:
     """
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
-                 base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200):
+                 base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None):
         self.simulator = simulator
+        self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
         self.index = np.asarray(index, int)
         self.noise_variance = np.asarray(noise_variance, float)
         self.spin_threshold = spin_threshold
@@ -81,6 +98,7 @@ class StructureFit:
 
     @property
     def parameter_names(self) -> tuple:
+        """Names of the fitted parameters: the distribution parameters (if fitted), then the effect's."""
         names = THETA_NAMES if self.fit_theta else ()
         return names + (self.effect.parameters if self.effect is not None else ())
 
@@ -91,6 +109,7 @@ class StructureFit:
         return np.array([b[0] for b in bounds], float), np.array([b[1] for b in bounds], float)
 
     def structure(self, effect_values=()) -> ModelStructure:
+        """The model structure with the effect at ``effect_values`` (the base structure without an effect)."""
         if self.effect is None:
             return self.base
         return self.effect.augment(self.base, effect_values)
@@ -194,14 +213,26 @@ class StructureFit:
         x0 = np.concatenate([theta0 if self.fit_theta else np.zeros(0), e_start])
         lo, hi = self.parameter_bounds
         x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+        for i, v in self.fixed.items():
+            x0[i] = v  # a known value is used as given (a std of 0 sits on its bound)
+        free = np.array([i not in self.fixed for i in range(x0.size)], bool)
 
         typical = np.array(typical, float)
 
+        def full(params):
+            """The whole parameter vector from the free ones (the known ones at their values)."""
+            if free.all():
+                return np.asarray(params, float)
+            out = x0.copy()
+            out[free] = params
+            return out
+
         def difference_points(params):
-            """The point and its forward-difference neighbours, with the steps."""
+            """The point and its forward-difference neighbours in the free parameters, with the steps."""
             h = 1e-4 * np.maximum(np.abs(params), typical)
             h = np.where(params + h > hi, -h, h)
-            return h, [params] + [params + h[i] * np.eye(params.size)[i] for i in range(params.size)]
+            h[~free] = 0.0
+            return h, [params] + [params + h[i] * np.eye(params.size)[i] for i in np.flatnonzero(free)]
 
         def pairs(points):
             return [(th, self.structure(ev)) for th, ev in (self._split(pt, theta0) for pt in points)]
@@ -217,23 +248,26 @@ class StructureFit:
         ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear
 
         def residuals(params):
+            params = full(params)
             if ahead:
                 self._simulate(pairs([params]), then=pairs(difference_points(params)[1]))
             return misfit(params)
 
         def jacobian(params):
-            """Forward differences, all perturbed models simulated in one batch."""
-            h, points = difference_points(params)
+            """Forward differences in the free parameters, all perturbed models simulated in one batch."""
+            h, points = difference_points(full(params))
             self._simulate(pairs(points))
             f = [misfit(pt) for pt in points]
-            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h)])
+            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])])
 
-        if x0.size:
-            res = least_squares(residuals, x0, jac=jacobian, bounds=(lo, hi), x_scale=typical, method="trf",
+        if free.any():
+            res = least_squares(residuals, x0[free], jac=jacobian, bounds=(lo[free], hi[free]), x_scale=typical[free], method="trf",
                                 max_nfev=self.max_nfev, xtol=1e-8, ftol=1e-8)
-            x, jac, nfev, success, message = res.x, res.jac, res.nfev, bool(res.status > 0), str(res.message)
+            x, nfev, success, message = full(res.x), res.nfev, bool(res.status > 0), str(res.message)
+            jac = np.zeros((res.jac.shape[0], x0.size))
+            jac[:, free] = res.jac
         else:
-            x, jac, nfev, success, message = x0, np.zeros((misfit(x0).size, 0)), 1, True, "nothing to fit"
+            x, jac, nfev, success, message = x0, np.zeros((misfit(x0).size, x0.size)), 1, True, "nothing to fit"
         theta, ev = self._split(x, theta0)
         theta = theta.copy()
         theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)

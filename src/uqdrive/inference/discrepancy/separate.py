@@ -50,7 +50,7 @@ def separation(stats_a, stats_b, n: int, model_samples: int, floor: float = 1e-3
 def predicted_statistics(fit: StructureFit, delta) -> np.ndarray:
     """[mean, std] (2, 4, K) that ``fit``'s model (its estimate, effect and noise) predicts when
     the car is steered by ``delta`` (commanded angle on the fit's data grid, rad)."""
-    other = StructureFit(fit.simulator.with_input(delta), fit.index, fit.noise_variance, fit.spin_threshold, fit.effect, fit.base)
+    other = StructureFit(fit.simulator.with_input(delta), fit.index, fit.noise_variance, fit.spin_threshold, fit.effect, fit.base, fixed=fit.fixed)
     return other.statistics(fit.theta_, fit.structure_)
 
 

@@ -63,6 +63,7 @@ class Sweep:
     collect: tuple
 
     def point(self, name: str) -> SweepPoint:
+        """The point called ``name``; ``SweepError`` if the sweep has none."""
         for p in self.points:
             if p.name == name:
                 return p

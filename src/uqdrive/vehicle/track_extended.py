@@ -1,0 +1,168 @@
+"""Right-hand side of the single-track model (5.3) with the chassis effects of a real car: load
+transfer (longitudinal from the body's acceleration at held speed, lateral with tyre load
+sensitivity), compliance steer and tyre relaxation; for the augmented simulator.
+
+Only structures that use one of these terms come here; the thesis' structures keep
+:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit.
+
+At the held speed v the body's accelerations follow from the states without an algebraic loop
+when taken at their steady-state values (beta' = 0): the net force along the body's x axis is
+-tan(beta) times the lateral one, so
+
+    a_x = -v psi_dot sin(beta),   a_y = v psi_dot cos(beta).
+
+Axle loads (Gillespie, *Fundamentals of Vehicle Dynamics*, eq. (2-4) and ch. 6)::
+
+    F_zf = m (g l_r - a_x h_x) / L,   F_zr = m (g l_f + a_x h_x) / L
+    dF_i = chi_i m a_y h / t           (lateral transfer per wheel, chi_f + chi_r = 1)
+
+Per wheel the peak is mu F_z (1 + p_Dz dfz), dfz = (F_z - F_z0) / F_z0 (Pacejka (4.E13)), with F_z0
+the static wheel load; an axle's two wheels (loads F_zi / 2 -+ dF_i, same slip) then carry the
+single-track force with the load F_zi replaced by
+
+    P_i = (1 - p_Dz) F_zi + p_Dz (F_zi^2 / 2 + 2 dF_i^2) / F_z0,i,
+
+so that with p_Dz < 0 the lateral transfer lowers the axle's force by p_Dz (dF_i / F_z0,i)^2 of it
+(computed per wheel, so that a lifted wheel, dF_i > F_zi / 2, carries nothing and no peak turns
+negative: a spinning realisation stays finite).
+Compliance steer turns the front wheels by -K a_y (a_y = v psi_dot, its steady value; positive K
+understeers). Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
+(Pacejka sec. 7.2), two extra states.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..numerics.integrate import rk4_fixed_step_into
+from .car import require
+from .single_track import VehicleParameters
+
+__all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "compliance_gain", "integrate_chassis", "uses_chassis_terms"]
+
+
+def uses_chassis_terms(s) -> bool:
+    """True when structure ``s`` needs this right-hand side in a numerical integration (load
+    transfer, relaxation, or compliance steer)."""
+    return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
+                or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0))
+
+
+def chassis_max_step(s, v: float, max_step: float) -> float:
+    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag)."""
+    sigma = float(getattr(s, "relaxation_length", 0.0))
+    return min(max_step, sigma / float(v)) if sigma > 0 else max_step
+
+
+def compliance_gain(K_deg_per_g, g: float = 9.81):
+    """Compliance steer in rad per m/s^2 from deg per g."""
+    return np.deg2rad(K_deg_per_g) / g
+
+
+class ExtendedSingleTrackRHS:
+    """dx/dt of the single-track model with chassis effects, for n realisations.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Per-realisation parameters (mu, l_f, m_load of shape (n,) or scalars).
+    s : ModelStructure
+        Structure; ``pitch_height`` (m), ``load_sensitivity`` (-), ``roll_share_front`` (-),
+        ``compliance_steer`` (deg/g), ``relaxation_length`` (m), ``course_weight``,
+        ``lateral_acceleration`` (scalars or arrays (n,)).
+    E : float or ndarray, shape (n,)
+        Magic-Formula curvature factor (-).
+    delta_half, F_w_half, yaw_gust, wind
+        As :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`.
+    cg_height, track_width : float
+        h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
+    """
+
+    def __init__(self, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, cg_height: float = 0.0,
+                 track_width: float = 1.0):
+        self.v = v = float(p.v_c)
+        self.l_f = np.asarray(p.l_f, float)
+        self.l_r = p.l_r
+        self.lever = np.stack(np.broadcast_arrays(self.l_f, -self.l_r))
+        self.m, self.L, self.g = p.m, p.wheelbase, p.g
+        self.static = np.stack(np.broadcast_arrays(p.F_fz, p.F_rz))  # (2, n) static axle loads
+        self.mu, self.B, self.C, self.E = p.mu, np.array([[p.c_Sf], [p.c_Sr]]), p.C, E
+        self.saturating = s.tyre == "magic_formula"
+        self.h_x = np.asarray(s.pitch_height, float)
+        self.p_Dz = np.asarray(s.load_sensitivity, float)
+        chi = np.asarray(s.roll_share_front, float)
+        arm = np.stack(np.broadcast_arrays(chi, 1.0 - chi)) * (cg_height / track_width)
+        self.lateral_arm = arm[:, None] if arm.ndim == 1 else arm  # (2, 1) or (2, n)
+        self.K_cs = compliance_gain(np.asarray(s.compliance_steer, float), p.g)
+        self.sigma = np.asarray(s.relaxation_length, float)
+        self.relaxed = bool(np.any(self.sigma > 0))
+        self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
+        self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
+        self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
+        self.M_c = p.M_c
+        self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
+
+    @property
+    def n_states(self) -> int:
+        """4, or 6 with the two lagged slip angles."""
+        return 6 if self.relaxed else 4
+
+    def axle_loads(self, psi_dot, beta):
+        """Effective axle loads P (2, n) (N) of the tyre forces, from the steady accelerations."""
+        a = self.v * psi_dot
+        a_x, a_y = -a * np.sin(beta), a * np.cos(beta)
+        shift = self.m * a_x * self.h_x / self.L
+        F_z = np.maximum(self.static + np.stack([-shift, shift]), 0.0)  # an axle cannot pull the road
+        dF = self.lateral_arm * (self.m * a_y)
+        F0 = 0.5 * self.static
+        # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
+        P = 0.0
+        for w in (np.maximum(0.5 * F_z - dF, 0.0), np.maximum(0.5 * F_z + dF, 0.0)):
+            P = P + w * np.maximum(1.0 + self.p_Dz * (w - F0) / F0, 0.0)
+        return P
+
+    def steady_slip(self, x, j: int):
+        """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle."""
+        psi_dot, beta = x[1], x[2]
+        delta = self.delta_half[j] - self.K_cs * self.v * psi_dot
+        q = -np.arctan((self.v * np.sin(beta) + self.lever * psi_dot) / (self.v * np.cos(beta)))
+        q[0] += delta
+        return q, delta
+
+    def __call__(self, x, j: int, out) -> None:
+        """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
+        psi, psi_dot, beta = x[0], x[1], x[2]
+        q, delta = self.steady_slip(x, j)
+        cos_b = np.cos(beta)
+        if self.relaxed:
+            out[4:6] = (q - x[4:6]) * (self.v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
+            q = np.where(self.sigma > 0, x[4:6], q)
+        peak = self.axle_loads(psi_dot, beta) * self.mu
+        if self.saturating:
+            bx = self.B * q
+            F = peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
+        else:
+            F = peak * self.B * self.C * q
+        F_w = self.F_w_half[j]
+        fc = F[0] * np.cos(delta)
+        M_w = F_w * self.M_c if self.M_w is None else self.M_w
+        out[0] = psi_dot
+        out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
+        out[2] = (fc + F[1] + F_w) * cos_b * self.inv_mv - psi_dot + self.a_v
+        out[3] = self.v * np.sin(psi + self.k * beta)  # as SingleTrackRHS's course kinematics
+
+
+def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
+                      n_steps: int, record_every: int):
+    """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
+    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track`, plus the config
+    whose vehicle section gives cg_height and track_width to the lateral load transfer."""
+    h_t = (0.0, 1.0)
+    if np.any(np.asarray(s.load_sensitivity) != 0):
+        purpose = "the effect lateral_load_transfer"
+        h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
+    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t)
+    out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
+    return out[:, :4].transpose(1, 2, 0)

@@ -1,0 +1,195 @@
+"""The chassis effects of a real car enter the augmented single-track model as their physics says:
+each test derives the steady state (or the step response) from the effect's equation on its own
+and fails when the term is removed from the model or its sign is flipped."""
+
+import numpy as np
+import pytest
+
+from uqdrive.config import ConfigError
+from uqdrive.vehicle.augmented import AugmentedSimulator
+from uqdrive.vehicle.effects import EFFECTS, ModelStructure, effect
+from uqdrive.vehicle.single_track import VehicleParameters
+
+THETA = [0.8, 0.0, 1.55, 0.0, 0.0, 0.0]  # one car: no spread, no mean wind
+V = 70.0 / 3.6
+H, T_W = 0.55, 1.6
+DT = 0.01
+
+
+def _simulator(config, delta, t_end=8.0, v=V):
+    cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
+    t = np.arange(int(round(t_end / DT)) + 1) * DT
+    sim = AugmentedSimulator.drawn(cfg, t, delta(t), v, 2, np.random.default_rng(0))
+    sim.sigma = 0.0  # no gusts: a steady state
+    return sim, t
+
+
+def _steady(config, structure, delta_deg=4.0, v=V):
+    sim, _ = _simulator(config, lambda t: np.deg2rad(delta_deg) * np.clip(t - 0.5, 0.0, 1.0), v=v)
+    x = sim.simulate(THETA, structure)
+    assert np.abs(x[1, 0, -1] - x[1, 0, -50]) < 1e-7  # settled
+    return x[1, 0, -1], x[2, 0, -1], np.deg2rad(delta_deg)
+
+
+def _saturating(**fields):
+    s = effect("tyre_saturation").augment(ModelStructure(), [0.97])
+    for name, values in fields.items():
+        s = effect(name).augment(s, values)
+    return s
+
+
+def _equilibrium_residual(config, r, beta, delta, loads, v=V):
+    """Yaw-moment and lateral-force balance of (5.3) at the steady state (r, beta) with axle
+    loads ``loads(p, r, beta)`` (effective peak loads, N), relative to the front force."""
+    V = v
+    p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+    P_f, P_r = loads(p, r, beta)
+    a_f = delta - np.arctan((V * np.sin(beta) + p.l_f * r) / (V * np.cos(beta)))
+    a_r = -np.arctan((V * np.sin(beta) - p.l_r * r) / (V * np.cos(beta)))
+    mf = lambda a, B: p.mu * np.sin(p.C * np.arctan(B * a - p.E * (B * a - np.arctan(B * a))))  # noqa: E731
+    F_f, F_r = P_f * mf(a_f, p.c_Sf) * np.cos(delta), P_r * mf(a_r, p.c_Sr)
+    yaw = (p.l_f * F_f - p.l_r * F_r) / (p.l_f * F_f)
+    lateral = ((F_f + F_r) * np.cos(beta) / (p.m * V) - r) / r
+    return max(abs(yaw), abs(lateral))
+
+
+def _longitudinal_loads(h, sign=1.0):
+    def loads(p, r, beta):
+        a_x = -p.v_c * r * np.sin(beta)
+        shift = sign * p.m * a_x * h / p.wheelbase  # F_zf = m (g l_r - a_x h) / L
+        return p.F_fz - shift, p.F_rz + shift
+    return loads
+
+
+def _lateral_loads(chi, p_Dz, sign=1.0):
+    def loads(p, r, beta):
+        a_y = p.v_c * r * np.cos(beta)
+        out = []
+        for F, share in ((p.F_fz, chi), (p.F_rz, 1.0 - chi)):
+            dF = share * p.m * a_y * H / T_W  # per wheel
+            F0 = F / 2
+            wheels = np.array([F0 - dF, F0 + dF])
+            out.append(np.sum(wheels * (1.0 + sign * p_Dz * (wheels - F0) / F0)))  # Pacejka (4.E13) per wheel
+        return out
+    return loads
+
+
+def test_longitudinal_load_transfer_moves_load_by_m_a_x_h_over_L(config):
+    """At 70 km/h this car's steady side slip stays below 0.01 rad, and a_x = -v r sin(beta)
+    moves a few newtons; at 140 km/h and mu 0.8 (beta ~ -0.03, a_y ~ 6 m/s^2) it moves ~1 % of
+    the front load. The steady state balances with F_zf = m (g l_r - a_x h) / L to 1e-6 (RK4 and
+    settling) and misses it by > 1e-3 with static loads or the shift's sign flipped."""
+    h, v = 1.0, 140.0 / 3.6
+    r, beta, delta = _steady(config, _saturating(longitudinal_load_transfer=[h]), delta_deg=3.0, v=v)
+    assert beta < -0.01
+    assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(h), v) < 1e-6
+    assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(0.0), v) > 1e-3
+    assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(h, -1.0), v) > 1e-3
+    assert EFFECTS["longitudinal_load_transfer"].prior_start({"vehicle": {"cg_height": 0.61}}) == (0.61,)
+
+
+def test_lateral_load_transfer_with_load_sensitivity(config):
+    """a_y ~ 6 m/s^2: per wheel dF = chi m a_y h / t and the peak mu F_z (1 + p_Dz dfz) give the
+    axle force; the steady state balances with them to 1e-6 and misses by > 1e-3 without the
+    transfer or with p_Dz's sign flipped. chi_f above l_r / L adds understeer: less yaw rate."""
+    chi, p_Dz = 0.7, -0.3
+    r, beta, delta = _steady(config, _saturating(lateral_load_transfer=[chi, p_Dz]))
+    assert V * r > 5.0
+    assert _equilibrium_residual(config, r, beta, delta, _lateral_loads(chi, p_Dz)) < 1e-6
+    assert _equilibrium_residual(config, r, beta, delta, _lateral_loads(chi, 0.0)) > 1e-3
+    assert _equilibrium_residual(config, r, beta, delta, _lateral_loads(chi, p_Dz, -1.0)) > 1e-3
+    r0, _, _ = _steady(config, _saturating())
+    assert r < r0
+
+
+def test_lateral_load_transfer_needs_the_vehicle_geometry(config):
+    sim, _ = _simulator(config, lambda t: 0.01 * np.ones_like(t), t_end=0.5)
+    sim.config = {**sim.config, "vehicle": {k: v for k, v in sim.config["vehicle"].items() if k != "track_width"}}
+    with pytest.raises(ConfigError, match="track_width"):
+        sim.simulate(THETA, _saturating(lateral_load_transfer=[0.5, -0.1]))
+
+
+@pytest.mark.parametrize("tyre", ["linear", "magic_formula"])
+def test_compliance_steer_turns_the_wheels_by_minus_K_a_y(config, tyre):
+    """Steady yaw-rate gain G without compliance: with delta_f = delta - K v r the steady yaw rate
+    is G delta / (1 + G K v) (rad/(m/s^2) from deg/g); to 1e-6 relative, on the exact
+    (linear) and the RK4 (Magic Formula) path. Removing the term gives G delta (off by 4 % at
+    K = 1 deg/g), a flipped sign G delta / (1 - G K v)."""
+    K = 1.0
+    base = ModelStructure() if tyre == "linear" else _saturating()
+    comp = effect("compliance_steer").augment(base, [K])
+    r0, _, delta = _steady(config, base, delta_deg=1.0)
+    r, _, _ = _steady(config, comp, delta_deg=1.0)
+    if tyre == "magic_formula":  # non-linear: the gain at the smaller actual steer angle
+        r_eff, _, _ = _steady(config, base, delta_deg=np.rad2deg(delta - np.deg2rad(K) / 9.81 * V * r))
+        assert abs(r / r_eff - 1) < 1e-6
+        assert r < r0 * (1 - 0.02)
+        return
+    G, k = r0 / delta, np.deg2rad(K) / 9.81
+    assert abs(r / (G * delta / (1 + G * k * V)) - 1) < 1e-6
+    assert abs(r / r0 - 1) > 0.02 and abs(r / (G * delta / (1 - G * k * V)) - 1) > 0.02
+
+
+def test_tyre_relaxation_is_a_first_order_lag_of_the_slip_angles(config):
+    """A 0.2 deg steer step with linear tyres: the model equals the 6-state linear system with
+    the lagged slips alpha' = (alpha_ss - alpha) v / sigma and forces c alpha (solved here by
+    the matrix exponential) to 2e-3 of the yaw rate's range (the model keeps the arctan slip
+    kinematics: ~1e-4 at this angle); without the lag the same system misses it by > 5 times
+    that, and sigma <= 0 is no lag."""
+    from scipy.linalg import expm
+
+    sigma, d = 1.0, np.deg2rad(0.2)
+    sim, t = _simulator(config, lambda t: d * (t >= 0.5), t_end=3.0)
+    lagged = sim.simulate(THETA, effect("tyre_relaxation").augment(ModelStructure(), [sigma]))[:, 0]
+    p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+
+    def linear_response(s):
+        A = np.zeros((6, 6))  # psi, r, beta, y, alpha_f, alpha_r
+        A[0, 1] = 1.0
+        A[1, 4], A[1, 5] = p.l_f * p.c_f / p.I_z, -p.l_r * p.c_r / p.I_z
+        A[2, 4], A[2, 5], A[2, 1] = p.c_f / (p.m * V), p.c_r / (p.m * V), -1.0
+        A[3, 0] = V
+        A[4, 2], A[4, 1], A[4, 4] = -V / s, -p.l_f / s, -V / s  # (delta - beta - l_f r / v - alpha_f) v / s
+        A[5, 2], A[5, 1], A[5, 5] = -V / s, p.l_r / s, -V / s
+        b = np.zeros(6)
+        b[4] = V / s * d
+        x, out = np.zeros(6), []
+        # the step arrives as a ramp over the sample before t = 0.5 (linear interpolation)
+        for k, tk in enumerate(t):
+            out.append(x.copy())
+            if k + 1 < t.size:
+                u0, u1 = float(t[k] >= 0.5), float(t[k + 1] >= 0.5)
+                M = np.zeros((8, 8))  # Van Loan: x' = A x + b (u0 w1 + (u1 - u0) w2), w1 = 1, w2 = tau / DT
+                M[:6, :6], M[:6, 6], M[:6, 7], M[7, 6] = A, b * u0, b * (u1 - u0), 1.0 / DT
+                x = (expm(M * DT) @ np.concatenate([x, [1.0, 0.0]]))[:6] if u1 else x
+        return np.array(out).T
+
+    ref = linear_response(sigma)
+    scale = np.abs(ref[1]).max()
+    assert np.abs(lagged[1] - ref[1]).max() < 2e-3 * scale
+    assert np.abs(linear_response(1e-3)[1] - ref[1]).max() > 1e-2 * scale  # the lag matters at this size
+
+
+def test_zero_sized_chassis_effects_leave_the_model_bit_identical(config):
+    """h = 0, p_Dz = 0, K = 0: the thesis' right-hand side, to the last bit."""
+    sim, _ = _simulator(config, lambda t: 0.05 * np.sin(t), t_end=2.0)
+    for base in (ModelStructure(), _saturating()):
+        ref = sim.simulate(THETA, base)
+        for name, values in (("longitudinal_load_transfer", [0.0]), ("lateral_load_transfer", [0.6, 0.0]), ("compliance_steer", [0.0])):
+            assert np.array_equal(sim.simulate(THETA, effect(name).augment(base, values)), ref), name
+
+
+def test_chassis_loads_stay_physical_when_a_realisation_spins(config):
+    """A spinning realisation (psi_dot 1 rad/s, beta 0.5 rad) with the strongest transfer the
+    search allows (h = 1.5 m, p_Dz = -1, chi_f = 1): the inner wheels lift and carry nothing,
+    no axle's effective load turns negative (a negative peak reverses the tyre force and the
+    integration diverges, stopping a discover fit), and a 10 deg step stays finite."""
+    from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
+
+    s = _saturating(longitudinal_load_transfer=[1.5], lateral_load_transfer=[1.0, -1.0])
+    p = VehicleParameters.from_config(config, mu=1.0, l_f=1.55, v_c=V)
+    rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.zeros(3), np.zeros((3, 1)), True, np.zeros(1), H, T_W)
+    P = rhs.axle_loads(np.array([1.0]), np.array([0.5]))
+    assert np.all(np.isfinite(P)) and np.all(P >= 0.0)
+    sim, _ = _simulator(config, lambda t: np.deg2rad(10.0) * (t >= 0.2), t_end=4.0)
+    assert np.all(np.isfinite(sim.simulate([1.0, 0.0, 1.55, 0.0, 0.0, 0.0], s)))
