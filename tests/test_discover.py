@@ -83,7 +83,7 @@ def test_null_case_says_none(files, capsys):
     v = json.loads((out / "verdict.json").read_text())
     assert v["effect"] == "none" and v["ambiguous_with"] == [] and v["parameters"] == {} and v["separating_input"] == []
     assert "posterior" not in v  # sampled only for the config's effects (discrepancy.posterior.effects)
-    assert v["evidence"]["max_statistic"] <= v["evidence"]["threshold"]
+    assert not v["evidence"]["significant"] and v["effects"] == []
 
 
 def _corrupt(ds, how):
@@ -129,9 +129,9 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
 
     seen = {}
 
-    def fake(config, measured, candidates, out, posterior=None):
+    def fake(config, measured, candidates, out, posterior=None, model=None):
         seen["posterior"] = posterior
-        return {"effect": "none", "ambiguous_with": [], "gap_before": 0.0, "gap_after": 0.0, "evidence": {"n_spun": 0}}
+        return {"effect": "none", "effects": [], "ambiguous_with": [], "gap_before": 0.0, "gap_after": 0.0, "evidence": {"n_spun": 0}}
 
     monkeypatch.setattr(discover, "discover_file", fake)
     root, cfg, paths = files

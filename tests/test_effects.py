@@ -68,7 +68,7 @@ def test_output_effects_touch_only_their_channel(config):
 
 def test_road_bank_and_course_kinematics_enter_as_physics_says(config):
     """A bank adds g sin(phi) / v to beta_dot (a lateral drift of y growing with time); the
-    course-angle kinematics changes y only, by v * integral(k beta)."""
+    course-angle kinematics changes y only, to v * integral(sin(psi + k beta))."""
     t = np.arange(501) * 0.01
     sim = AugmentedSimulator.drawn(config, t, np.zeros_like(t), 19.4, 10, np.random.default_rng(4))
     theta = [1.0, 0.0, 1.55, 0.0, 0.0, 0.0]
@@ -81,7 +81,8 @@ def test_road_bank_and_course_kinematics_enter_as_physics_says(config):
     base = sim2.simulate(theta)
     course = sim2.simulate(theta, effect("lateral_kinematics").augment(ModelStructure(), [1.0]))
     assert np.allclose(course[:3], base[:3])
-    expected = base[3] + 19.4 * np.concatenate([np.zeros((10, 1)), np.cumsum((base[2][:, 1:] + base[2][:, :-1]) / 2 * 0.01, axis=1)], axis=1)
+    gap = np.sin(base[0] + base[2]) - base[0]  # the heading model's y_dot is v psi
+    expected = base[3] + 19.4 * np.concatenate([np.zeros((10, 1)), np.cumsum((gap[:, 1:] + gap[:, :-1]) / 2 * 0.01, axis=1)], axis=1)
     assert np.abs(course[3] - expected).max() < 1e-3 * np.abs(course[3]).max()
     sim.sigma = cfg_sigma
 

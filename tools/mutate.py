@@ -46,7 +46,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: Core modules and where they live under src/uqdrive (if a layout step moves one, it is found
 #: by its file name instead).
 MODULES = {"gp": "wheelslip/gp.py", "galerkin": "numerics/galerkin.py", "identify": "inference/identify.py", "slqr": "control/slqr.py",
-           "statistics": "vehicle/statistics.py", "scorecard": "studies/scorecard.py"}
+           "statistics": "vehicle/statistics.py", "scorecard": "studies/scorecard.py", "fit": "inference/discrepancy/fit.py",
+           "effectset": "inference/discrepancy/effectset.py", "band": "inference/discrepancy/band.py"}
 
 #: Test files never run for a mutant (the end-to-end Snakemake DAG).
 EXCLUDED_TESTS = ("test_workflow.py",)

@@ -327,7 +327,10 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     realisations; a ``delta`` (time) variable in rad; the speed as a global attribute ``v_c``
     (m/s), one finite number in :data:`V_C_RANGE`, or a variable ``v`` over (time) or
     (sample, time) in m/s within that range (then ``v`` is the speed, ``v_c`` is not needed).
-    An optional ``spun`` (sample) flag must hold 0/1. Returns the (converted) dataset.
+    An optional ``spun`` (sample) flag must hold 0/1. ``delta`` may carry the attribute
+    ``interpolation``: how the command is reconstructed between its samples, ``linear``
+    (default) or ``previous`` (each sample held until the next), used by every simulation of the
+    file. Returns the (converted) dataset.
     """
     for dim in ("sample", "time"):
         if dim not in ds.dims:
@@ -354,6 +357,10 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
         if got != unit and not (name == "a_y" and got in A_Y_UNITS):
             raise DataError(f"{source}: variable '{name}' has units '{got}'; expected '{unit}' (convert it and set the attribute)")
         _check_values(name, ds[name].values, unit, source)
+    interpolation = ds["delta"].attrs.get("interpolation", "linear")
+    if interpolation not in ("linear", "previous"):
+        raise DataError(f"{source}: variable 'delta' has interpolation '{interpolation}'; expected 'linear' (straight lines between "
+                        "samples) or 'previous' (each sample held until the next)")
     check_spread(ds, source)
     if "v" in ds:
         _check_speed(ds, source)

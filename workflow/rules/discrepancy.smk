@@ -95,6 +95,10 @@ rule discrepancy_summary:
                          labels={"figure": "confusion matrix", "case": "hidden-effect benchmark"}),
         detection=report(f"{FIG}/fig_discrepancy_detection.png", caption="../report/discrepancy_detection.rst", category="uqdrive discrepancy workflow",
                          labels={"figure": "detection against magnitude", "case": "hidden-effect benchmark"}),
+        combined=report(f"{FIG}/fig_discrepancy_combined_confusion.png", caption="../report/discrepancy_combined.rst", category="uqdrive discrepancy workflow",
+                        labels={"figure": "combined cases: hidden set x named set", "case": "hidden-effect benchmark"}),
+        gaps=report(f"{FIG}/fig_discrepancy_gap_per_effect.png", caption="../report/discrepancy_combined.rst", category="uqdrive discrepancy workflow",
+                    labels={"figure": "gap per added effect", "case": "hidden-effect benchmark"}),
         scorecard=f"{OUT}/scorecard/discrepancy.csv",
     threads: 1
     resources:

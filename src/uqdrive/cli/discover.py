@@ -52,18 +52,20 @@ def _checked_candidates(candidates: Sequence[str] | None):
 
 
 def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
-                  log: Callable[[str], None] | None = None) -> dict:
+                  log: Callable[[str], None] | None = None, model: Path | None = None) -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
 
     ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
     (True), never (False), or as config ``discrepancy.posterior`` says (None). ``log`` receives
-    a progress line per stage (the workflow's log file).
+    a progress line per stage (the workflow's log file). ``model``: a ``model.yaml`` written by
+    discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
     replaces the config's ``vehicle.speed_kmh`` where they differ.
     """
     names = _checked_candidates(candidates)
+    start = _start_model(model) if model is not None else None
     ds = read_ensemble(measured)
     check_run_count(ds.sizes["sample"], str(measured), "discover")
     missing = [c for c in ("psi", "psi_dot", "beta", "y") if c not in present_channels(ds)]
@@ -80,7 +82,7 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
         config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
-    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log)
+    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
     if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
@@ -88,6 +90,14 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
                    fixed=known_quantities(config))
     write_outputs(finder, verdict, out)
     return verdict
+
+
+def _start_model(path: Path) -> dict:
+    """The effects and distributions of a ``model.yaml`` to start from (a DataError otherwise)."""
+    from .model import load_model
+
+    structure, dist = load_model(path)
+    return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
 
 
 def baseline_warnings(finder: DiscrepancyFinder, config: Mapping[str, Any]) -> list[str]:

@@ -226,6 +226,9 @@ def _add_discover(sub) -> None:
     p.add_argument("--posterior", action=argparse.BooleanOptionalAction, default=None,
                    help="sample the emcee posterior of the repaired model into verdict.json (--posterior) or never "
                         "(--no-posterior); default: as config discrepancy.posterior says (enabled, for the effects listed)")
+    p.add_argument("--model", type=Path, default=None, metavar="DIR/model.yaml",
+                   help="start from the augmented model a previous 'uqdrive discover' wrote: its effects are refitted with the "
+                        "distributions and further effects added on top")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(run=_discover)
 
@@ -241,9 +244,10 @@ def _discover(args) -> None:
     if not existing.is_dir():
         raise OutputError(f"output folder '{out}' lies below '{existing}', which is not a folder; choose another --out")
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
-    v = discover_file(config, args.measured, candidates, out, posterior=args.posterior)
+    v = discover_file(config, args.measured, candidates, out, posterior=args.posterior, model=args.model)
     _speed_notice(config, args.measured)
-    print(f"wrote {out / 'verdict.json'}: effect {v['effect']}" + (f" (ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
+    named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
+    print(f"wrote {out / 'verdict.json'}: effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
           + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
     _report_warnings(v)
 

@@ -108,7 +108,8 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
     t = ds["time"].values
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(4)])
     stride = max(1, int(np.ceil((t.size - 1) / 150)))
-    sim = AugmentedSimulator.drawn(config, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride)
+    sim = AugmentedSimulator.drawn(config, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
+                                   interpolation=str(ds["delta"].attrs.get("interpolation", "linear")))
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])
     measured_stats = moment_statistics(x, index)

@@ -11,7 +11,7 @@ from ..studies.discrepancy import detection_limits
 from ..vehicle.single_track import STATE_UNITS, STATES
 from .figure import label_state, state_axes, time_axis
 
-__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude"]
+__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect"]
 
 
 def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0):
@@ -111,4 +111,48 @@ def detection_vs_magnitude(ds):
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     fig.suptitle("Detection versus magnitude: the smallest magnitude each effect is named at (dashed)", fontsize=8)
+    return fig
+
+
+def combined_confusion(ds):
+    """Combined benchmark cases by hidden set of effects (rows) and named set (columns); a note
+    when the benchmark ran none (e.g. a CI subset)."""
+    if "confusion_combined" not in ds:
+        fig, ax = plt.subplots(figsize=(4.0, 1.5), constrained_layout=True)
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no combined cases in this benchmark run", ha="center", va="center")
+        return fig
+    m = ds["confusion_combined"].values
+    fig, ax = plt.subplots(figsize=(2.0 + 0.9 * m.shape[1], 1.2 + 0.5 * m.shape[0]), constrained_layout=True)
+    ax.imshow(m, cmap="Blues")
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            if m[i, j]:
+                ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=9)
+    ax.set_xticks(range(m.shape[1]), [str(v).replace("+", "+\n") for v in ds["named_set_column"].values], rotation=45, ha="right", fontsize=7)
+    ax.set_yticks(range(m.shape[0]), [str(v) for v in ds["true_set"].values], fontsize=7)
+    ax.set_xlabel("named set (order free)")
+    ax.set_ylabel("hidden set")
+    ax.set_title(f"combined cases: exact set and gap halved {ds.attrs['combined_accuracy']:.2f}", fontsize=9)
+    return fig
+
+
+def gap_per_effect(ds):
+    """Gap (excess RMS in null-band units) before and after each added effect, one line per
+    combined case (``gap_steps`` of :func:`uqdrive.studies.discrepancy.case_outcome`)."""
+    fig, ax = plt.subplots(figsize=(6.0, 3.6), constrained_layout=True)
+    combined = np.asarray(ds["combined"].values, bool) if "combined" in ds else np.zeros(ds.sizes["case"], bool)
+    for k in np.flatnonzero(combined):
+        gaps = [float(g) for g in str(ds["gap_steps"].values[k]).split(";") if g]
+        ax.plot(range(len(gaps)), gaps, "o-", label=f"{ds['case'].values[k]}: {ds['named_set'].values[k]}")
+    ax.set_yscale("symlog", linthresh=0.1)
+    ax.set_xlabel("effects added")
+    ax.set_ylabel("gap (excess RMS z)")
+    ax.set_xticks(range(4))
+    ax.grid(alpha=0.3)
+    if combined.any():
+        ax.legend(fontsize=6, loc="upper right")
+    else:
+        ax.text(0.5, 0.5, "no combined cases in this benchmark run", ha="center", va="center", transform=ax.transAxes)
+    ax.set_title("Gap per added effect: each justified addition closes part of it", fontsize=9)
     return fig

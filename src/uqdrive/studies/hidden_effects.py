@@ -5,7 +5,8 @@ The "reality" is integrated here by its own vectorised fixed-step RK4 (over real
 per-sample loop), independently of the LST/NLST code of :mod:`uqdrive.vehicle`: the stochastic
 linear single-track model (linear tyres c_f alpha_f, c_r alpha_r, y_dot = v psi) with uncertain
 mu, m_load, l_f and mean wind, KLE gusts (yaw moment M_c F_w as in the Monte Carlo ensembles)
-and white measurement noise, plus at most one switchable effect with a magnitude:
+and white measurement noise, plus switchable effects, each with a magnitude (one, or several at
+once in a combined case):
 
 =====================  ==========================================================================
 effect                 magnitude
@@ -16,10 +17,14 @@ actuator_lag           time constant T (s) of a first-order steering lag
 actuator_delay         pure steering delay tau (s)
 road_bank              bank angle phi (deg): lateral force m g sin(phi), no yaw moment
 wind_gust              factor on the config's gust std wind.sigma
-lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi
+lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
 sensor_bias            offset added to the measured ``channel`` (its SI unit)
 sensor_scale           gain on the measured ``channel``
 =====================  ==========================================================================
+
+The command is either a smooth function of time (``hold: linear``) or its samples on the output
+grid held between samples (``hold: previous``, a zero-order hold as a digital controller sends
+it); the file's ``delta`` carries that as its ``interpolation`` attribute.
 
 A generated dataset follows the uqdrive data schema and carries no label, no draws and no spin
 flag; :func:`case_label` gives the label for a separate file.
@@ -30,9 +35,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
+from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import yaml
 
 from ..rng import rng_stream
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formula
@@ -91,6 +98,11 @@ class HiddenEffectCase:
     noise : float
         Measurement-noise std of each channel as a fraction of its typical RMS (the median over
         realisations of the RMS over time of the clean signal).
+    extra : sequence of (effect, magnitude, channel)
+        Further hidden effects of a combined case (each at most once, none ``none``); channel
+        None unless a sensor effect.
+    hold : {"linear", "previous"}
+        The command between output samples: the smooth manoeuvre, or each sample held.
     """
 
     name: str
@@ -103,8 +115,29 @@ class HiddenEffectCase:
     channel: str | None = None
     shift: Any = ()
     noise: float = 0.01
+    extra: Any = ()
+    hold: str = "linear"
+
+    @property
+    def effects(self) -> tuple:
+        """Every hidden effect as (effect, magnitude, channel), the primary one first."""
+        return ((self.effect, float(self.magnitude), self.channel),) + self.extra if self.effect != "none" else ()
+
+    def size(self, effect: str, default: float = 0.0) -> float:
+        """Magnitude of ``effect`` in this case (``default`` when absent)."""
+        return next((m for e, m, _ in self.effects if e == effect), default)
 
     def __post_init__(self):
+        extra = tuple((str(e), float(m), None if c is None else str(c)) for e, m, c in self.extra)
+        object.__setattr__(self, "extra", extra)
+        if self.hold not in ("linear", "previous"):
+            raise ValueError(f"{self.name}: hold must be 'linear' or 'previous'; got '{self.hold}'")
+        if extra and self.effect == "none":
+            raise ValueError(f"{self.name}: a combined case has a primary effect other than 'none'")
+        if any(e == "none" for e, _, _ in extra) or len({(e, c) for e, _, c in self.effects}) != len(self.effects):
+            raise ValueError(f"{self.name}: the effects of a combined case are distinct and not 'none': {self.effects}")
+        for e, m, c in extra:
+            HiddenEffectCase(f"{self.name}/{e}", e, m, self.manoeuvre, self.manoeuvre_params, channel=c)  # each checked alone
         if self.effect not in EFFECTS:
             raise ValueError(f"unknown effect '{self.effect}'; choose one of {', '.join(EFFECTS)}")
         if self.manoeuvre not in MANOEUVRES:
@@ -172,21 +205,25 @@ def _time_grid(config: Mapping[str, Any]):
     return np.arange(n_out + 1) * dt, dt / substeps, substeps
 
 
-def _actual_steering(case: HiddenEffectCase, t) -> np.ndarray:
-    """Steering at the wheels before any lag: the command, delayed by tau for actuator_delay (zero before)."""
+def _actual_steering(case: HiddenEffectCase, t, dt: float, left: bool = False) -> np.ndarray:
+    """Steering at the wheels before any lag: the command (held between the output samples
+    i dt for ``hold: previous``), delayed by tau for actuator_delay (zero before). ``left``:
+    the limit from the left at a held command's jumps (the value a step ending there saw)."""
     params = dict(case.manoeuvre_params)
-    if case.effect != "actuator_delay":
-        return steering_command(case.manoeuvre, t, params)
-    shifted = np.asarray(t, float) - case.magnitude
+    shifted = np.asarray(t, float) - case.size("actuator_delay")
+    if case.hold == "previous":
+        shifted = (np.ceil(shifted / dt - 1e-9) - 1.0 if left else np.floor(shifted / dt + 1e-9)) * dt
     started = shifted > -1e-9
     return np.where(started, steering_command(case.manoeuvre, np.maximum(shifted, 0.0), params), 0.0)
 
 
-def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half):
-    """RK4 right-hand side f(x, j) of the reality on the half-step grid index j.
+def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half, delta_left=None):
+    """RK4 right-hand side f(x, j, end) of the reality on the half-step grid index j; ``end``:
+    the last stage of a step, which sees the steering's limit from the left ``delta_left``
+    (a held command jumps at its samples; default: ``delta_half``, a continuous command).
 
     x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
-    fifth state for actuator_lag.
+    fifth state for actuator_lag. Several effects act together (a combined case).
     """
     veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
     v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
@@ -199,31 +236,35 @@ def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta
     inv_Iz, inv_mv = 1.0 / I_z, 1.0 / (m * v)
     w_mean = draws["F_w_mean"]
     gust_moment = bool(w["gust_yaw_moment"])
-    effect, size = case.effect, float(case.magnitude)
-    bank = g * np.sin(np.deg2rad(size)) / v if effect == "road_bank" else 0.0
+    present = {e for e, _, _ in case.effects}
+    lag, saturating, course = case.size("actuator_lag"), "tyre_saturation" in present, "lateral_kinematics" in present
+    bank = g * np.sin(np.deg2rad(case.size("road_bank"))) / v
 
-    def rhs(x, j):
+    delta_left = delta_half if delta_left is None else delta_left
+
+    def rhs(x, j, end=False):
+        u = delta_left[j] if end else delta_half[j]
         psi, r, beta = x[0], x[1], x[2]
-        d = x[4] if effect == "actuator_lag" else delta_half[j]
+        d = x[4] if lag > 0 else u
         gust = gust_half[j]
         F_w = w_mean + gust
         M_w = M_c * (F_w if gust_moment else w_mean)
         out = np.empty_like(x)
         out[0] = r
-        if effect == "tyre_saturation":  # non-linear single-track model (5.3) of the thesis
+        if saturating:  # non-linear single-track model (5.3) of the thesis
             vx, vy = v * np.cos(beta), v * np.sin(beta)
             F_f = magic_formula(d - np.arctan((vy + l_f * r) / vx), F_fz, B_f, C, mu, E) * np.cos(d)
             F_r = magic_formula(-np.arctan((vy - l_r * r) / vx), F_rz, B_r, C, mu, E)
-            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r
-            out[3] = v * np.sin(psi)
+            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r + bank
+            out[3] = v * np.sin(psi + beta) if course else v * np.sin(psi)
         else:  # linear tyres and small angles (5.4)
             F_f = c_f * (d - beta - l_f * r / v)
             F_r = c_r * (l_r * r / v - beta)
             out[2] = (F_f + F_r + F_w) * inv_mv - r + bank
-            out[3] = v * np.sin(psi + beta) if effect == "lateral_kinematics" else v * psi
+            out[3] = v * np.sin(psi + beta) if course else v * psi
         out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
-        if effect == "actuator_lag":
-            out[4] = (delta_half[j] - d) / size
+        if lag > 0:
+            out[4] = (u - d) / lag
         return out
 
     return rhs
@@ -238,7 +279,7 @@ def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
         k1 = rhs(x, j)
         k2 = rhs(x + 0.5 * h * k1, j + 1)
         k3 = rhs(x + 0.5 * h * k2, j + 1)
-        k4 = rhs(x + h * k3, j + 2)
+        k4 = rhs(x + h * k3, j + 2, True)
         x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
         if (k + 1) % every == 0:
             out[(k + 1) // every] = x
@@ -248,22 +289,13 @@ def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
 def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=None, kle: KarhunenLoeve | None = None):
     """Clean (noise- and sensor-error-free) response of the case's reality.
 
-    Parameters
-    ----------
-    config : mapping
-        Validated uqdrive configuration (vehicle, tyre, uncertainty, wind, time).
-    case : HiddenEffectCase
-    draws : dict, optional
-        Output of :func:`draw_realisations` (drawn if omitted).
-    kle : KarhunenLoeve, optional
-        KLE of the unit wind on [0, t_end] (computed from the config if omitted).
+    ``config``: validated (vehicle, tyre, uncertainty, wind, time); ``draws``: output of
+    :func:`draw_realisations` and ``kle`` the unit wind's KLE on [0, t_end] (made if omitted).
 
     Returns
     -------
-    t : ndarray, shape (T,)
-        Output times (s).
-    delta : ndarray, shape (T,)
-        Commanded steering angle (rad).
+    t, delta : ndarray, shape (T,)
+        Output times (s) and commanded steering angle (rad).
     x : ndarray, shape (4, samples, T)
         True states psi, psi_dot, beta, y.
     """
@@ -272,13 +304,15 @@ def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=Non
     t, h, substeps = _time_grid(config)
     n_steps = (t.size - 1) * substeps
     t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
-    sigma = float(config["wind"]["sigma"]) * (case.magnitude if case.effect == "wind_gust" else 1.0)
+    sigma = float(config["wind"]["sigma"]) * case.size("wind_gust", 1.0)
     coeffs = sigma * np.asarray(draws["xi_wind"]) * np.sqrt(kle.eigenvalues)  # (n, n_c), thesis (5.21)
     gust_half = np.ascontiguousarray((coeffs @ kle.eigenfunctions(t_half)).T)  # (n_half, n)
-    delta_half = _actual_steering(case, t_half)
+    dt = float(t[1] - t[0])
+    delta_half = _actual_steering(case, t_half, dt)
+    delta_left = _actual_steering(case, t_half, dt, left=True) if case.hold == "previous" else None
     n = np.shape(draws["mu"])[0]
-    x0 = np.zeros((5 if case.effect == "actuator_lag" else 4, n))
-    rhs = _reality_rhs(config, case, draws, delta_half, gust_half)
+    x0 = np.zeros((5 if case.size("actuator_lag") > 0 else 4, n))
+    rhs = _reality_rhs(config, case, draws, delta_half, gust_half, delta_left)
     x = _rk4(rhs, x0, h, n_steps, substeps)[:, :4]  # (T, 4, n)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
     return t, delta, np.ascontiguousarray(x.transpose(1, 2, 0))
@@ -305,8 +339,8 @@ def measure(case: HiddenEffectCase, x) -> np.ndarray:
     for i, name in enumerate(STATES):
         zeta = rng.standard_normal(x[i].shape)
         scale = case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
-        gain = case.magnitude if case.effect == "sensor_scale" and case.channel == name else 1.0
-        offset = case.magnitude if case.effect == "sensor_bias" and case.channel == name else 0.0
+        gain = next((m for e, m, c in case.effects if e == "sensor_scale" and c == name), 1.0)
+        offset = next((m for e, m, c in case.effects if e == "sensor_bias" and c == name), 0.0)
         out[i] = gain * x[i] + offset + scale * zeta
     return out
 
@@ -325,7 +359,7 @@ def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoe
         name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
         for i, name in enumerate(STATES)
     }
-    data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
+    data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle", "interpolation": case.hold})
     coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
     attrs = {"title": "measured single-track ensemble", "v_c": float(config["vehicle"]["speed_kmh"]) / 3.6}
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
@@ -336,6 +370,8 @@ def case_label(case: HiddenEffectCase) -> dict[str, Any]:
     return {
         "name": case.name,
         "effect": case.effect,
+        "effects": [{"effect": e, "magnitude": m, "channel": c} for e, m, c in case.effects],
+        "hold": case.hold,
         "discrepant": case.effect != "none",
         "magnitude": float(case.magnitude),
         "channel": case.channel,
@@ -348,41 +384,17 @@ def case_label(case: HiddenEffectCase) -> dict[str, Any]:
     }
 
 
-# name, effect, magnitude, manoeuvre, manoeuvre params, channel, shift, noise
-_BENCHMARK = [
-    ("none_thesis_slalom", "none", 0.0, "slalom", {"amplitude_deg": 5.0, "period": 4.0}, None, {}, 0.01),
-    ("none_step", "none", 0.0, "step", {"amplitude_deg": 2.0}, None, {}, 0.02),
-    ("none_chirp_mu_low", "none", 0.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.01),
-    ("none_lane_change", "none", 0.0, "lane_change", {"amplitude_deg": 3.0}, None, {"l_f": (1.45, 0.15)}, 0.02),
-    ("none_slalom_inverted", "none", 0.0, "slalom", {"amplitude_deg": 3.0, "period": 3.0, "sign": -1.0}, None, {"F_w_mean": (-200.0, 300.0)}, 0.01),
-    ("none_slalom_slow", "none", 0.0, "slalom", {"amplitude_deg": 2.0, "period": 6.0, "phase": 0.5}, None, {"m_load": (150.0, 40.0)}, 0.015),
-    ("tyre_saturation_3deg", "tyre_saturation", 3.0, "slalom", {"period": 3.0, "sign": -1.0}, None, {}, 0.01),
-    ("tyre_saturation_5deg", "tyre_saturation", 5.0, "lane_change", {}, None, {"mu": (0.9, 0.15)}, 0.02),
-    ("actuator_lag_80ms", "actuator_lag", 0.08, "chirp", {"amplitude_deg": 2.0}, None, {}, 0.01),
-    ("actuator_lag_200ms", "actuator_lag", 0.2, "step", {"amplitude_deg": 2.0, "ramp": 0.3}, None, {}, 0.02),
-    ("actuator_delay_50ms", "actuator_delay", 0.05, "lane_change", {"amplitude_deg": 3.0}, None, {}, 0.01),
-    ("actuator_delay_150ms", "actuator_delay", 0.15, "slalom", {"amplitude_deg": 2.0, "period": 2.5}, None, {}, 0.02),
-    ("road_bank_1deg", "road_bank", 1.0, "step", {"amplitude_deg": 2.0, "sign": -1.0}, None, {}, 0.01),
-    ("road_bank_3deg", "road_bank", 3.0, "chirp", {"amplitude_deg": 2.0}, None, {"mu": (0.9, 0.15)}, 0.02),
-    ("wind_gust_x3", "wind_gust", 3.0, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, None, {}, 0.01),
-    ("wind_gust_x6", "wind_gust", 6.0, "lane_change", {"amplitude_deg": 2.0}, None, {}, 0.02),
-    ("lateral_kinematics_3deg", "lateral_kinematics", 3.0, "slalom", {"period": 6.0}, None, {}, 0.01),
-    ("lateral_kinematics_6deg", "lateral_kinematics", 6.0, "lane_change", {}, None, {}, 0.02),
-    ("sensor_bias_psi_dot_small", "sensor_bias", 0.005, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.01),
-    ("sensor_bias_psi_dot", "sensor_bias", 0.01, "step", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
-    ("sensor_bias_beta", "sensor_bias", 0.004, "slalom", {"amplitude_deg": 3.0, "period": 3.0}, "beta", {}, 0.01),
-    ("sensor_bias_y", "sensor_bias", 0.3, "lane_change", {"amplitude_deg": 3.0}, "y", {}, 0.02),
-    ("sensor_scale_psi_dot_110", "sensor_scale", 1.1, "lane_change", {"amplitude_deg": 3.0}, "psi_dot", {}, 0.01),
-    ("sensor_scale_psi_dot_125", "sensor_scale", 1.25, "chirp", {"amplitude_deg": 2.0}, "psi_dot", {}, 0.02),
-    ("sensor_scale_beta_125", "sensor_scale", 1.25, "slalom", {"amplitude_deg": 3.0, "period": 5.0, "sign": -1.0}, "beta", {}, 0.01),
-]
+def _case_tables() -> dict:
+    """The case tables of ``hidden_cases.yaml`` (package data)."""
+    return yaml.safe_load(resources.files("uqdrive.studies").joinpath("hidden_cases.yaml").read_text())
 
 
 def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
-    every effect at two magnitudes on manoeuvres other than the thesis slalom, and
-    "thesis_nlst", the thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config
-    distributions, root seed).
+    every effect at two magnitudes on manoeuvres other than the thesis slalom, six combined
+    cases (two or three effects at once), three ``none`` cases with a held (zero-order-hold)
+    pulse or step at 300 realisations or fewer, and "thesis_nlst", the thesis' own NLST reality
+    (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
 
     Parameters
     ----------
@@ -390,11 +402,18 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
         Realisations per case (config ``montecarlo.samples`` by default).
     """
     n = int(config["montecarlo"]["samples"] if samples is None else samples)
-    root = int(config["seed"])
+    root, tables = int(config["seed"]), _case_tables()
     cases = [
         HiddenEffectCase(name, effect, size, manoeuvre, params, n, root + 101 + i, channel, shift, noise)
-        for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(_BENCHMARK)
+        for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(tables["single"])
     ]
+    start = root + 101 + len(tables["single"])
+    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(tables["combined"]):
+        (effect, size, channel), extra = effects[0], effects[1:]
+        cases.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
+    start += len(tables["combined"])
+    for i, (name, manoeuvre, params, held_samples, shift, noise) in enumerate(tables["held_null"]):
+        cases.append(HiddenEffectCase(name, "none", 0.0, manoeuvre, params, min(n, held_samples), start + i, None, shift, noise, hold="previous"))
     st = config["steering"]
     thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",
                               {"period": float(st["period"])}, n, root, noise=0.01)

@@ -115,12 +115,28 @@ def braking_in_turn_speed(t, start_kmh: float = 80.0, end_kmh: float = 50.0, t_b
     return speed_ramp(t, start_kmh, end_kmh, t_brake, duration)
 
 
+
+def pulse(t, amplitude_deg: float = 2.0, t_start: float = 1.0, width: float = 0.5, sign: float = 1.0):
+    """Rectangular pulse: sign * A on [t_start, t_start + width), 0 elsewhere (a command that
+    jumps; on a grid it is held between samples, the data's ``interpolation: previous``).
+
+    Returns
+    -------
+    ndarray
+        Steering angle (rad).
+    """
+    t = np.asarray(t, dtype=float)
+    on = (t >= t_start - 1e-9) & (t < t_start + width - 1e-9)
+    return sign * np.deg2rad(amplitude_deg) * on.astype(float)
+
+
 #: Manoeuvre name -> function(t, ``**params``) returning the steering angle (rad).
 MANOEUVRES: dict[str, Callable[..., np.ndarray]] = {
     "slalom": slalom,
     "step": step_steer,
     "chirp": chirp,
     "lane_change": double_lane_change,
+    "pulse": pulse,
 }
 
 #: Manoeuvres that change the speed: name -> (steering function, speed function (m/s)), each

@@ -38,6 +38,9 @@ class ModelStructure:
         Factor on the configured gust standard deviation F_w,sigma (-).
     course_weight : float
         k in y_dot = v (psi + k beta): 0 is the thesis' heading kinematics, 1 the course angle.
+    course_exact : bool
+        y_dot = v sin(psi + k beta), the exact course kinematics, instead of its linearisation
+        (set by ``lateral_kinematics``; the numerically integrated model always has the sine).
     output_offset, output_gain : tuple of 4 floats
         Measured channel = gain * state + offset, per state (psi, psi_dot, beta, y), SI units.
     effects : tuple of (name, parameters)
@@ -63,6 +66,7 @@ class ModelStructure:
     lateral_acceleration: float = 0.0
     gust_scale: float = 1.0
     course_weight: float = 0.0
+    course_exact: bool = False
     output_offset: tuple = (0.0, 0.0, 0.0, 0.0)
     output_gain: tuple = (1.0, 1.0, 1.0, 1.0)
     effects: tuple = field(default=())
@@ -154,7 +158,7 @@ class LateralKinematics(Effect):
     """Lateral velocity along the course angle: weight k (-) of beta in y_dot = v (psi + k beta)."""
 
     def apply(self, s, v):
-        return replace(s, course_weight=float(v[0]))
+        return replace(s, course_weight=float(v[0]), course_exact=True)
 
 
 @dataclass(frozen=True)
@@ -263,7 +267,7 @@ EFFECTS: dict[str, Effect] = {
     "lateral_kinematics": LateralKinematics(
         "lateral_kinematics", ("k",), ("-",), ((-0.5, 2.0),), (0.5,),
         "lateral velocity along the course angle, y_dot = v sin(psi + beta), not the heading alone",
-        "y only: its mean follows psi + beta, psi, psi_dot, beta untouched"),
+        "y only: its mean follows v sin(psi + k beta), psi, psi_dot, beta untouched"),
     **channel_effects("sensor_bias"),
     **channel_effects("sensor_scale"),
     "longitudinal_load_transfer": LongitudinalLoadTransfer(

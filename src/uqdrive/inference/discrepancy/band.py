@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms"]
+__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "bootstrap_band"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -204,6 +204,8 @@ class NullBand:
         much correlation in time inflates the error of fitted parameters (1 for independent z).
     level : float
         Family-wise false-alarm rate of :attr:`threshold`.
+    chi2_null : ndarray, shape (B,)
+        sum(z^2) of every replicate.
     """
 
     windows: np.ndarray
@@ -213,6 +215,7 @@ class NullBand:
     chi2_null_sd: float
     inflation: float
     level: float = 0.05
+    chi2_null: np.ndarray | None = None
 
     @classmethod
     def from_replicates(cls, z_null, windows, level: float = 0.05) -> "NullBand":
@@ -225,7 +228,7 @@ class NullBand:
         var_sum = np.var(z_null.sum(axis=-1), axis=0, ddof=1)
         sum_var = np.var(z_null, axis=0, ddof=1).sum(axis=-1)
         inflation = float(np.mean(var_sum / np.maximum(sum_var, 1e-300)))
-        return cls(np.asarray(windows), scale, maxima, float(np.mean(z_null**2)), float(np.std(chi2, ddof=1)), max(inflation, 1.0), level)
+        return cls(np.asarray(windows), scale, maxima, float(np.mean(z_null**2)), float(np.std(chi2, ddof=1)), max(inflation, 1.0), level, chi2)
 
     @property
     def _gumbel(self):
@@ -240,6 +243,25 @@ class NullBand:
         """(1 - level) quantile of the replicates' maxima (Gumbel fit, see ``_gumbel``)."""
         loc, scale = self._gumbel
         return float(loc - scale * np.log(-np.log(1.0 - self.level)))
+
+    def excess_chi2(self, z) -> float:
+        """sum(z^2) beyond the null's mean, in chi2 units (0 on average for a model missing nothing)."""
+        z = np.asarray(z, float)
+        return float(np.sum(z**2) - self.mean_square_null * z.size)
+
+    def gate(self, z) -> bool:
+        """Whether z leaves the null: its scan maximum beyond :attr:`threshold` and its total
+        misfit beyond the null mean by more than two null standard deviations of chi2 (a
+        crossing of the scan alone, with no excess misfit, is the scan's own false alarm)."""
+        return self.max_statistic(z) > self.threshold and self.excess_chi2(z) > 2.0 * self.chi2_null_sd
+
+    def false_alarm_rate(self) -> float:
+        """Fraction of the null replicates that pass :meth:`gate`: the calibrated false-alarm
+        rate of a verdict other than ``none`` (NaN without the replicates' chi2)."""
+        if self.chi2_null is None:
+            return float("nan")
+        excess = self.chi2_null - np.mean(self.chi2_null)
+        return float(np.mean((self.max_null > self.threshold) & (excess > 2.0 * self.chi2_null_sd)))
 
     def cells(self, z):
         """Standardised scan cells of z (2, 4, K): shape (2, 4, n_w)."""
@@ -260,3 +282,34 @@ def excess_rms(z, band: NullBand) -> float:
     """Gap metric: sqrt(max(mean(z^2) - null level, 0)), the misfit beyond what sampling alone
     gives, in units of the null band (0 for a model that misses nothing)."""
     return float(np.sqrt(max(float(np.mean(np.asarray(z) ** 2)) - band.mean_square_null, 0.0)))
+
+
+def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float) -> "NullBand":
+    """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric bootstrap.
+
+    ``bootstrap`` replicates of n realisations of base's model (fresh germs from ``rng``) with
+    the measurement noise (variance ``noise`` (4,)) added, their statistics standardised by
+    their own scale (model error ratio ``ratio``), realisations beyond ``spin`` (|beta|, rad)
+    left out as in the data, each replicate refitted to first order (:func:`refit_projection`).
+    """
+    per_call = max(1, 4000 // max(n, 1))
+    z = []
+    for start in range(0, bootstrap, per_call):
+        reps = min(per_call, bootstrap - start)
+        germs = type(sim.germs).draw(rng, reps * n, sim.germs.kle.shape[1])
+        x = sim.simulate(base.theta_, base.structure_, germs=germs)
+        # x[:, :, index] + noise, computed in the noise's array (no copies of x; the same sums)
+        xb = rng.standard_normal((4, x.shape[1], index.size))
+        xb *= np.sqrt(noise)[:, None, None]
+        xb += compared_times(x, index)
+        xb = xb.reshape(4, reps, n, -1)
+        keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[2]) > spin, axis=-1)
+        whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
+        stats, scale = np.empty((reps, 2, 4, xb.shape[-1])), np.empty((reps, 2, 4, xb.shape[-1]))
+        if whole.any():
+            stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
+        for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
+            stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
+        z.extend((stats - base.statistics_) / scale)
+    z = refit_projection(np.array(z), base.jacobian_)
+    return NullBand.from_replicates(z, scan_windows(index.size), level)

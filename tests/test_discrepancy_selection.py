@@ -1,0 +1,193 @@
+"""Several effects in one verdict: the effect set fitted as one, forward selection with joint
+refits and a backward check, the combined benchmark's scoring, and `discover --model`."""
+
+import copy
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import yaml
+
+from uqdrive.cli import main
+from uqdrive.inference.discrepancy import DiscrepancyFinder
+from uqdrive.inference.discrepancy.band import NullBand
+from uqdrive.inference.discrepancy.effectset import EffectSet, family_of
+from uqdrive.io import write_dataset
+from uqdrive.studies.discrepancy import benchmark_dataset, case_outcome, exact_set
+from uqdrive.studies.hidden_effects import HiddenEffectCase, case_label, generate, simulate_states
+from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+
+
+def test_effect_set_chains_its_members_in_order():
+    """Parameters concatenated as effect.parameter, each member applied with its own values, the
+    provenance in the order added; an effect twice or wrong sizes are refused."""
+    es = EffectSet(["road_bank", "sensor_bias_psi_dot", "actuator_lag"], start={"actuator_lag": [0.2]})
+    assert es.parameters == ("road_bank.phi", "sensor_bias_psi_dot.offset_psi_dot", "actuator_lag.T")
+    assert es.start == (0.0, 0.0, 0.2) and len(es.bounds) == 3
+    s = es.augment(ModelStructure(), [2.0, 0.01, 0.1])
+    assert s.lateral_acceleration == pytest.approx(9.81 * np.sin(np.deg2rad(2.0)))
+    assert s.output_offset[1] == 0.01 and s.steering_lag == 0.1
+    assert [name for name, _ in s.effects] == list(es.names)
+    assert {k: list(v) for k, v in es.split([2.0, 0.01, 0.1]).items()} == {"road_bank": [2.0], "sensor_bias_psi_dot": [0.01], "actuator_lag": [0.1]}
+    assert es.intervals({"road_bank.phi": [2, 1, 3], "actuator_lag.T": [0.1, 0.0, 0.2]})["road_bank"] == {"phi": [2.0, 1.0, 3.0]}
+    with pytest.raises(ValueError, match="at most once"):
+        EffectSet(["road_bank", "road_bank"])
+    with pytest.raises(ValueError, match="parameter"):
+        es.augment(ModelStructure(), [1.0])
+    assert family_of("sensor_bias_y") == "sensor_bias" and family_of("road_bank") == "road_bank"
+
+
+def test_exact_set_counts_ambiguity_sets_and_refuses_extras():
+    lag, bank = {"effect": "actuator_lag", "ambiguous_with": ["actuator_delay"]}, {"effect": "road_bank", "ambiguous_with": []}
+    assert exact_set(["road_bank", "actuator_lag"], [lag, bank])  # order free
+    assert exact_set(["actuator_delay", "road_bank"], [lag, bank])  # the truth in an ambiguity set counts
+    assert not exact_set(["road_bank"], [lag, bank])  # one too many
+    assert not exact_set(["road_bank", "actuator_lag"], [bank])  # one missing
+    assert not exact_set(["road_bank", "actuator_lag"], [bank, {"effect": "unrecognised", "ambiguous_with": []}])
+    assert not exact_set(["actuator_lag", "road_bank"], [lag, lag])  # each truth needs its own entry
+
+
+def test_combined_outcomes_and_their_confusion_table():
+    label = {"name": "c", "effect": "road_bank", "effects": [{"effect": "road_bank"}, {"effect": "sensor_bias"}], "magnitude": 2.0}
+    verdict = {"effect": "sensor_bias", "gap_before": 10.0, "gap_after": 0.5, "ambiguous_with": [],
+               "effects": [{"effect": "sensor_bias", "gap_after": 6.0}, {"effect": "road_bank", "gap_after": 0.5}],
+               "distributions": {"before": {"mu": {"mean": 1.0}}, "after": {"mu": {"mean": 1.0}}}}
+    o = case_outcome(label, verdict)
+    assert o["combined"] and o["correct"] and o["gap_halved"] and o["gap_steps"] == "10;6;0.5"
+    assert o["truth_set"] == o["named_set"] == "road_bank+sensor_bias"
+    wrong = dict(verdict, effects=verdict["effects"][:1])
+    null = case_outcome({"name": "n", "effect": "none"}, {**verdict, "effect": "none", "effects": []})
+    ds = benchmark_dataset([o, case_outcome(dict(label, name="d"), wrong), null])
+    assert ds.attrs["combined_accuracy"] == 0.5 and ds.attrs["n_combined"] == 2
+    assert int(ds["confusion_combined"].sel(true_set="road_bank+sensor_bias", named_set_column="sensor_bias")) == 1
+
+
+def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing(config):
+    """A model on fewer realisations is judged with a wider scale; its excess chi2 is scaled back
+    by the squared ratio, so a non-linear fit that changes nothing is no better than the linear."""
+    f = DiscrepancyFinder(config, model_samples=1000, nonlinear_samples=250)
+    f.scale_, f._n = np.ones((2, 4, 10)), 1000
+    f.band_ = SimpleNamespace(mean_square_null=1.0)
+    z = np.zeros((2, 4, 10))  # 80 cells: the null level is 80
+    ratio = (1 + 1000 / 250) / (1 + 1000 / 1000)  # scale ratio squared (_scale_for)
+    # the same systematic misfit (640) plus each model's own sampling (80 in its own units)
+    linear = SimpleNamespace(structure_=ModelStructure(), z_=z, chi2_=80.0 + 640.0)
+    wide = SimpleNamespace(structure_=EFFECTS["tyre_saturation"].augment(ModelStructure(), [0.5]), z_=z, chi2_=80.0 + 640.0 / ratio)
+    assert f._chi2(linear) == pytest.approx(720.0)
+    assert f._chi2(wide) == pytest.approx(720.0)
+    assert wide.chi2_ < f._chi2(wide)  # the raw chi2 would have favoured it
+
+
+def test_gate_needs_a_scan_crossing_and_an_excess_misfit():
+    """``gate``: the scan maximum beyond the threshold AND chi2 beyond the null mean by 2 sd; its
+    false-alarm rate is counted on the replicates themselves."""
+    rng = np.random.default_rng(0)
+    z = rng.standard_normal((200, 2, 4, 30))
+    band = NullBand.from_replicates(z, np.array([[0, 1], [0, 30]]), level=0.05)
+    spike = np.zeros((2, 4, 30))
+    spike[0, 0, 0] = 10 * band.cell_scale[0, 0, 0]  # one crossing, total misfit tiny
+    assert band.max_statistic(spike) > band.threshold and not band.gate(spike)
+    broad = rng.standard_normal((2, 4, 30)) * 3.0
+    assert band.gate(broad)
+    assert 0.0 <= band.false_alarm_rate() <= 0.05
+
+
+def test_combined_reality_adds_each_effect_as_alone(config):
+    """The combined reality's bank + bias equals the bank's reality with the bias on psi_dot; a
+    course angle with a non-linear tyre integrates v sin(psi + beta)."""
+    c = copy.deepcopy(config)
+    c["time"].update(t_end=2.0)
+    both = HiddenEffectCase("b", "road_bank", 2.0, "chirp", {"amplitude_deg": 2.0}, samples=4, seed=3, extra=[("sensor_bias", 0.01, "psi_dot")])
+    bank = HiddenEffectCase("b", "road_bank", 2.0, "chirp", {"amplitude_deg": 2.0}, samples=4, seed=3)
+    a, b = generate(c, both), generate(c, bank)
+    assert np.allclose(a["psi_dot"].values - b["psi_dot"].values, 0.01) and np.array_equal(a["y"].values, b["y"].values)
+    sat = HiddenEffectCase("s", "tyre_saturation", 5.0, "slalom", {"period": 3.0}, samples=3, seed=4)
+    course = HiddenEffectCase("s", "tyre_saturation", 5.0, "slalom", {"period": 3.0}, samples=3, seed=4, extra=[("lateral_kinematics", 5.0, None)])
+    _, _, xs = simulate_states(c, sat)
+    _, _, xc = simulate_states(c, course)
+    assert np.array_equal(xs[:3], xc[:3]) and np.abs(xs[3] - xc[3]).max() > 0.01
+    assert case_label(both)["effects"] == [{"effect": "road_bank", "magnitude": 2.0, "channel": None},
+                                           {"effect": "sensor_bias", "magnitude": 0.01, "channel": "psi_dot"}]
+    with pytest.raises(ValueError, match="distinct"):
+        HiddenEffectCase("x", "road_bank", 1.0, "step", extra=[("road_bank", 2.0, None)])
+    with pytest.raises(ValueError, match="primary"):
+        HiddenEffectCase("x", "none", 0.0, "step", extra=[("road_bank", 2.0, None)])
+
+
+@pytest.fixture(scope="module")
+def combined(config, tmp_path_factory):
+    """Bank 2 deg and a psi_dot bias of 0.01 rad/s at once on a chirp, 300 realisations."""
+    c = copy.deepcopy(config)
+    c["time"].update(t_end=6.0)
+    c["discrepancy"].update(model_samples=300, nonlinear_samples=100, bootstrap=40, max_times=60, top=2)
+    root = tmp_path_factory.mktemp("combined")
+    (root / "config.yaml").write_text(yaml.safe_dump(c))
+    case = HiddenEffectCase("bank_bias", "road_bank", 2.0, "chirp", {"amplitude_deg": 2.0}, samples=300, seed=21, extra=[("sensor_bias", 0.01, "psi_dot")])
+    write_dataset(generate(c, case), root / "data.nc")
+    return root
+
+
+@pytest.mark.long(40)
+def test_two_hidden_effects_are_both_named_and_the_model_continues(combined, capsys):
+    """Both effects named (order free) with intervals holding the truth, the gap shrinking at each
+    addition and closing at least by half; model.yaml holds both; `discover --model` from a model
+    with the bank alone adds the bias only; `identify --model` takes both effects."""
+    cfg, data = str(combined / "config.yaml"), str(combined / "data.nc")
+    cands = "road_bank,sensor_bias,actuator_lag"
+    assert main(["discover", data, "--config", cfg, "--candidates", cands, "--out", str(combined / "out")]) == 0
+    v = json.loads((combined / "out" / "verdict.json").read_text())
+    named = {e["effect"]: e for e in v["effects"]}
+    assert set(named) == {"road_bank", "sensor_bias"} and v["effect"] == v["effects"][0]["effect"]
+    est, lo, hi = named["road_bank"]["parameters"]["phi"]
+    assert lo <= 2.0 <= hi
+    est, lo, hi = named["sensor_bias"]["parameters"]["offset_psi_dot"]
+    assert lo <= 0.01 <= hi and named["sensor_bias"]["parameters"]["channel"] == "psi_dot"
+    gaps = [v["gap_before"]] + [e["gap_after"] for e in v["effects"]]
+    assert all(b < a for a, b in zip(gaps, gaps[1:])) and v["gap_after"] <= 0.5 * v["gap_before"] and v["gap_after"] == gaps[-1]
+    model = yaml.safe_load((combined / "out" / "model.yaml").read_text())
+    assert set(model["effects"]) == {"road_bank", "sensor_bias_psi_dot"}
+    start = copy.deepcopy(model)
+    del start["effects"]["sensor_bias_psi_dot"]
+    (combined / "bank.yaml").write_text(yaml.safe_dump(start))
+    assert main(["discover", data, "--config", cfg, "--candidates", cands, "--model", str(combined / "bank.yaml"), "--out", str(combined / "more")]) == 0
+    w = json.loads((combined / "more" / "verdict.json").read_text())
+    assert [e["effect"] for e in w["effects"]] == ["sensor_bias"] and w["evidence"]["start_model"] == ["road_bank"]
+    assert main(["identify", data, "--model", str(combined / "out" / "model.yaml"), "--config", cfg, "--out", str(combined / "ident")]) == 0
+    e = json.loads((combined / "ident" / "estimate.json").read_text())
+    assert set(e["effects"]) == {"road_bank", "sensor_bias_psi_dot"}
+    capsys.readouterr()
+
+
+def test_a_non_linear_probe_is_finished_when_in_reach(config):
+    """The short fit of a non-linear candidate is continued when it closed a quarter of what the
+    best linear candidate closed, or when no linear candidate closed anything; else dropped."""
+    f = DiscrepancyFinder(config)
+    f.scale_, f._n = np.ones((2, 4, 10)), 1000
+    f.band_ = SimpleNamespace(mean_square_null=1.0)
+    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2)  # noqa: E731
+    cur, best_linear = fit(1000.0), fit(200.0)  # the linear candidate closes 800
+    assert f._in_reach(cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
+    assert not f._in_reach(cur, fit(810.0), [best_linear])  # 190 < 200
+    assert f._in_reach(cur, fit(1000.0), [fit(1100.0)]) and f._in_reach(cur, fit(1000.0), [])
+
+
+def test_combined_figures_draw_one_line_per_case_and_a_note_without_cases():
+    import matplotlib.pyplot as plt
+
+    from uqdrive.plots.discrepancy import combined_confusion, gap_per_effect
+
+    label = {"name": "c", "effect": "road_bank", "effects": [{"effect": "road_bank"}, {"effect": "sensor_bias"}], "magnitude": 2.0}
+    verdict = {"effect": "sensor_bias", "gap_before": 10.0, "gap_after": 0.5, "ambiguous_with": [],
+               "effects": [{"effect": "sensor_bias", "gap_after": 6.0}, {"effect": "road_bank", "gap_after": 0.5}],
+               "distributions": {"before": {"mu": {"mean": 1.0}}, "after": {"mu": {"mean": 1.0}}}}
+    null = case_outcome({"name": "n", "effect": "none"}, {**verdict, "effect": "none", "effects": [], "gap_after": 10.0})
+    ds = benchmark_dataset([case_outcome(label, verdict), case_outcome(dict(label, name="d"), verdict), null])
+    fig = gap_per_effect(ds)
+    assert [list(line.get_ydata()) for line in fig.axes[0].lines] == [[10.0, 6.0, 0.5]] * 2
+    fig2 = combined_confusion(ds)
+    assert fig2.axes[0].images[0].get_array().sum() == 2
+    without = benchmark_dataset([null])
+    assert "no combined" in combined_confusion(without).axes[0].texts[0].get_text()
+    assert "no combined" in gap_per_effect(without).axes[0].texts[0].get_text()
+    plt.close("all")
