@@ -271,9 +271,9 @@ def test_discover_creates_missing_parents_and_notes_the_data_speed(tiny, capsys,
 
     seen = {}
 
-    def fake(config, measured, candidates, out, posterior=None):
+    def fake(config, measured, candidates, out, posterior=None, model=None):
         seen["speed"] = config["vehicle"]["speed_kmh"]
-        return {"effect": "none", "ambiguous_with": [], "gap_before": 1.0, "gap_after": 1.0, "evidence": {"n_spun": 0}}
+        return {"effect": "none", "ambiguous_with": [], "gap_before": 1.0, "gap_after": 1.0, "effects": [], "evidence": {"n_spun": 0}}
 
     monkeypatch.setattr(discover, "discover_file", fake)
     out = tiny / "new" / "deeper" / "verdict"

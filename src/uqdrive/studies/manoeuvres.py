@@ -122,8 +122,8 @@ def pulse(t, amplitude_deg: float = 2.0, t_start: float = 1.0, width: float = 0.
 
     Returns
     -------
-    ndarray
-        Steering angle (rad).
+    ndarray, shape (T,)
+        Steering angle (rad) on the times ``t``.
     """
     t = np.asarray(t, dtype=float)
     on = (t >= t_start - 1e-9) & (t < t_start + width - 1e-9)

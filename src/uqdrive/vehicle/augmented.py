@@ -8,7 +8,7 @@ the distribution and effect parameters, so optimisers can fit them (past the the
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -18,63 +18,13 @@ from .effects import ModelStructure
 from .single_track import VehicleParameters, lst_matrices
 from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
 from .track_rk4 import integrate_single_track
-from .uncertainty import kle_nystrom
+from .uncertainty import Germs, kle_nystrom
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
-
-
-@dataclass(frozen=True)
-class Germs:
-    """Standard germs of n realisations: normal for mu, l_f, m_load, U(0, 1) for the mean wind,
-    normal (n, n_c) for the KLE gust modes."""
-
-    mu: np.ndarray
-    l_f: np.ndarray
-    m_load: np.ndarray
-    wind: np.ndarray
-    kle: np.ndarray
-
-    @classmethod
-    def draw(cls, rng: np.random.Generator, n: int, n_modes: int, matched: bool = False) -> "Germs":
-        """n realisations' germs from ``rng``; ``matched``: moment-matched (:meth:`matched`)."""
-        z = rng.standard_normal((3, n))
-        germs = cls(z[0], z[1], z[2], rng.random(n), rng.standard_normal((n, n_modes)))
-        return germs.matched() if matched else germs
-
-    def matched(self) -> "Germs":
-        """Moment matching (a variance reduction for common random numbers): the germ vector
-        (mu, l_f, m_load, the wind's germ standardised as sqrt(12) (u - 1/2), the KLE modes) is
-        shifted and jointly whitened (Cholesky) so that its sample mean is exactly 0 and its
-        sample covariance exactly I, the population's moments.
-
-        A model ensemble on matched germs reproduces every statistic that is linear or quadratic
-        in the germs without sampling error: the mean wind's and the gusts' share of the mean and
-        variance, and their cross terms with mu, l_f and the load. Unmatched, an ensemble of M
-        realisations misstates e.g. a gust mode's variance by ~sqrt(2 / M) (4.5 % at M = 1000),
-        an error that no distribution parameter can absorb (a gust scale moves all modes alike).
-        The wind's germ keeps its uniform shape up to an O(M^-1/2) affine change (it may leave
-        [0, 1] by that much). Needs n > 4 + n_modes.
-        """
-        z = np.column_stack([self.mu, self.l_f, self.m_load, np.sqrt(12.0) * (self.wind - 0.5), self.kle])
-        if z.shape[0] <= z.shape[1]:
-            raise ValueError(f"moment matching of {z.shape[1]} germs needs more than {z.shape[1]} realisations; got {z.shape[0]}")
-        z = z - z.mean(axis=0)
-        L = np.linalg.cholesky(np.cov(z, rowvar=False))
-        w = np.linalg.solve(L, z.T).T
-        return Germs(w[:, 0], w[:, 1], w[:, 2], 0.5 + w[:, 3] / np.sqrt(12.0), np.ascontiguousarray(w[:, 4:]))
-
-    @property
-    def n(self) -> int:
-        """Number of realisations."""
-        return int(self.mu.size)
-
-    def head(self, n: int) -> "Germs":
-        """The first ``n`` realisations' germs."""
-        return Germs(self.mu[:n], self.l_f[:n], self.m_load[:n], self.wind[:n], self.kle[:n])
 
 
 #: How a sampled input is reconstructed between its samples (the data schema's ``delta``

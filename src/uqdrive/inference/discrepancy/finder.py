@@ -100,7 +100,7 @@ class DiscrepancyFinder:
         The start model (the baseline, or ``start_model`` refitted) and the final one with every
         added effect (its ``effect`` an :class:`.effectset.EffectSet`).
     band_, augmented_band_ : NullBand
-        The null bands of baseline_ and augmented_.
+        The null bands of ``baseline_`` and ``augmented_``.
     steps_ : list of dict
         The effects added, in order (name, joint fit, band, gap after, ambiguity).
     measured_, scale_ : ndarray, shape (2, 4, K)
