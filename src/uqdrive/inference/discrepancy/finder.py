@@ -35,7 +35,6 @@ PROBE_NFEV, PROBE_SHARE = 6, 0.25
 #: of it (excess RMS after / before the addition), else it is not named.
 STEP_SHRINK = 0.75
 
-
 DEFAULT_CANDIDATES = ("tyre_saturation", "actuator_lag", "actuator_delay", "road_bank", "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale")
 
 
@@ -271,7 +270,8 @@ class DiscrepancyFinder:
                     start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
                     fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
             for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-                short = self._joint(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]}, max_nfev=PROBE_NFEV)
+                # from the current distributions and the prior's: a linear baseline's lowered mu is a poor basin for a saturating tyre
+                short = min((self._joint(ctx, th, names + [c], {**values, c: screening[c]["values"]}, max_nfev=PROBE_NFEV) for th in (cur.theta_, self._start()[0])), key=self._chi2)
                 if self._in_reach(cur, short, [fits[k] for k in linear]):
                     start = {k: list(v) for k, v in short.effect.split(short.effect_values_).items()}
                     short = self._joint(ctx, short.theta_, names + [c], start)
