@@ -364,8 +364,8 @@ def test_the_right_car_recovers_mu_and_the_wrong_car_misfits(sedan_fits):
     """With the sedan's file, mu comes back within 3 of its standard errors of the mean of the
     200 drawn mu (the data's own truth; 3 so that a calibrated band holds it with 99.7 %); with
     the BMW's file the misfit is hundreds of times larger (measured: 575 times; 100 is the
-    asserted floor) and mu lands far outside that band. Whether the wrong car's fit is flagged
-    ('converged' false, a warning on the vehicle constants) is the goodness-of-fit's test."""
+    asserted floor) and mu lands far outside that band. The right car's fit is converged; the
+    wrong car's is not, and its warning names the vehicle constants (the misfit test)."""
     fits, drawn_mu = sedan_fits
     right, wrong = fits["rajamani_sedan"], fits["bmw_320i"]
     se = right["standard_errors"]["mu"][0]
@@ -373,3 +373,6 @@ def test_the_right_car_recovers_mu_and_the_wrong_car_misfits(sedan_fits):
     assert abs(right["mu"][0] - drawn_mu) <= 3 * se, (right["mu"][0], drawn_mu, se)
     assert abs(wrong["mu"][0] - drawn_mu) > 3 * max(se, wrong["standard_errors"]["mu"][0])
     assert wrong["cost"] >= 100 * right["cost"], (wrong["cost"], right["cost"])
+    assert right["converged"] is True, right["warnings"]
+    assert wrong["converged"] is False
+    assert any("vehicle constants" in w and "yaw inertia" in w for w in wrong["warnings"]), wrong["warnings"]
