@@ -191,3 +191,30 @@ def test_combined_figures_draw_one_line_per_case_and_a_note_without_cases():
     assert "no combined" in combined_confusion(without).axes[0].texts[0].get_text()
     assert "no combined" in gap_per_effect(without).axes[0].texts[0].get_text()
     plt.close("all")
+
+
+def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(config):
+    """The short fit is run from the current distributions and from the prior's and the better
+    one kept: from a linear baseline's lowered mu a saturating tyre sits in a poor basin (the
+    thesis' NLST data: chi2 5 times the baseline's), from the prior it reaches the truth."""
+    f = DiscrepancyFinder(config)
+    f.scale_, f._n = np.ones((2, 4, 10)), 1000
+    f.band_ = SimpleNamespace(mean_square_null=1.0)
+    prior = f._start()[0]
+    starts = []
+
+    def joint(ctx, theta, names, values, max_nfev=None):
+        starts.append((list(theta), max_nfev))
+        chi2 = 50.0 if list(theta) == list(prior) else 900.0  # only the prior's start reaches the good basin
+        return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta)
+
+    f._joint = joint
+    lowered = [0.84] + list(prior[1:])
+    best = f._probe(None, lowered, ["tyre_saturation"], {"tyre_saturation": [0.5]})
+    assert best.chi2_ == 50.0 and list(best.theta_) == list(prior)
+    assert starts == [(lowered, 6), (list(prior), 6)]  # both starts, each with the probe's budget
+    starts.clear()
+    joint_lowered_wins = lambda ctx, theta, names, values, max_nfev=None: SimpleNamespace(  # noqa: E731
+        structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta)
+    f._joint = joint_lowered_wins
+    assert list(f._probe(None, lowered, ["tyre_saturation"], {}).theta_) == lowered

@@ -26,21 +26,17 @@ from .verdict import assemble_verdict, model_document
 
 __all__ = ["DEFAULT_CANDIDATES", "family_of", "DiscrepancyFinder"]
 
-#: A non-linear candidate is first fitted with this budget of model evaluations; the fit is
-#: finished only when it has closed PROBE_SHARE of what the best linear candidate closed (its
-#: chi2 can only fall further; the thesis and combined benchmark cases check it is not dropped).
+#: A non-linear candidate is first fitted with this budget of model evaluations (:meth:`DiscrepancyFinder._probe`), then finished only
+#: when it closed PROBE_SHARE of what the best linear candidate closed (its chi2 can only fall further).
 PROBE_NFEV, PROBE_SHARE = 6, 0.25
 
-#: An added effect that does not explain the rest of the gap must close at least this fraction
-#: of it (excess RMS after / before the addition), else it is not named.
+#: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before).
 STEP_SHRINK = 0.75
-
 DEFAULT_CANDIDATES = ("tyre_saturation", "actuator_lag", "actuator_delay", "road_bank", "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale")
 
 
 class _Context(NamedTuple):
-    """What every fit of one dataset shares: the simulator, compared times, noise, spin
-    threshold, realisations used, the measured command (rad) and its grid step (s)."""
+    """What every fit of one dataset shares: simulator, compared times, noise, spin threshold, runs used, command (rad), step (s)."""
 
     sim: Any; index: np.ndarray; noise: np.ndarray; spin: float | None; n: int; delta: np.ndarray; dt: float  # noqa: E702
 
@@ -270,8 +266,7 @@ class DiscrepancyFinder:
                     start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
                     fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
             for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-                # from the current distributions and the prior's: a linear baseline's lowered mu is a poor basin for a saturating tyre
-                short = min((self._joint(ctx, th, names + [c], {**values, c: screening[c]["values"]}, max_nfev=PROBE_NFEV) for th in (cur.theta_, self._start()[0])), key=self._chi2)
+                short = self._probe(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]})
                 if self._in_reach(cur, short, [fits[k] for k in linear]):
                     start = {k: list(v) for k, v in short.effect.split(short.effect_values_).items()}
                     short = self._joint(ctx, short.theta_, names + [c], start)
@@ -387,6 +382,11 @@ class DiscrepancyFinder:
             f.fit(self.measured_, self._scale_for(structure, ctx.n), cur.theta_)
             out[name] = {"chi2": f.chi2_, "values": f.effect_values_}
         return out
+
+    def _probe(self, ctx, theta, names, values):
+        """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the prior's distributions, the better one: a linear
+        baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's)."""
+        return min((self._joint(ctx, th, names, values, max_nfev=PROBE_NFEV) for th in (theta, self._start()[0])), key=self._chi2)
 
     def _in_reach(self, cur, probe, others) -> bool:
         """Whether a non-linear candidate's short fit is worth finishing: it already closed at
