@@ -169,20 +169,24 @@ def observability_analysis(config: Mapping[str, Any], state=None, tol: float = 1
     |eigenvalue|^k, which would otherwise swamp the rank test).
     """
     x, point, values = observability_matrix(config, state)
-    n = x.shape[0]
     scale = np.array([max(abs(point[s]), 1e-3) for s in x])
     values = values * scale  # columns in relative units, so the rank is not a unit artefact
-    norms = np.linalg.norm(values, axis=1, keepdims=True)
-    values = values[norms[:, 0] > 0] / norms[norms[:, 0] > 0]
-    names = tuple(str(s) for s in x)
+    return _rank_test(values, tuple(str(s) for s in x), tol)
+
+
+def _rank_test(O, names, tol) -> "ObservabilityResult":
+    """Rank of the column-scaled observability matrix O (rows, n) after scaling each non-zero row
+    to unit norm, its null direction, and the rank with each column removed (thesis sec. 5.3.1)."""
+    norms = np.linalg.norm(O, axis=1, keepdims=True)
+    O = O[norms[:, 0] > 0] / norms[norms[:, 0] > 0]
 
     def rank(M):
         sv = np.linalg.svd(M, compute_uv=False)
         return int(np.sum(sv > tol * sv[0])), sv
 
-    r, sv = rank(values)
-    null = np.linalg.svd(values)[2][-1]
-    removal = {names[j]: rank(np.delete(values, j, axis=1))[0] for j in range(n)}
+    r, sv = rank(O)
+    null = np.linalg.svd(O)[2][-1]
+    removal = {names[j]: rank(np.delete(O, j, axis=1))[0] for j in range(len(names))}
     return ObservabilityResult(names, r, removal, sv, null / np.abs(null).max())
 
 
@@ -244,19 +248,7 @@ def channel_observability(config: Mapping[str, Any], channels, parameters=PARAME
     step = 1e-20
     O = np.column_stack([lie(z0 + 1j * step * max(abs(z0[j]), 1.0) * np.eye(n)[j]).imag / (step * max(abs(z0[j]), 1.0)) for j in range(n)])
     scale = np.maximum(np.abs(z0.real), 1e-3)
-    O = O * scale
-    norms = np.linalg.norm(O, axis=1, keepdims=True)
-    O = O[norms[:, 0] > 0] / norms[norms[:, 0] > 0]
-    names = tuple(str(s) for s in states + free)
-
-    def rank(M):
-        sv = np.linalg.svd(M, compute_uv=False)
-        return int(np.sum(sv > tol * sv[0])), sv
-
-    r, sv = rank(O)
-    null = np.linalg.svd(O)[2][-1]
-    removal = {names[j]: rank(np.delete(O, j, axis=1))[0] for j in range(n)}
-    return ObservabilityResult(names, r, removal, sv, null / np.abs(null).max())
+    return _rank_test(O * scale, tuple(str(s) for s in states + free), tol)
 
 
 def unidentifiable_parameters(config: Mapping[str, Any], channels, parameters=PARAMETERS) -> dict:
