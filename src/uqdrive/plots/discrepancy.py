@@ -62,15 +62,20 @@ def localisation_map(time, z, threshold: float, title: str = "Localisation of th
     return fig
 
 
-def confusion_matrix(ds):
-    """Benchmark cases by true effect (rows) and named effect (columns)."""
-    m = ds["confusion"].values
-    fig, ax = plt.subplots(figsize=(1.0 + 0.7 * m.shape[1], 1.0 + 0.5 * m.shape[0]), constrained_layout=True)
+def _counts(ax, m):
+    """A count table m (rows, columns) as an image with each non-zero count written in its cell."""
     ax.imshow(m, cmap="Blues")
     for i in range(m.shape[0]):
         for j in range(m.shape[1]):
             if m[i, j]:
                 ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=9)
+
+
+def confusion_matrix(ds):
+    """Benchmark cases by true effect (rows) and named effect (columns)."""
+    m = ds["confusion"].values
+    fig, ax = plt.subplots(figsize=(1.0 + 0.7 * m.shape[1], 1.0 + 0.5 * m.shape[0]), constrained_layout=True)
+    _counts(ax, m)
     ax.set_xticks(range(m.shape[1]), [str(v) for v in ds["named_effect"].values], rotation=45, ha="right", fontsize=8)
     ax.set_yticks(range(m.shape[0]), [str(v) for v in ds["true_effect"].values], fontsize=8)
     ax.set_xlabel("named by uqdrive discover")
@@ -124,11 +129,7 @@ def combined_confusion(ds):
         return fig
     m = ds["confusion_combined"].values
     fig, ax = plt.subplots(figsize=(2.0 + 0.9 * m.shape[1], 1.2 + 0.5 * m.shape[0]), constrained_layout=True)
-    ax.imshow(m, cmap="Blues")
-    for i in range(m.shape[0]):
-        for j in range(m.shape[1]):
-            if m[i, j]:
-                ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=9)
+    _counts(ax, m)
     ax.set_xticks(range(m.shape[1]), [str(v).replace("+", "+\n") for v in ds["named_set_column"].values], rotation=45, ha="right", fontsize=7)
     ax.set_yticks(range(m.shape[0]), [str(v) for v in ds["true_set"].values], fontsize=7)
     ax.set_xlabel("named set (order free)")
