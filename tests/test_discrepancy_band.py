@@ -108,3 +108,109 @@ def test_replicate_statistics_equal_the_one_replicate_functions():
         assert scale[r] == pytest.approx(statistic_scale(x[:, r], k, model_ratio=0.5), rel=1e-10)
     assert not np.allclose(scale[0], scale[1])  # replicates are not mixed up
     assert np.all(np.isfinite(scale)) and np.all(scale > 0)  # the floor, not 0 / 0, at the constant state
+
+
+def test_moments_and_scales_have_their_textbook_values():
+    """x = 1, 2, 3, 4 at one time: mean 2.5, std (ddof 1) sqrt(5/3); Gaussian s = 2, m4 = 3 s^4,
+    n = 50: sd of the mean s / sqrt(n) = 0.2828, of the std s / sqrt(2 n) = 0.2; a time without
+    spread takes the floor 1e-3 x the largest scale of its statistic and state."""
+    from uqdrive.inference.discrepancy.band import _scale_of_moments, compared_times, mean_std, standardised_gap
+
+    x = np.broadcast_to(np.array([1.0, 2.0, 3.0, 4.0])[None, :, None], (4, 4, 1))
+    np.testing.assert_allclose(mean_std(x)[:, 0, 0], [2.5, np.sqrt(5.0 / 3.0)], rtol=1e-14)
+    s, m4 = np.array([0.0, 2.0]), np.array([0.0, 48.0])
+    scale = _scale_of_moments(s, m4, 50, 0.0, 1e-3)
+    np.testing.assert_allclose(scale, [[2e-3 / np.sqrt(50), 2 / np.sqrt(50)], [0.2e-3, 0.2]], rtol=1e-12)
+    np.testing.assert_allclose(_scale_of_moments(s, m4, 50, 3.0, 1e-3), 2.0 * scale, rtol=1e-12)  # sqrt(1 + 3)
+    np.testing.assert_array_equal(_scale_of_moments(np.zeros(2), np.zeros(2), 50, 0.0, 1e-3), 1e-3)  # nothing varies: the floor x 1
+    xs = np.arange(2 * 3 * 6, dtype=float).reshape(2, 3, 6)[None].repeat(4, 0)[:, 0]
+    assert np.shares_memory(compared_times(xs, np.arange(2, 5)), xs)  # consecutive times: a view
+    np.testing.assert_array_equal(compared_times(xs, np.arange(2, 5)), xs[:, :, 2:5])
+    np.testing.assert_array_equal(compared_times(xs, np.array([0, 2, 5])), xs[:, :, [0, 2, 5]])
+    np.testing.assert_array_equal(standardised_gap([3.0, 1.0], [1.0, 2.0], [2.0, 0.5]), [1.0, -2.0])
+    z = np.ones((1, 2, 4, 3))
+    assert refit_projection(z, np.empty((24, 0))) is not None and np.array_equal(refit_projection(z, np.empty((24, 0))), z)
+
+
+def test_scan_windows_of_five_points():
+    """Lengths 1, 4 (half-overlap, the last window pinned to the end) and the whole horizon 5."""
+    assert scan_windows(5).tolist() == [[0, 1], [0, 4], [0, 5], [1, 2], [1, 5], [2, 3], [3, 4], [4, 5]]
+
+
+def _band(max_null, chi2_null, level=0.05, K=3):
+    windows = scan_windows(K)
+    return NullBand(windows, np.ones((2, 4, len(windows))), np.asarray(max_null, float), 1.0, float(np.std(chi2_null, ddof=1)), 1.0, level,
+                    np.asarray(chi2_null, float))
+
+
+def test_threshold_and_p_value_follow_the_gumbel_fit_of_the_maxima():
+    """Maxima with mean 3 and sd pi / sqrt(6): Gumbel scale 1, location 3 - 0.5772; the 0.95
+    quantile is loc - log(-log 0.95) = 5.3930; at z's maximum = loc the p-value is 1 - 1/e."""
+    m = np.array([3.0 - np.pi / np.sqrt(6), 3.0 + np.pi / np.sqrt(6)])  # sd (ddof 1) pi/sqrt(6) * sqrt(2)
+    m = 3.0 + (m - 3.0) / np.sqrt(2)
+    band = _band(m, [0.0, 1.0])
+    loc = 3.0 - 0.5772156649015329
+    assert band.threshold == pytest.approx(loc - np.log(-np.log(0.95)), rel=1e-12)
+    assert _band(m, [0.0, 1.0], level=0.01).threshold == pytest.approx(loc - np.log(-np.log(0.99)), rel=1e-12)
+    z = np.zeros((2, 4, 3))
+    z[1, 2, 1] = loc  # the length-1 window at time 1 is the largest cell
+    assert band.max_statistic(z) == pytest.approx(loc)
+    assert band.p_value(z) == pytest.approx(1.0 - np.exp(-1.0), rel=1e-12)
+    z[1, 2, 1] = -2 * loc  # the absolute value counts
+    assert band.max_statistic(z) == pytest.approx(2 * loc)
+
+
+def test_the_gate_needs_both_a_scan_crossing_and_an_excess_misfit():
+    """mean_square_null 1, chi2 null sd 1 (replicates 0, sqrt 2): excess misfit must exceed 2."""
+    band = _band(np.linspace(1.0, 2.0, 50), [0.0, np.sqrt(2.0)])
+    thr = band.threshold
+    z = np.zeros((2, 4, 3))
+    assert band.excess_chi2(z) == pytest.approx(-24.0)  # sum 0 minus 24 cells at level 1
+    z[0, 0, 0] = thr + 0.1  # crosses the scan, excess (thr + 0.1)^2 - 24 < 2
+    assert band.max_statistic(z) > thr and not band.gate(z)
+    spread = np.full((2, 4, 3), 1.1)  # no cell crosses (1.1 sqrt(3) = 1.91 < thr = 2.06), excess 24 x 0.21 > 2
+    assert band.max_statistic(spread) < thr and band.excess_chi2(spread) > 2 and not band.gate(spread)
+    both = spread.copy()
+    both[0, 0, 0] = thr + 0.1
+    assert band.gate(both)
+
+
+def test_false_alarm_rate_counts_replicates_past_both_gates():
+    """Four replicates, maxima 1, 9, 9, 9, chi2 0, 0, 0, 10 (mean 2.5) and a chi2 null sd of 1: at
+    level 0.05 the Gumbel threshold (~14.5) is above every maximum, rate 0; at level 0.9 it falls
+    between 1 and 9 and of the three crossing replicates only the last has an excess chi2 above
+    2 sd (10 - 2.5 > 2): rate 1/4."""
+    windows = scan_windows(3)
+    base = dict(windows=windows, cell_scale=np.ones((2, 4, len(windows))), mean_square_null=1.0, inflation=1.0, level=0.05)
+    chi2 = np.array([0.0, 0.0, 0.0, 10.0])
+    band = NullBand(max_null=np.array([1.0, 9.0, 9.0, 9.0]), chi2_null_sd=1.0, chi2_null=chi2, **base)
+    assert band.false_alarm_rate() == 0.0
+    low = NullBand(max_null=np.array([1.0, 9.0, 9.0, 9.0]), chi2_null_sd=1.0, chi2_null=chi2, **{**base, "level": 0.9})
+    assert 1.0 < low.threshold < 9.0
+    assert low.false_alarm_rate() == 0.25
+    assert NullBand(max_null=np.ones(4), chi2_null_sd=1.0, chi2_null=None, **base).false_alarm_rate() != 0.0  # NaN without chi2
+
+
+def test_from_replicates_golden_level_spread_and_inflation():
+    """z constant in time (perfectly correlated): Var(sum z) = K^2 var, sum Var = K var, inflation
+    K; iid z: about 1. mean_square_null = mean z^2; chi2_null_sd = sd of the replicates' sums."""
+    rng = np.random.default_rng(7)
+    K = 6
+    a = rng.standard_normal((300, 2, 4, 1))
+    band = NullBand.from_replicates(np.repeat(a, K, axis=-1), scan_windows(K))
+    assert band.inflation == pytest.approx(K, rel=1e-9)
+    iid = rng.standard_normal((300, 2, 4, K))
+    band = NullBand.from_replicates(iid, scan_windows(K))
+    assert band.inflation == pytest.approx(1.0, abs=0.3)
+    assert band.mean_square_null == pytest.approx(np.mean(iid**2), rel=1e-12)
+    chi2 = np.sum(iid**2, axis=(1, 2, 3))
+    assert band.chi2_null_sd == pytest.approx(np.std(chi2, ddof=1), rel=1e-12)
+    np.testing.assert_allclose(band.chi2_null, chi2)
+    cells = scan(iid, scan_windows(K))
+    np.testing.assert_allclose(band.cell_scale, cells.std(axis=0, ddof=1), rtol=1e-12)
+    np.testing.assert_allclose(band.max_null, np.abs(cells / band.cell_scale).reshape(300, -1).max(axis=1), rtol=1e-12)
+    assert band.level == 0.05
+    # a cell that never varies keeps scale 1 (no division by 0)
+    flat = iid.copy()
+    flat[:, 0, 0, :] = 0.0
+    assert np.all(NullBand.from_replicates(flat, scan_windows(K)).cell_scale[0, 0] == 1.0)
