@@ -7,7 +7,7 @@ import pytest
 
 from uqdrive.inference.discrepancy.band import statistic_scale
 from uqdrive.inference.discrepancy.fit import StructureFit
-from uqdrive.vehicle.augmented import AugmentedSimulator
+from uqdrive.vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
@@ -88,3 +88,132 @@ def test_statistics_of_any_layout_equal_the_earlier_copies(sim, layout, spun):
     mean = xs.mean(axis=1) * gain + np.asarray(s.output_offset)[:, None]
     std = np.sqrt((xs.std(axis=1, ddof=1) * gain) ** 2 + noise[:, None])
     assert keep.sum() == n - spun and np.array_equal(got, np.stack([mean, std]))
+
+
+# -- golden values with a model whose moments are known in closed form -----------------------
+class _Analytic:
+    """A stand-in simulator whose realisations are linear in orthonormal germs: state s at time t
+    of realisation r is A (mu_mean + mu_std g0) + B (l_f_mean + l_f_std g1) + C (wind mid + wind
+    half-width g2 / sqrt 3) + D a_lat, so the sample mean and std (ddof 1) are exactly
+    A mu_mean + B l_f_mean + C mid + D a_lat and sqrt((A mu_std)^2 + (B l_f_std)^2 + (C hw / sqrt 3)^2).
+    ``spun``: realisations given |beta| = 1e4 (beyond the threshold 1e5 of the tests; the others stay below 1e4)."""
+
+    def __init__(self, n=40, T=12, spun=()):
+        rng = np.random.default_rng(5)
+        q, _ = np.linalg.qr(np.column_stack([np.ones(n), rng.standard_normal((n, 3))]))
+        self.g = q[:, 1:].T * np.sqrt(n - 1)  # (3, n): mean 0, sample variance 1, uncorrelated
+        t = np.linspace(0.1, 1.0, T)
+        self.A, self.B, self.C, self.D = (np.stack([f(t) * (k + 1) for k in range(4)]) for f in (np.sin, np.cos, np.sqrt, lambda t: t**2))
+        self.spun = list(spun)
+
+    def moments(self, theta, a_lat=0.0):
+        mid, hw = 0.5 * (theta[4] + theta[5]), 0.5 * (theta[5] - theta[4])
+        mean = self.A * theta[0] + self.B * theta[2] + self.C * mid + self.D * a_lat
+        std = np.sqrt((self.A * theta[1]) ** 2 + (self.B * theta[3]) ** 2 + (self.C * hw / np.sqrt(3)) ** 2)
+        return mean, std
+
+    def simulate_many(self, thetas, structures, groups=None):
+        out = []
+        for th, s in zip(thetas, structures):
+            mid, hw = 0.5 * (th[4] + th[5]), 0.5 * (th[5] - th[4])
+            x = (self.A[:, None] * (th[0] + th[1] * self.g[0][:, None]) + self.B[:, None] * (th[2] + th[3] * self.g[1][:, None])
+                 + self.C[:, None] * (mid + hw / np.sqrt(3) * self.g[2][:, None]) + self.D[:, None] * s.lateral_acceleration)
+            x[2, self.spun] = 1e6
+            out.append(x)
+        return out
+
+
+TRUTH = np.array([0.9, 0.15, 1.5, 0.1, -300.0, 500.0])
+
+
+def _measured(sim, theta, a_lat=0.0, noise=np.zeros(4)):
+    mean, std = sim.moments(theta, a_lat)
+    return np.stack([mean, np.sqrt(std**2 + noise[:, None])])
+
+
+def test_statistics_add_the_noise_variance_and_apply_the_output_map():
+    sim = _Analytic()
+    noise = np.array([1e-3, 2e-3, 0.0, 0.5])
+    f = StructureFit(sim, np.arange(12), noise)
+    np.testing.assert_allclose(f.statistics(TRUTH, ModelStructure()), _measured(sim, TRUTH, noise=noise), rtol=1e-10)
+    gain, offset = (1.0, 1.2, 1.0, 1.0), (0.0, 0.0, 0.0, 0.3)
+    s = ModelStructure(output_gain=gain, output_offset=offset)
+    mean, std = sim.moments(TRUTH)
+    g, o = np.array(gain)[:, None], np.array(offset)[:, None]
+    want = np.stack([mean * g + o, np.sqrt((std * g) ** 2 + noise[:, None])])
+    np.testing.assert_allclose(f.statistics(TRUTH, s), want, rtol=1e-10)
+
+
+def test_spun_model_realisations_are_left_out_as_the_datas():
+    sim, clean = _Analytic(spun=[0, 3]), _Analytic()
+    f = StructureFit(sim, np.arange(12), np.zeros(4), spin_threshold=1e5)
+    x = clean.simulate_many([TRUTH], [ModelStructure()])[0]
+    kept = np.delete(x, [0, 3], axis=1)
+    np.testing.assert_allclose(f.statistics(TRUTH, ModelStructure())[0], kept.mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(f.statistics(TRUTH, ModelStructure())[1], kept.std(axis=1, ddof=1), rtol=1e-12)
+    # without a threshold every realisation counts (the spun ones too)
+    assert StructureFit(sim, np.arange(12), np.zeros(4)).statistics(TRUTH, ModelStructure())[1, 2].max() > 1e5
+
+
+def test_fit_recovers_distributions_and_effect_and_reports_their_intervals():
+    """From a start far off (wind bounds swapped: the moments are even in their order), the fit
+    finds the truth (chi2 ~ 0), sorts the wind bounds, and the intervals are the Gauss-Newton
+    ones: estimate -+ 1.96 sqrt(inflation x (J'J)^-1)."""
+    sim = _Analytic()
+    phi = 2.0  # deg of road bank: a_lat = g sin(phi)
+    a_lat = EFFECTS["road_bank"].augment(ModelStructure(), [phi]).lateral_acceleration
+    measured = _measured(sim, TRUTH, a_lat)
+    scale = np.full_like(measured, 1e-2)
+    f = StructureFit(sim, np.arange(12), np.zeros(4), effect=EFFECTS["road_bank"], max_nfev=200)
+    f.fit(measured, scale, [1.2, 0.3, 1.3, 0.3, 400.0, -400.0], effect_start=[0.5])
+    np.testing.assert_allclose(f.theta_, TRUTH, rtol=1e-4, atol=1e-3)
+    assert f.effect_values_[0] == pytest.approx(phi, rel=1e-5)
+    assert f.chi2_ < 1e-6 and f.success_ and f.nfev_ >= 1
+    assert f.parameter_names == THETA_NAMES + ("phi",)
+    np.testing.assert_allclose(f.z_, (f.statistics_ - measured) / scale)
+    cov = np.linalg.pinv(f.jacobian_.T @ f.jacobian_)
+    np.testing.assert_allclose(f.parameter_cov_, cov, rtol=1e-8)
+    for inflation in (1.0, 4.0):
+        est, lo, hi = f.effect_intervals(inflation)["phi"]
+        half = 1.959963984540054 * np.sqrt(cov[6, 6] * inflation)
+        assert (est, lo, hi) == pytest.approx((f.effect_values_[0], est - half, est + half), rel=1e-8)
+    assert StructureFit(sim, np.arange(12), np.zeros(4)).fit(measured, scale, TRUTH).effect_intervals() == {}
+
+
+def test_screening_holds_the_distributions_and_fits_the_effect_alone():
+    sim = _Analytic()
+    a_lat = EFFECTS["road_bank"].augment(ModelStructure(), [-1.5]).lateral_acceleration
+    measured = _measured(sim, TRUTH, a_lat)
+    f = StructureFit(sim, np.arange(12), np.zeros(4), effect=EFFECTS["road_bank"], fit_theta=False, fixed={2: 9.9})
+    f.fit(measured, np.full_like(measured, 1e-2), TRUTH)
+    np.testing.assert_array_equal(f.theta_, TRUTH)  # held (and ``fixed`` ignored when theta is not fitted)
+    assert f.effect_values_[0] == pytest.approx(-1.5, rel=1e-6)
+    assert f.parameter_names == ("phi",) and f.jacobian_.shape == (96, 1)
+    est, lo, hi = f.effect_intervals()["phi"]
+    assert hi - est == pytest.approx(1.959963984540054 * np.sqrt(np.linalg.pinv(f.jacobian_.T @ f.jacobian_)[0, 0]), rel=1e-8)
+    lo_b, hi_b = f.parameter_bounds
+    np.testing.assert_array_equal([lo_b[0], hi_b[0]], EFFECTS["road_bank"].bounds[0])
+
+
+def test_known_parameters_are_held_at_their_values_and_get_no_jacobian():
+    """l_f known (mean 1.5, std 0): held exactly, its columns of the Jacobian zero; the others fitted."""
+    sim = _Analytic()
+    measured = _measured(sim, TRUTH)
+    f = StructureFit(sim, np.arange(12), np.zeros(4), fixed={2: 1.5, 3: 0.0})
+    f.fit(measured, np.full_like(measured, 1e-2), [1.2, 0.3, 1.9, 0.3, -100.0, 100.0])
+    assert f.theta_[2] == 1.5 and f.theta_[3] == 0.0
+    assert np.all(f.jacobian_[:, [2, 3]] == 0.0) and np.all(np.any(f.jacobian_[:, [0, 1, 4, 5]] != 0.0, axis=0))
+    np.testing.assert_allclose(f.theta_[[0, 4, 5]], TRUTH[[0, 4, 5]], rtol=1e-4)
+    everything = StructureFit(sim, np.arange(12), np.zeros(4), fixed=dict(enumerate(TRUTH)))
+    everything.fit(measured, np.full_like(measured, 1e-2), [1.2, 0.3, 1.9, 0.3, -100.0, 100.0])
+    np.testing.assert_array_equal(everything.theta_, TRUTH)
+    assert everything.nfev_ == 1 and everything.message_ == "nothing to fit" and everything.chi2_ < 1e-20
+
+
+def test_known_theta_maps_the_configs_known_quantities(config):
+    u = {**config["uncertainty"], "l_f": {"mean": 1.4, "std": 0.0}, "F_w_mean": {"low": 50.0, "high": 50.0}}
+    from uqdrive.inference.discrepancy.fit import known_theta
+
+    assert known_theta({**config, "uncertainty": u}) == {2: 1.4, 3: 0.0, 4: 50.0, 5: 50.0}
+    u = {**config["uncertainty"], "mu": {"mean": 0.8, "std": 0.0}}
+    assert known_theta({**config, "uncertainty": u}) == {0: 0.8, 1: 0.0}
