@@ -8,7 +8,8 @@ check, verdict) with the config's settings and default candidates. A replicate i
 when the verdict names anything (an effect or `unrecognised`). The procedure's threshold is
 calibrated on each replicate's own null bootstrap, so the replicates are out of sample. The rate
 is reported with its exact (Clopper-Pearson) 95 % interval and the one-sided 95 % upper bound,
-the number to hold against the 5 % target.
+the number to hold against the 5 % target; FILE.scorecard.csv holds it as a scorecard row
+(uqdrive.studies.discrepancy.false_alarm_row).
 
     python benchmarks/bench_false_alarm.py --replicates 120 [--samples 1000] [--out FILE.json] [--first-seed 50000]
 
@@ -24,23 +25,14 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from scipy.stats import beta as beta_dist
-
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy.finder import DiscrepancyFinder
 from uqdrive.io import atomic_path
+from uqdrive.studies.discrepancy import clopper_pearson, false_alarm_row
 from uqdrive.studies.hidden_effects import benchmark_cases, generate
+from uqdrive.studies.scorecard import write_scorecard
 
 TARGET = 0.05
-
-
-def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float, float]:
-    """Exact binomial interval of k alarms in n trials: (two-sided lo, two-sided hi, one-sided upper bound)."""
-    a = 1.0 - level
-    lo = 0.0 if k == 0 else float(beta_dist.ppf(a / 2, k, n - k + 1))
-    hi = 1.0 if k == n else float(beta_dist.ppf(1 - a / 2, k + 1, n - k))
-    upper = 1.0 if k == n else float(beta_dist.ppf(1 - a, k + 1, n - k))
-    return lo, hi, upper
 
 
 def null_templates(config, samples):
@@ -87,6 +79,8 @@ def main(argv=None):
         print(f"{i:4d} {r['template']:<22s} seed {seed} verdict {r['named'] or r['verdict']} stat {r['max_statistic']:.3g}/{r['threshold']:.3g} "
               f"{r['seconds']:.1f} s | alarms {s['alarms']}/{s['replicates']}, upper95 {s['upper95_one_sided']:.3f}", flush=True)
     s = summarise(rows)
+    write_scorecard([false_alarm_row(s["alarms"], s["replicates"], TARGET, f"{args.out.name}, seeds {args.first_seed}-{args.first_seed + len(rows) - 1}, "
+                                     f"{args.samples} realisations")], args.out.with_suffix(".scorecard.csv"))
     print(f"false alarms {s['alarms']} / {s['replicates']} = {s['rate']:.3f}, 95 % interval [{s['ci95'][0]:.3f}, {s['ci95'][1]:.3f}], "
           f"one-sided upper bound {s['upper95_one_sided']:.3f} (target <= {TARGET}): {'holds' if s['holds'] else 'not shown'}")
 

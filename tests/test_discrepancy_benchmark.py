@@ -109,3 +109,17 @@ def test_detection_limits_name_the_smallest_magnitude_found_and_the_figure_marks
     fig = detection_vs_magnitude(ds)
     titles = [ax.get_title() for ax in fig.axes]
     assert "road_bank\nfound from 2 deg" in titles and "wind_gust\nnever found" in titles
+
+
+def test_false_alarm_bound_is_the_exact_binomial_one():
+    """0 alarms in n: one-sided bound 1 - 0.05^(1/n) (59 replicates are the fewest that show 5 %);
+    the two-sided interval of 5 in 100 is [0.0164, 0.1128] (Clopper-Pearson tables)."""
+    from uqdrive.studies.discrepancy import clopper_pearson, false_alarm_row
+
+    assert clopper_pearson(0, 59)[2] == pytest.approx(1 - 0.05 ** (1 / 59), rel=1e-9) and clopper_pearson(0, 59)[2] < 0.05 < clopper_pearson(0, 58)[2]
+    lo, hi, _ = clopper_pearson(5, 100)
+    assert (lo, hi) == pytest.approx((0.0164, 0.1128), abs=1e-4)
+    assert false_alarm_row(0, 120).status == "pass" and false_alarm_row(3, 100).status == "fail"
+    assert false_alarm_row(1, 120).reproduced == pytest.approx(clopper_pearson(1, 120)[2])
+    with pytest.raises(ValueError):
+        clopper_pearson(3, 2)

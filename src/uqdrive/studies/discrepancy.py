@@ -13,7 +13,8 @@ from ..vehicle.single_track import STATE_UNITS
 from .hidden_effects import MAGNITUDE_UNITS
 from .scorecard import ScoreRow
 
-__all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows"]
+__all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows", "clopper_pearson",
+           "false_alarm_row"]
 
 
 def exact_set(truths: Sequence[str], named: Sequence[Mapping]) -> bool:
@@ -170,3 +171,45 @@ def thesis_posterior_rows(ds: xr.Dataset, max_r_hat: float = 1.1) -> list[ScoreR
         return [ScoreRow(quantity, "uqdrive check", THESIS_MU_MEAN, m, tol, "pass", "", evidence)]
     reason = "interval misses 1.0" if not covered else (f"R-hat {r_hat:.3f} > {max_r_hat}" if r_hat > max_r_hat else "surrogate failed its validation")
     return [ScoreRow(quantity, "uqdrive check", THESIS_MU_MEAN, m, tol, "fail", f"not understood: {reason}", evidence)]
+
+
+def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float, float]:
+    """Exact binomial bounds of a rate from k events in n trials.
+
+    Parameters
+    ----------
+    k, n : int
+        Events (false alarms) and trials (null replicates), 0 <= k <= n, n >= 1.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    lo, hi : float
+        Two-sided interval (Clopper and Pearson 1934: beta quantiles a/2 and 1 - a/2).
+    upper : float
+        One-sided upper bound (the beta quantile 1 - a of k + 1, n - k): the number to hold
+        against a largest tolerated rate; 1 - (1 - level)^(1/n) when k = 0.
+    """
+    from scipy.stats import beta
+
+    if not 0 <= k <= n or n < 1:
+        raise ValueError(f"need 0 <= k <= n and n >= 1; got k = {k}, n = {n}")
+    a = 1.0 - level
+    lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
+    upper = 1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k))
+    return lo, hi, upper
+
+
+def false_alarm_row(alarms: int, replicates: int, max_rate: float = 0.05, evidence: str = "") -> ScoreRow:
+    """Scorecard row of the whole discover procedure's false-alarm rate on fresh null ensembles
+    (``benchmarks/bench_false_alarm.py``): reproduced is the one-sided 95 % upper bound of the
+    rate, so ``pass`` means the rate is shown to be at most ``max_rate``, not merely observed so."""
+    lo, hi, upper = clopper_pearson(alarms, replicates)
+    quantity = "discrepancy: false alarms of the whole procedure on fresh null ensembles (one-sided 95 % upper bound)"
+    detail = f"{alarms} of {replicates} replicates named an effect: rate {alarms / replicates:.3f}, 95 % interval [{lo:.3f}, {hi:.3f}]"
+    evidence = f"{detail}; {evidence}" if evidence else detail
+    if upper <= max_rate:
+        return ScoreRow(quantity, "uqdrive check", 0.0, upper, max_rate, "pass", "", evidence)
+    return ScoreRow(quantity, "uqdrive check", 0.0, upper, max_rate, "fail", "not understood: the bound exceeds the target", evidence)
