@@ -5,10 +5,13 @@ are written to a separate folder discover never reads).
 
     python benchmarks/bench_four_wheel.py --out DIR [--samples 500] [--cases a,b] [--no-discover]
         [--candidates a,b,...]
+    python benchmarks/bench_four_wheel.py --out DIR --table     # the results table of docs/four_wheel.md
 
 Writes DIR/config.yaml (the default config plus the car's cg_height and track_width), DIR/data/
 case_NN.nc, DIR/labels/case_NN.json, DIR/discover/case_NN/ and DIR/summary.json; prints one line
-per case (verdict, gaps, time).
+per case (verdict, gaps, time). ``--table`` reads DIR/discover/*/verdict.json and prints the
+Markdown results table (named effects with their 95 % intervals, gap before and after against
+the null band, the expectation stated before the run).
 """
 
 import argparse
@@ -30,6 +33,45 @@ CANDIDATES = ("tyre_saturation,actuator_lag,actuator_delay,road_bank,wind_gust,l
               "longitudinal_load_transfer,lateral_load_transfer,compliance_steer,tyre_relaxation")
 
 
+#: What discover should name on each case (docs/four_wheel.md, stated before the run), order free.
+EXPECTED = {
+    "fw_step_030": "lateral_kinematics, compliance_steer",
+    "fw_step_060": "lateral_kinematics, tyre_saturation, compliance_steer, lateral_load_transfer",
+    "fw_step_090": "lateral_kinematics, tyre_saturation, lateral_load_transfer, compliance_steer",
+    "fw_slalom_050": "compliance_steer, lateral_kinematics (tyre_saturation possible)",
+    "fw_slalom_090": "tyre_saturation, lateral_load_transfer, compliance_steer (unrecognised rest possible)",
+    "fw_chirp_060": "compliance_steer, tyre_relaxation or actuator_lag, lateral_load_transfer or tyre_saturation",
+}
+
+
+def _effect_cell(e) -> str:
+    params = ", ".join(f"{k} {v[0]:.3g} [{v[1]:.3g}, {v[2]:.3g}]" for k, v in e.get("parameters", {}).items() if isinstance(v, list))
+    amb = f" (~{', '.join(e['ambiguous_with'])})" if e.get("ambiguous_with") else ""
+    return f"`{e['effect']}`{amb}" + (f": {params}" if params else "") + (f" -> {e['gap_after']:.3g}" if "gap_after" in e else "")
+
+
+def results_table(out: Path) -> str:
+    """Markdown table of the verdicts in ``out``/discover/case_NN/verdict.json (labels from ``out``/labels)."""
+    lines = ["| case | level | expected (stated before) | named, in order: parameters [95 %] -> gap after | gap before -> after | "
+             "within the null band | baseline mu, l_f means before -> after | time |",
+             "|---|---|---|---|---|---|---|---|"]
+    for target in sorted((out / "discover").glob("case_*")):
+        vfile, lfile = target / "verdict.json", out / "labels" / f"{target.name}.json"
+        if not (vfile.exists() and lfile.exists()):
+            continue
+        v, label = json.loads(vfile.read_text()), json.loads(lfile.read_text())
+        ev = v["evidence"]
+        effects = v.get("effects", [{"effect": v["effect"], "parameters": v.get("parameters", {})}] if v["effect"] != "none" else [])
+        named = "; ".join(_effect_cell(e) for e in effects) or "`none`"
+        steps = ev.get("steps") or []
+        inside = "yes" if steps and steps[-1]["explains"] else ("no (`unrecognised` rest)" if any(e["effect"] == "unrecognised" for e in effects) else "no")
+        d = v["distributions"]
+        dist = f"{d['before']['mu']['mean']:.2f}, {d['before']['l_f']['mean']:.2f} -> {d['after']['mu']['mean']:.2f}, {d['after']['l_f']['mean']:.2f}"
+        lines.append(f"| {target.name} {label['name']} | {label['level']} | {EXPECTED.get(label['name'], '')} | {named} | "
+                     f"{v['gap_before']:.3g} -> {v['gap_after']:.3g} | {inside} | {dist} | {ev.get('seconds', float('nan')):.0f} s |")
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, type=Path)
@@ -37,8 +79,12 @@ def main(argv=None):
     ap.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
     ap.add_argument("--candidates", default=CANDIDATES)
     ap.add_argument("--no-discover", action="store_true", help="only generate the data")
+    ap.add_argument("--table", action="store_true", help="print the results table of the verdicts in --out and exit")
     args = ap.parse_args(argv)
     out = args.out
+    if args.table:
+        print(results_table(out))
+        return
     for sub in ("data", "labels", "discover"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     config = load_config(None)
