@@ -1,0 +1,48 @@
+"""The verdict's closing entry: `unrecognised` follows the named effects when the selection
+stopped at its effect budget with the model still outside its band."""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from uqdrive.inference.discrepancy.band import NullBand, scan_windows
+from uqdrive.inference.discrepancy.effectset import EffectSet
+from uqdrive.inference.discrepancy.verdict import assemble_verdict
+from uqdrive.vehicle.effects import ModelStructure
+
+K = 40
+THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
+
+
+def _fit(z, names=()):
+    eff = EffectSet(names) if names else None
+    flat = {p: [0.1, 0.09, 0.11] for p in eff.parameters} if eff else {}
+    return SimpleNamespace(z_=z, theta_=THETA, chi2_=float(np.sum(z**2)), success_=True, structure_=ModelStructure(), effect=eff,
+                           parameter_names=("x",) * (6 + len(flat)), effect_intervals=lambda inflation=1.0: flat)
+
+
+def _verdict(rest, max_effects):
+    """A baseline with a rough (not smooth: the catch-all cannot absorb it) gap of 3 band units,
+    one named effect leaving ``rest`` (2, 4, K) on top of null-like noise."""
+    rng = np.random.default_rng(0)
+    band = NullBand.from_replicates(rng.standard_normal((300, 2, 4, K)), scan_windows(K))
+    base = _fit(3.0 * rng.standard_normal((2, 4, K)))
+    aug = _fit(rng.standard_normal((2, 4, K)) + rest, ("actuator_lag",))
+    step = {"name": "actuator_lag", "fit": aug, "band": band, "band_kind": "own", "explains": False, "gap_after": 0.5, "ambiguous": [], "candidates": {}}
+    finder = SimpleNamespace(augmented_=aug, augmented_band_=band, steps_=[step], fits_={"actuator_lag": aug}, unresolved_={}, removed_=[], rejected_=[],
+                             screening_={}, max_effects=max_effects, config={"montecarlo": {"spin_policy": "exclude"}}, spun_=np.array([], int),
+                             samples_used_=100, noise_variance_=np.ones(4), model_samples=400, interpolation_="linear", level=0.01,
+                             time_=np.arange(1, K + 1) * 0.1, _criterion=lambda b: (2.0 * b.chi2_null_sd, 2.0 * b.inflation),
+                             _chi2=lambda f: f.chi2_)
+    ctx = SimpleNamespace(n=100)
+    return [e["effect"] for e in assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)["effects"]]
+
+
+def test_unrecognised_follows_when_the_budget_ends_with_the_model_outside_its_band():
+    rest = np.zeros((2, 4, K))
+    rest[0, 3, 10:20] = 4.0  # a local misfit of 4 band units: the scan crosses, chi2 rises by 160 (> 2 null sd ~ 50)
+    assert _verdict(rest, max_effects=1) == ["actuator_lag", "unrecognised"]
+    # below the budget the selection stopped because nothing more was justified: the rest stays unnamed
+    assert _verdict(rest, max_effects=3) == ["actuator_lag"]
+    # at the budget but inside the band: nothing is left
+    assert _verdict(np.zeros((2, 4, K)), max_effects=1) == ["actuator_lag"]
