@@ -56,8 +56,8 @@ def _effect_cell(e) -> str:
 def results_table(out: Path) -> str:
     """Markdown table of the verdicts in ``out``/discover/case_NN/verdict.json (labels from ``out``/labels)."""
     lines = ["| case | level | expected (stated before) | named, in order: parameters [95 %] -> gap after | gap before -> after | "
-             "within the null band | baseline mu, l_f means before -> after | time |",
-             "|---|---|---|---|---|---|---|---|"]
+             "within the null band | baseline mu, l_f means before -> after | model realisations, replicates | time |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for target in sorted((out / "discover").glob("case_*")):
         vfile, lfile = target / "verdict.json", out / "labels" / f"{target.name}.json"
         if not (vfile.exists() and lfile.exists()):
@@ -71,7 +71,8 @@ def results_table(out: Path) -> str:
         d = v["distributions"]
         dist = f"{d['before']['mu']['mean']:.2f}, {d['before']['l_f']['mean']:.2f} -> {d['after']['mu']['mean']:.2f}, {d['after']['l_f']['mean']:.2f}"
         lines.append(f"| {target.name} {label['name']} | {label['level']} | {EXPECTED.get(label['name'], '')} | {named} | "
-                     f"{v['gap_before']:.3g} -> {v['gap_after']:.3g} | {inside} | {dist} | {ev.get('seconds', float('nan')):.0f} s |")
+                     f"{v['gap_before']:.3g} -> {v['gap_after']:.3g} | {inside} | {dist} | {ev.get('model_samples')}, {ev.get('bootstrap_replicates')} | "
+                     f"{ev.get('seconds', float('nan')):.0f} s |")
     return "\n".join(lines)
 
 
