@@ -68,11 +68,6 @@ class DiscrepancyFinder:
     max_effects : int
         Effects added at most (forward selection stops earlier when the model explains the data
         or no addition is justified).
-    screening : {"held", "joint"}, optional
-        How linear candidates are ranked before the joint fits: their own parameters fitted with
-        the distributions held (``held``, the default), or in addition a short fit
-        (:data:`PROBE_NFEV`) with the distributions free, the lower chi2 counting (``joint``),
-        so that a candidate confounded with a distribution parameter is not ranked out.
     start_model : mapping, optional
         A ``model.yaml`` document (``effects``, ``distributions``) to start from: its effects are
         refitted jointly with the distributions and further effects added on top.
@@ -115,7 +110,7 @@ class DiscrepancyFinder:
                  nonlinear_samples: int | None = None, bootstrap: int | None = None, level: float | None = None,
                  max_times: int | None = None, top: int | None = None, seed: int | None = None, posterior: bool | None = None,
                  inputs: Mapping[str, Any] | None = None, log: Callable[[str], None] | None = None, max_effects: int | None = None,
-                 start_model: Mapping[str, Any] | None = None, screening: str | None = None):
+                 start_model: Mapping[str, Any] | None = None):
         d = dict(config.get("discrepancy", {}))
         self.config = config
         self.candidates = expand_names(candidates if candidates is not None else d.get("candidates", DEFAULT_CANDIDATES))
@@ -127,9 +122,6 @@ class DiscrepancyFinder:
         self.top = int(top or d.get("top", 3))
         self.max_effects = int(max_effects or d.get("max_effects", 3))
         self.start_model = start_model
-        self.screening = str(screening or d.get("screening", "held"))
-        if self.screening not in ("held", "joint"):
-            raise ValueError(f"discrepancy.screening must be 'held' or 'joint'; got '{self.screening}'")
         self.seed = int(config["seed"] if seed is None else seed)
         self.posterior = posterior
         self.inputs = inputs
@@ -385,19 +377,10 @@ class DiscrepancyFinder:
                 continue
             base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
             structure = EFFECTS[name].augment(base, EFFECTS[name].start)
-            sim, scale = self._sim_for(ctx.sim, structure), self._scale_for(structure, ctx.n)
-            f = StructureFit(sim, ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base, fit_theta=False, max_nfev=40)
-            f.fit(self.measured_, scale, cur.theta_)
+            f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
+                             fit_theta=False, max_nfev=40)
+            f.fit(self.measured_, self._scale_for(structure, ctx.n), cur.theta_)
             out[name] = {"chi2": f.chi2_, "values": f.effect_values_}
-            if self.screening == "joint":
-                # a candidate that acts like a shift of the distributions (a compliance steer like a lower mu, stronger
-                # gusts like a wider mean-wind range) gains nothing while they are held at values that already mimic
-                # it: ranked by a short fit with the distributions free, started from the held fit's effect
-                j = StructureFit(sim, ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base, max_nfev=PROBE_NFEV,
-                                 fixed=known_theta(self.config))
-                j.fit(self.measured_, scale, cur.theta_, effect_start=f.effect_values_)
-                if j.chi2_ < f.chi2_:
-                    out[name] = {"chi2": j.chi2_, "values": j.effect_values_}
         return out
 
     def _probe(self, ctx, theta, names, values):
