@@ -8,23 +8,30 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..studies.discrepancy import detection_limits
-from ..vehicle.single_track import STATE_UNITS, STATES
+from ..vehicle.channels import CHANNEL_UNITS
+from ..vehicle.single_track import STATES
 from .figure import label_state, state_axes, time_axis
 
 __all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect"]
 
 
-def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0):
-    """Measured mean +- k std against the baseline and the augmented model, per state.
+def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0, channels=STATES):
+    """Measured mean +- k std against the baseline and the augmented model, per measured channel.
 
     Parameters
     ----------
     time : ndarray, shape (K,)
-    measured, before, after : ndarray, shape (2, 4, K)
+    measured, before, after : ndarray, shape (2, C, K)
         [mean, std] of the data, the baseline model and the augmented model.
+    channels : sequence of str
+        The C measured channels (default the four states).
     """
-    fig, axes = state_axes(title=f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'")
-    for i, (ax, state) in enumerate(zip(axes, STATES)):
+    title = f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'"
+    fig, axes = state_axes(nrows=(len(channels) + 1) // 2, ncols=2 if len(channels) > 1 else 1, title=title)
+    for ax in axes[len(channels):]:
+        ax.remove()
+    axes = axes[: len(channels)]
+    for i, (ax, state) in enumerate(zip(axes, channels)):
         m, s = measured[0, i], measured[1, i]
         ax.fill_between(time, m - band_sigmas * s, m + band_sigmas * s, color="0.75", label="measured")
         ax.plot(time, m, color="k", lw=1.0)
@@ -37,24 +44,27 @@ def bands_before_after(time, measured, before, after, effect: str, band_sigmas: 
     return time_axis(fig, axes)
 
 
-def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap"):
+def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap", channels=STATES):
     """|z| of the baseline per signal and statistic over time, with the scan threshold.
 
     Parameters
     ----------
     time : ndarray, shape (K,)
-    z : ndarray, shape (2, 4, K)
-        Standardised gap (units of the null band).
+    z : ndarray, shape (2, C, K)
+        Standardised gap (units of the null band) over the C measured ``channels``.
     threshold : float
         Family-wise threshold of the scan statistic (same units).
+    channels : sequence of str
+        The measured channels (default the four states).
     """
-    rows = [f"{s} {stat}" for stat in ("mean", "std") for s in STATES]
-    values = np.abs(np.asarray(z)).reshape(8, -1)
+    rows = [f"{s} {stat}" for stat in ("mean", "std") for s in channels]
+    values = np.abs(np.asarray(z)).reshape(len(rows), -1)
     fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
     top = max(float(values.max()), threshold * 1.5)
-    mesh = ax.pcolormesh(time, np.arange(8), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
-    ax.contour(time, np.arange(8), values, levels=[threshold], colors="c", linewidths=0.8)
-    ax.set_yticks(np.arange(8), [f"{r} [{STATE_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
+    mesh = ax.pcolormesh(time, np.arange(len(rows)), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
+    if len(rows) > 1:  # a contour needs a 2-D grid
+        ax.contour(time, np.arange(len(rows)), values, levels=[threshold], colors="c", linewidths=0.8)
+    ax.set_yticks(np.arange(len(rows)), [f"{r} [{CHANNEL_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
     ax.set_xlabel("time [s]")
     cb = fig.colorbar(mesh, ax=ax)
     cb.set_label("|z| [units of the null band]")

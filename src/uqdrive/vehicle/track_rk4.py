@@ -48,9 +48,12 @@ class SingleTrackRHS:
         The gusts exert the yaw moment M_c F_w too (else M_c times the mean wind only).
     wind : ndarray, shape (n,)
         Mean wind (N).
+    speed_half : tuple of two ndarrays, shape (J,), optional
+        Speed v (m/s) and its rate v_dot (m/s^2) per half step (a speed profile): the speed
+        change acts along the velocity, so beta_dot gains -(v_dot / v) sin beta; None: ``p.v_c``.
     """
 
-    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind):
+    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None):
         n = F_w_half.shape[1]
         v = float(p.v_c)
         self.v = v
@@ -71,11 +74,32 @@ class SingleTrackRHS:
         self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
         self._sin_b, self._cos_b, self._t, self._fc, self._tmp = (np.empty(n) for _ in range(5))
         self._q, self._bx, self._F = np.empty((2, n)), np.empty((2, n)), np.empty((2, n))
+        self.speed_half = None
+        if speed_half is not None:
+            self.speed_half = tuple(np.asarray(a, float) for a in speed_half)
+            self.inv_m, self.a_lat = 1.0 / p.m, s.lateral_acceleration
+
+    def _at(self, j: int):
+        """Speed, 1 / (m v) and a_lat / v at half step ``j`` (the constants without a profile)."""
+        if self.speed_half is None:
+            return self.v, self.inv_mv, self.a_v
+        v = float(self.speed_half[0][j])
+        return v, self.inv_m / v, self.a_lat / v
+
+    def lateral_acceleration(self, x, j: int):
+        """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: the lateral forces over
+        the mass, (F_f cos delta + F_r + F_w) / m, recovered from beta_dot of the right-hand side."""
+        out = np.empty_like(x)
+        self(x, j, out)
+        v, _, a_v = self._at(j)
+        slip_rate = 0.0 if self.speed_half is None else self.speed_half[1][j] / v * np.sin(x[2])
+        return (out[2] + x[1] - a_v + slip_rate) * v / np.cos(x[2])
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of the states ``x`` (4, n) at half step ``j`` into ``out`` (4, n)."""
         psi, psi_dot, beta = x[0], x[1], x[2]
-        v, sin_b, cos_b, t, q, F = self.v, self._sin_b, self._cos_b, self._t, self._q, self._F
+        sin_b, cos_b, t, q, F = self._sin_b, self._cos_b, self._t, self._q, self._F
+        v, inv_mv, a_v = self._at(j)
         np.sin(beta, sin_b)
         np.cos(beta, cos_b)
         # slip angles -arctan((v sin beta + lever psi_dot) / (v cos beta)), + delta at the front
@@ -118,9 +142,11 @@ class SingleTrackRHS:
         np.add(fc, F[1], o2)
         o2 += F_w
         o2 *= cos_b
-        o2 *= self.inv_mv
+        o2 *= inv_mv
         o2 -= psi_dot
-        o2 += self.a_v
+        o2 += a_v
+        if self.speed_half is not None:
+            o2 -= self.speed_half[1][j] / v * sin_b
         o3 = out[3]  # v sin(psi + k beta)
         np.multiply(beta, self.k, o3)
         o3 += psi
@@ -129,7 +155,7 @@ class SingleTrackRHS:
 
 
 def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                           n_steps: int, record_every: int):
+                           n_steps: int, record_every: int, speed_half=None):
     """States of the single-track model from rest by RK4.
 
     Parameters
@@ -140,11 +166,13 @@ def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_hal
         RK4 step (s).
     n_steps, record_every : int
         Steps, and the stride of the returned states (``n_steps`` a multiple of it).
+    speed_half : tuple of two ndarrays, shape (2 ``n_steps`` + 1,), optional
+        A speed profile (v, v_dot) per half step (:class:`SingleTrackRHS`).
 
     Returns
     -------
     ndarray, shape (n_steps // record_every + 1, 4, n)
         psi, psi_dot, beta, y (rad, rad/s, rad, m) every ``record_every`` steps from t = 0.
     """
-    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind)
+    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, speed_half)
     return rk4_fixed_step_into(rhs, np.zeros((4, F_w_half.shape[1])), h, n_steps, record_every)
