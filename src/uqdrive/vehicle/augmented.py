@@ -14,11 +14,11 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
-from .augmented_channels import LinearTrackRHS, integrate_linear_ltv, linear_lateral_acceleration, speed_on_half_steps
 from .effects import ModelStructure
 from .single_track import STATES, VehicleParameters, lst_matrices
 from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
-from .track_rk4 import SingleTrackRHS, integrate_single_track
+from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
+                        rk4_lateral_acceleration, speed_on_half_steps)
 from .uncertainty import Germs, kle_nystrom
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
@@ -148,11 +148,9 @@ class AugmentedSimulator:
         How ``delta`` is reconstructed between its samples (the data file's ``delta`` attribute
         ``interpolation``): piecewise linear, or each sample held (zero-order hold).
     channels : sequence of str
-        The measured channels returned, in order: any of psi, psi_dot, beta, y and a_y (the
-        accelerometer's reading, :mod:`.augmented_channels`); default the four states.
+        Measured channels returned, in order: of psi, psi_dot, beta, y, a_y (:mod:`.track_rk4`).
     speed : ndarray, shape (T,), optional
-        Speed v(t) (m/s) on ``time`` when it changes (the linear model becomes time-varying,
-        integrated by RK4 as the non-linear one); None: the constant ``v_c``.
+        Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
 
     Attributes
     ----------
@@ -265,8 +263,6 @@ class AugmentedSimulator:
         Default: one group.
         """
         thetas = [np.asarray(th, float) for th in thetas]
-        if self.speed is not None or self.channels != STATES:
-            return [self.simulate(th, s) for th, s in zip(thetas, structures)]
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
         if (not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1
@@ -282,7 +278,13 @@ class AugmentedSimulator:
         batch = replace(first, tyre_curvature=per("tyre_curvature", self.config["tyre"]["E"]),
                         lateral_acceleration=per("lateral_acceleration", 0.0), course_weight=per("course_weight", 0.0))
         delta = actual_steering(self.delta, self.dt, first.steering_lag, first.steering_delay, self.interpolation)
-        x = self._rk4(p, wind, coeffs, delta, batch, groups=None if groups is None else [g * n for g in groups])
+        groups = None if groups is None else [g * n for g in groups]
+        if self.speed is not None or self.channels != STATES:
+            x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
+            a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
+            return [measured_channels(x[:, i * n:(i + 1) * n], None if a_y is None else a_y[i * n:(i + 1) * n], s, self.channels)
+                    for i, s in enumerate(structures)]
+        x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
         out = []
         for i, s in enumerate(structures):
             gain = np.asarray(s.output_gain, float)[:, None, None]
@@ -293,24 +295,26 @@ class AugmentedSimulator:
     def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
         exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
-        if uses_chassis_terms(s) and s.nonlinear and (self.speed is not None or "a_y" in self.channels):
-            raise ValueError("the chassis effects' model has no speed profile and no a_y output; record the run at one speed "
-                             "and leave a_y out, or leave the effect out")
         a_y = None
         if uses_chassis_terms(s) and s.nonlinear:
+            if self.speed is not None or "a_y" in self.channels:
+                raise ValueError("the chassis effects' model has no speed profile and no a_y output: leave the effect out")
             x = self._rk4(p, wind, coeffs, delta, s)
         elif self.speed is not None or s.nonlinear:
             x, rhs, js = self._rk4(p, wind, coeffs, delta, s, with_rhs=True)
-            if "a_y" in self.channels:
-                a_y = np.stack([rhs.lateral_acceleration(np.ascontiguousarray(x[:, :, k]), j) for k, j in enumerate(js)], axis=-1)
+            a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
         else:
             x = self._exact(p, wind, coeffs, delta, s)
             if "a_y" in self.channels:
                 F_w = wind[:, None] + coeffs @ self.f[:, :: self.stride]
                 a_y = linear_lateral_acceleration(p, x, delta[:: self.stride], F_w, p.v_c, s.compliance_steer)
-        rows = [a_y if c == "a_y" else x[STATES.index(c)] for c in self.channels]
-        gain, offset = s.output_map(self.channels)
-        return np.stack(rows) * gain[:, None, None] + offset[:, None, None]
+        return measured_channels(x, a_y, s, self.channels)
+
+    def _eigenfunctions(self, t_half):  # the KLE eigenfunctions (n_c, J), kept for the next call on the same grid
+        key = (t_half.size, float(t_half[-1]))
+        if getattr(self, "_f_half", (None,))[0] != key:
+            self._f_half = (key, self.kle.eigenfunctions(t_half))
+        return self._f_half[1]
 
     def _held_input(self, s: ModelStructure) -> bool:
         """The actual steering is the held command itself (delayed): piecewise constant."""
@@ -368,7 +372,7 @@ class AugmentedSimulator:
                                 + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
         else:
             delta_half = np.interp(t_half, self.time, delta)
-        f_half = self.kle.eigenfunctions(t_half)  # (n_c, n_half)
+        f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
         # wind force per half step with one contiguous row of realisations each, (n_half, n)
         F_w_half = np.empty((t_half.size, wind.size))
         start = 0
