@@ -17,8 +17,22 @@ __all__ = ["speed_of_case", "reality_rhs", "rk4_left_limit"]
 
 
 def speed_of_case(config: Mapping[str, Any], case, t_half):
-    """Speed (m/s) and its rate (m/s^2) on the half-step grid: the case's braking profile, or
-    the config's constant speed (rate 0)."""
+    """Speed and its rate on a time grid: the case's braking profile, or the config's constant speed.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (``vehicle.speed_kmh``).
+    case : HiddenEffectCase
+        Its ``speed``: keyword arguments of :func:`uqdrive.studies.manoeuvres.braking_in_turn_speed`, or empty.
+    t_half : ndarray, shape (J,)
+        Times (s).
+
+    Returns
+    -------
+    v, v_dot : ndarray, shape (J,)
+        Speed (m/s) and its rate (m/s^2).
+    """
     if not case.speed:
         return np.full(t_half.size, config["vehicle"]["speed_kmh"] / 3.6), np.zeros(t_half.size)
     v = braking_in_turn_speed(t_half, **dict(case.speed))
@@ -35,6 +49,27 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
     (v, v_dot) per half step along a speed profile (the speed change acts along the velocity:
     beta_dot gains -(v_dot / v) sin beta). ``rhs.a_y(x, j)`` is the accelerometer's reading, the
     lateral tyre and wind forces over the mass (a bank's gravity is not felt).
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (vehicle, tyre, wind).
+    case : HiddenEffectCase
+        The effects and their sizes.
+    draws : mapping
+        Per-realisation mu, m_load (kg), l_f (m), F_w_mean (N), each shape (n,).
+    delta_half, delta_left : ndarray, shape (J,)
+        Actual steering (rad) on the half-step grid, and its limit from the left.
+    gust_half : ndarray, shape (J, n)
+        Gust force (N) per half step and realisation.
+    speed_half : tuple of two ndarrays, shape (J,), optional
+        v (m/s) and v_dot (m/s^2) per half step.
+
+    Returns
+    -------
+    callable
+        f(x, j, end) -> dx/dt, shape of x ((4, n) or (5, n)); with the attribute ``a_y(x, j)``
+        -> shape (n,) (m/s^2).
     """
     veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
     v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
@@ -100,7 +135,24 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
 
 
 def rk4_left_limit(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
-    """Classical RK4, inputs on the half-step grid; x every ``every`` steps, (n_steps // every + 1, *x0.shape)."""
+    """Classical RK4 with the inputs on the half-step grid; the last stage of a step sees the
+    inputs' limit from the left (``rhs(x, j, end=True)``).
+
+    Parameters
+    ----------
+    rhs : callable
+        f(x, j, end) of :func:`reality_rhs`.
+    x0 : ndarray, shape (d, n)
+        Initial state.
+    h : float
+        Step (s).
+    n_steps, every : int
+        Steps, and the stride of the returned states.
+
+    Returns
+    -------
+    ndarray, shape (n_steps // every + 1, d, n)
+    """
     out = np.empty((n_steps // every + 1,) + x0.shape)
     out[0] = x = x0
     for k in range(n_steps):
