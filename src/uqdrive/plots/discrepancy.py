@@ -12,7 +12,8 @@ from ..vehicle.channels import CHANNEL_UNITS
 from ..vehicle.single_track import STATES
 from .figure import label_state, state_axes, time_axis
 
-__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect"]
+__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect",
+           "channel_detection_table"]
 
 
 def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0, channels=STATES):
@@ -166,4 +167,31 @@ def gap_per_effect(ds):
     else:
         ax.text(0.5, 0.5, "no combined cases in this benchmark run", ha="center", va="center", transform=ax.transAxes)
     ax.set_title("Gap per added effect: each justified addition closes part of it", fontsize=9)
+    return fig
+
+
+def channel_detection_table(rows):
+    """Detection by channel set and run count: one row per case, one column per (set, runs), each
+    cell green where the verdict is right (the effect named, or ``none`` for a null case), red
+    where not, with the verdict written in it.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        :func:`uqdrive.studies.discrepancy.channel_detection` (case, truth, magnitude, set, runs, verdict, correct).
+    """
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    cols = list(dict.fromkeys((r["set"], r["runs"]) for r in rows))
+    ok = np.full((len(cases), len(cols)), np.nan)
+    fig, ax = plt.subplots(figsize=(1.6 + 1.1 * len(cols), 0.9 + 0.45 * len(cases)), constrained_layout=True)
+    for r in rows:
+        i, j = cases.index(r["case"]), cols.index((r["set"], r["runs"]))
+        ok[i, j] = float(r["correct"])
+        ax.text(j, i, r["verdict"].replace("_", " "), ha="center", va="center", fontsize=6)
+    ax.imshow(ok, cmap="RdYlGn", vmin=-0.5, vmax=1.5, aspect="auto")
+    labels = {"all": "all", "imu": "IMU", "imu_speed": "IMU + v(t)"}
+    ax.set_xticks(np.arange(len(cols)), [f"{labels.get(s, s)}\n{n} runs" for s, n in cols], fontsize=7)
+    truth = {r["case"]: f"{r['truth']} {r['magnitude']:g}" for r in rows}
+    ax.set_yticks(np.arange(len(cases)), [truth[c] for c in cases], fontsize=7)
+    ax.set_title("discover by channel set and run count (green: right, red: wrong)", fontsize=9)
     return fig

@@ -13,7 +13,17 @@ from ..vehicle.single_track import STATE_UNITS
 from .hidden_effects import MAGNITUDE_UNITS
 from .scorecard import ScoreRow
 
-__all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows"]
+__all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows",
+           "CHANNEL_SETS", "BRAKING", "channel_detection"]
+
+#: Channel sets of the detection table (issue 28): name -> (channels recorded, speed falling while braking).
+CHANNEL_SETS = {
+    "all": (("psi", "psi_dot", "beta", "y", "a_y"), False),
+    "imu": (("psi_dot", "a_y"), False),
+    "imu_speed": (("psi_dot", "a_y"), True),
+}
+#: The braking of the ``imu_speed`` set: 70 -> 45 km/h from t = 3 s over 3 s (-2.3 m/s^2, the speed falls by 36 %).
+BRAKING = {"start_kmh": 70.0, "end_kmh": 45.0, "t_brake": 3.0, "duration": 3.0}
 
 
 def exact_set(truths: Sequence[str], named: Sequence[Mapping]) -> bool:
@@ -170,3 +180,44 @@ def thesis_posterior_rows(ds: xr.Dataset, max_r_hat: float = 1.1) -> list[ScoreR
         return [ScoreRow(quantity, "uqdrive check", THESIS_MU_MEAN, m, tol, "pass", "", evidence)]
     reason = "interval misses 1.0" if not covered else (f"R-hat {r_hat:.3f} > {max_r_hat}" if r_hat > max_r_hat else "surrogate failed its validation")
     return [ScoreRow(quantity, "uqdrive check", THESIS_MU_MEAN, m, tol, "fail", f"not understood: {reason}", evidence)]
+
+
+def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], runs: Sequence[int]) -> list[dict]:
+    """``discover`` on each benchmark case recorded by each channel set at each run count.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (its ``discrepancy`` settings run every discovery).
+    cases : sequence of HiddenEffectCase
+        Benchmark cases (:func:`.hidden_effects.benchmark_cases`); their seeds, manoeuvres and noise.
+    sets : sequence of str
+        Keys of :data:`CHANNEL_SETS`.
+    runs : sequence of int
+        Run counts (>= 10).
+
+    Returns
+    -------
+    list of dict
+        Per cell: case, truth (effect), magnitude, set, runs, verdict (first named effect or
+        ``none``), correct (the truth named, or ``none`` for a null case), untestable, seconds.
+    """
+    import dataclasses
+    import time
+
+    from ..inference.discrepancy import DiscrepancyFinder
+    from .hidden_effects import generate
+
+    rows = []
+    for n in runs:
+        for name in sets:
+            channels, braking = CHANNEL_SETS[name]
+            for case in cases:
+                data = generate(config, dataclasses.replace(case, samples=int(n), speed=BRAKING if braking else {}), channels=channels)
+                clock = time.perf_counter()
+                v = DiscrepancyFinder(config).fit(data).verdict_
+                named = {v["effect"], *v.get("ambiguous_with", [])}
+                rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": name, "runs": int(n),
+                             "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",
+                             "untestable": ";".join(u["effect"] for u in v["untestable"]), "seconds": round(time.perf_counter() - clock, 1)})
+    return rows
