@@ -90,11 +90,12 @@ def test_discover_cli_on_an_imu_file_while_braking(short, tmp_path, capsys):
     effect: exit 0, `none`, and verdict.json says which channels and speeds it compared and what
     it could not test."""
     case = HiddenEffectCase("null", "none", 0.0, "step", {"amplitude_deg": 2.0}, samples=20, seed=51, speed=BRAKING)
-    measured = tmp_path / "imu.nc"
-    write_dataset(generate(short, case, channels=IMU), measured)
-    cfg = tmp_path / "config.yaml"
-    cheap = copy.deepcopy(short)  # the time-varying model integrates by RK4: fewer realisations and times keep it short
+    cheap = copy.deepcopy(short)  # the time-varying model integrates by RK4: a shorter run, fewer realisations and times
+    cheap["time"]["t_end"] = 3.0
     cheap["discrepancy"].update(model_samples=100, bootstrap=30, max_times=25)
+    measured = tmp_path / "imu.nc"
+    write_dataset(generate(cheap, case, channels=IMU), measured)
+    cfg = tmp_path / "config.yaml"
     cfg.write_text(yaml.safe_dump(cheap))
     code = main(["discover", str(measured), "--config", str(cfg), "--candidates", "actuator_lag,lateral_kinematics", "--out", str(tmp_path / "out")])
     assert code == 0, capsys.readouterr().err
