@@ -138,13 +138,29 @@ def _run_uuid(log):
     return found.group(1) if found else None
 
 
-def _running_slurm_jobs(log):
-    """Ids of the run's Slurm jobs that squeue shows running (the run's jobs carry its run ID as name)."""
+def _running_slurm_jobs(log, max_age=None):
+    """Ids of the run's Slurm jobs that squeue shows running (the run's jobs carry its run ID as
+    name); with ``max_age``, only those that started at most that many seconds ago."""
     uuid = _run_uuid(log)
     if uuid is None:
         return []
-    out = subprocess.run(["squeue", "-h", "-t", "R", "-n", uuid, "-o", "%i"], capture_output=True, text=True).stdout
-    return out.split()
+    out = subprocess.run(["squeue", "-h", "-t", "R", "-n", uuid, "-o", "%i %M"], capture_output=True, text=True).stdout
+    jobs = [line.split() for line in out.splitlines() if line.strip()]
+    return [jobid for jobid, elapsed in jobs if max_age is None or _clock_seconds(elapsed) <= max_age]
+
+
+def _clock_seconds(elapsed):
+    """squeue's %M ([D-][H:]M:SS) in seconds."""
+    days, _, clock = elapsed.rpartition("-")
+    seconds = 0
+    for part in clock.split(":"):
+        seconds = 60 * seconds + int(part)
+    return (int(days) if days else 0) * 86400 + seconds
+
+
+#: An interruption hits a job that started at most this many seconds ago: on a node that runs one
+#: group job at a time, the work it throws away (and the suite has to do again) is then seconds.
+YOUNG = 5
 
 
 def _slurm_step(wd, name, steps, interrupt=None):
@@ -163,7 +179,7 @@ def _slurm_step(wd, name, steps, interrupt=None):
 
 
 def _ctrl_c_while_a_job_runs(proc, log):
-    _wait(lambda: _finished(log) >= CTRL_C_AFTER and _running_slurm_jobs(log) and time.time() - log.stat().st_mtime > 1.5,
+    _wait(lambda: _finished(log) >= CTRL_C_AFTER and _running_slurm_jobs(log, YOUNG) and time.time() - log.stat().st_mtime > 1.5,
           proc, log, timeout=900)
     running = _running_slurm_jobs(log)
     os.killpg(proc.pid, signal.SIGINT)
@@ -171,8 +187,8 @@ def _ctrl_c_while_a_job_runs(proc, log):
 
 
 def _scancel_a_running_job(proc, log):
-    _wait(lambda: _running_slurm_jobs(log), proc, log, timeout=900)
-    jobid = _running_slurm_jobs(log)[0]
+    _wait(lambda: _running_slurm_jobs(log, YOUNG), proc, log, timeout=900)
+    jobid = (_running_slurm_jobs(log, YOUNG) or _running_slurm_jobs(log))[0]
     subprocess.run(["scancel", jobid], check=True)
     return jobid
 

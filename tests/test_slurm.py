@@ -15,6 +15,7 @@ Slurm they skip with one line naming the script that gives one.
 * The profile sizes jobs from `sinfo` (fake Slurm commands: runs everywhere).
 """
 
+import importlib.util
 import os
 import re
 import subprocess
@@ -28,6 +29,12 @@ from conftest import REPO
 from dag_runs import SLURM_PROFILE, SLURM_SCRIPT, TEST_CONFIG, slurm_command, slurm_jobids
 
 pytestmark = pytest.mark.workflow
+
+_spec = importlib.util.spec_from_file_location("rule_resources", REPO / "tools" / "rule_resources.py")
+rule_resources = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(rule_resources)
+#: Rules of workflow/rules that the CI-sized DAG does not run (the sweep's own rules).
+NOT_IN_THE_CI_DAG = {"sweep_config", "sweep_point", "sweep_summary"}
 
 
 @pytest.fixture(scope="session")
@@ -143,6 +150,42 @@ def test_each_job_used_less_memory_and_time_than_it_declared(slurm_runs):
             over.append(table[-1])
     print("\n".join(table))
     assert not over, "jobs that used more than they declared (raise mem_mb/runtime of their rules):\n" + "\n".join(over)
+
+
+@pytest.mark.xdist_group("dag")
+def test_each_rule_used_less_memory_and_time_than_it_declared(slurm_runs):
+    """Inside a group job sacct sees only the group: each rule's jobs, measured by the benchmark
+    files the group job's Snakemake writes (max_rss, wall time), against the rule's mem_mb and
+    runtime (tools/rule_resources.py; every rule of the DAG ran, most of them on Slurm)."""
+    wd, _ = slurm_runs
+    peaks = rule_resources.measured(wd)
+    declarations = rule_resources.declared()
+    print(rule_resources.table(peaks, declarations))
+    assert set(peaks) == set(declarations) - NOT_IN_THE_CI_DAG, set(declarations) ^ set(peaks)
+    # measured, not blank (a job of a fraction of a second ends before the first 0.5 s sample)
+    assert all(peak["max_rss"] > 50 for peak in peaks.values() if peak["seconds"] > 2), peaks
+    assert not rule_resources.over_declared(peaks, declarations)
+
+
+def test_rule_resources_flags_a_rule_over_its_declaration(tmp_path):
+    rules = tmp_path / "rules"
+    rules.mkdir()
+    (rules / "a.smk").write_text("rule fit:\n    threads: 1\n    resources:\n        mem_mb=1000,\n        runtime=2,\n\n"
+                                 "rule draw:\n    resources:\n        mem_mb=500,\n        runtime=5,\n")
+    declarations = rule_resources.declared(rules)
+    assert declarations == {"fit": (1000.0, 2.0), "draw": (500.0, 5.0)}
+    head = "s\th:m:s\tmax_rss\tmax_vms\n"
+    for rule, rows in {"fit": ["30.0\t0:00:30\t900.5\t1200", "130.0\t0:02:10\t300\t400"], "draw": ["1.0\t0:00:01\t600\t700"]}.items():
+        folder = tmp_path / "run" / "results" / "benchmarks" / rule
+        folder.mkdir(parents=True)
+        for i, row in enumerate(rows):
+            (folder / f"{rule}_{i}.tsv").write_text(head + row + "\n")
+    peaks = rule_resources.measured(tmp_path / "run")
+    assert peaks == {"fit": {"max_rss": 900.5, "seconds": 130.0, "jobs": 2}, "draw": {"max_rss": 600.0, "seconds": 1.0, "jobs": 1}}
+    over = rule_resources.over_declared(peaks, declarations)
+    assert [line.split(":")[0] for line in over] == ["draw", "fit"]  # draw: memory; fit: 130 s > 2 min
+    assert rule_resources.over_declared(peaks, {"fit": (1000.0, 3.0), "draw": (600.0, 5.0)}) == []
+    assert rule_resources.suggest(peaks["fit"]) == (1500, 7)  # 900.5 x 1.5 -> 1500 MB; 130 s x 3 -> 7 min
 
 
 def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_what_is_missing(on_slurm, tmp_path):

@@ -29,6 +29,8 @@ rule posterior:
     group: "bayes"
     log:
         f"{OUT}/logs/posterior_{{case}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/posterior/posterior_{{case}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -50,6 +52,8 @@ rule posterior_coverage:
     group: "bayes"
     log:
         f"{OUT}/logs/posterior_coverage.log",
+    benchmark:
+        f"{OUT}/benchmarks/posterior_coverage/posterior_coverage.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -80,6 +84,8 @@ rule fig_bayes:
     group: "bayes"
     log:
         f"{OUT}/logs/fig_bayes.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_bayes/fig_bayes.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

@@ -21,6 +21,8 @@ rule control_gains:
     group: "control"
     log:
         f"{OUT}/logs/control_gains.log",
+    benchmark:
+        f"{OUT}/benchmarks/control_gains/control_gains.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -45,6 +47,8 @@ rule control_monte_carlo:
     group: "control"
     log:
         f"{OUT}/logs/control_mc_{{model}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/control_monte_carlo/control_mc_{{model}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -66,6 +70,8 @@ rule control_gamma_sweep:
     group: "control"
     log:
         f"{OUT}/logs/control_gamma_sweep.log",
+    benchmark:
+        f"{OUT}/benchmarks/control_gamma_sweep/control_gamma_sweep.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -98,6 +104,8 @@ rule fig_control:
     group: "control"
     log:
         f"{OUT}/logs/fig_control.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_control/fig_control.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

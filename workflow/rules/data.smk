@@ -15,6 +15,8 @@ rule kle:
     group: "data"
     log:
         f"{OUT}/logs/kle.log",
+    benchmark:
+        f"{OUT}/benchmarks/kle/kle.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -39,6 +41,8 @@ rule ensemble:
     group: "data"
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/ensemble/ensemble_{{model}}_{{steer}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -63,6 +67,8 @@ rule statistics:
     group: "data"
     log:
         f"{OUT}/logs/stats_{{model}}_{{steer}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/statistics/stats_{{model}}_{{steer}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -85,6 +91,8 @@ rule noise_statistics:
     group: "data"
     log:
         f"{OUT}/logs/noise_stats_{{model}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/noise_statistics/noise_stats_{{model}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -106,6 +114,8 @@ rule kl_divergence:
     group: "data"
     log:
         f"{OUT}/logs/kl_nlst_lst.log",
+    benchmark:
+        f"{OUT}/benchmarks/kl_divergence/kl_nlst_lst.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

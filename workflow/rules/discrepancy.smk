@@ -33,6 +33,8 @@ rule discrepancy_case:
     group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_case_{{case}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_case/discrepancy_case_{{case}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -54,6 +56,8 @@ rule discrepancy_discover:
     group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_discover_{{case}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_discover/discrepancy_discover_{{case}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -75,6 +79,8 @@ rule discrepancy_measured:
     group: "discrepancy"
     log:
         f"{OUT}/logs/discrepancy_measured_{{name}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_measured/discrepancy_measured_{{name}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -107,6 +113,8 @@ rule discrepancy_summary:
     group: "summary"
     log:
         f"{OUT}/logs/discrepancy_summary.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_summary/discrepancy_summary.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -128,6 +136,8 @@ rule discrepancy_thesis_figures:
     group: "summary"
     log:
         f"{OUT}/logs/discrepancy_thesis_figures.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_thesis_figures/discrepancy_thesis_figures.tsv",
     conda:
         "../envs/uqdrive.yaml"
     shell:

@@ -15,6 +15,8 @@ rule fig_tyre_curves:
     group: "figures"
     log:
         f"{OUT}/logs/fig_2_3.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_tyre_curves/fig_2_3.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -37,6 +39,8 @@ rule fig_kle:
     group: "figures"
     log:
         f"{OUT}/logs/fig_kle.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_kle/fig_kle.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -61,6 +65,8 @@ rule fig_data_band:
     group: "figures"
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_data_band/fig_6_{{number}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -83,6 +89,8 @@ rule fig_noise_levels:
     group: "figures"
     log:
         f"{OUT}/logs/fig_6_{{number}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_noise_levels/fig_6_{{number}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -109,6 +117,8 @@ rule fig_lst_vs_nlst:
     group: "figures"
     log:
         f"{OUT}/logs/fig_6_5_6.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_lst_vs_nlst/fig_6_5_6.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -136,6 +146,8 @@ rule fig_appendix_a:
     group: "figures"
     log:
         f"{OUT}/logs/fig_A{{n}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_appendix_a/fig_A{{n}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

@@ -56,6 +56,8 @@ rule ensemble_no_wind_moment:
     group: "data"
     log:
         f"{OUT}/logs/ensemble_{{model}}_{{steer}}_no_wind_moment.log",
+    benchmark:
+        f"{OUT}/benchmarks/ensemble_no_wind_moment/ensemble_{{model}}_{{steer}}_no_wind_moment.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -81,6 +83,8 @@ rule identification:
     group: "identification"
     log:
         f"{OUT}/logs/identification_{{experiment}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/identification/identification_{{experiment}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -103,6 +107,8 @@ rule identifiability:
     group: "identification"
     log:
         f"{OUT}/logs/identifiability.log",
+    benchmark:
+        f"{OUT}/benchmarks/identifiability/identifiability.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -153,6 +159,8 @@ rule fig_identification:
     group: "identification"
     log:
         f"{OUT}/logs/fig_identification.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_identification/fig_identification.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -176,6 +184,8 @@ rule identify_coverage:
     group: "identification"
     log:
         f"{OUT}/logs/identify_coverage.log",
+    benchmark:
+        f"{OUT}/benchmarks/identify_coverage/identify_coverage.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

@@ -19,6 +19,8 @@ rule pce_moments:
     group: "pce"
     log:
         f"{OUT}/logs/pce_lst.log",
+    benchmark:
+        f"{OUT}/benchmarks/pce_moments/pce_lst.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -40,6 +42,8 @@ rule mc_reference:
     group: "pce"
     log:
         f"{OUT}/logs/mc_reference_lst.log",
+    benchmark:
+        f"{OUT}/benchmarks/mc_reference/mc_reference_lst.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -62,6 +66,8 @@ rule pce_convergence:
     group: "pce"
     log:
         f"{OUT}/logs/pce_convergence.log",
+    benchmark:
+        f"{OUT}/benchmarks/pce_convergence/pce_convergence.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -91,6 +97,8 @@ rule fig_pce:
     group: "pce"
     log:
         f"{OUT}/logs/fig_pce.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_pce/fig_pce.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

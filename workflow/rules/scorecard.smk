@@ -19,6 +19,8 @@ rule scorecard_foundation:
     group: "summary"
     log:
         f"{OUT}/logs/scorecard_foundation.log",
+    benchmark:
+        f"{OUT}/benchmarks/scorecard_foundation/scorecard_foundation.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -38,6 +40,8 @@ rule scorecard:
     group: "summary"
     log:
         f"{OUT}/logs/scorecard.log",
+    benchmark:
+        f"{OUT}/benchmarks/scorecard/scorecard.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -59,6 +63,8 @@ rule scorecard_provenance:
     group: "summary"
     log:
         f"{OUT}/logs/scorecard_provenance.log",
+    benchmark:
+        f"{OUT}/benchmarks/scorecard_provenance/scorecard_provenance.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -91,6 +97,8 @@ rule report_summary:
     group: "summary"
     log:
         f"{OUT}/logs/report_summary.log",
+    benchmark:
+        f"{OUT}/benchmarks/report_summary/report_summary.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

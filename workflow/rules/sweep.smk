@@ -29,6 +29,8 @@ rule sweep_config:
     group: "sweep"
     log:
         f"{SWEEP_DIR}/{{sweep}}/{{point}}/logs/sweep_config.log",
+    benchmark:
+        f"{SWEEP_DIR}/{{sweep}}/{{point}}/benchmarks/sweep_config/sweep_config.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -55,6 +57,8 @@ rule sweep_point:
     group: "sweep"
     log:
         f"{SWEEP_DIR}/{{sweep}}/{{point}}/logs/workflow.log",
+    benchmark:
+        f"{SWEEP_DIR}/{{sweep}}/{{point}}/benchmarks/sweep_point/workflow.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -80,6 +84,8 @@ rule sweep_summary:
         runtime=5,
     log:
         f"{SWEEP_DIR}/{{sweep}}/logs/summary.log",
+    benchmark:
+        f"{SWEEP_DIR}/{{sweep}}/benchmarks/sweep_summary/summary.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:

@@ -27,6 +27,8 @@ rule wheelslip_gp:
     group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_gp_{{n}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/wheelslip_gp/wheelslip_gp_{{n}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -54,6 +56,8 @@ rule wheelslip_calibration:
     group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_calibration_{{n}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/wheelslip_calibration/wheelslip_calibration_{{n}}.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -76,6 +80,8 @@ rule wheelslip_closed_loop:
     group: "wheelslip"
     log:
         f"{OUT}/logs/wheelslip_closed_loop.log",
+    benchmark:
+        f"{OUT}/benchmarks/wheelslip_closed_loop/wheelslip_closed_loop.tsv",
     cache: CACHE
     conda:
         "../envs/uqdrive.yaml"
@@ -113,6 +119,8 @@ rule fig_wheelslip:
     group: "wheelslip"
     log:
         f"{OUT}/logs/fig_wheelslip.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_wheelslip/fig_wheelslip.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
@@ -134,6 +142,8 @@ rule scorecard_wheelslip:
     group: "wheelslip"
     log:
         f"{OUT}/logs/scorecard_wheelslip.log",
+    benchmark:
+        f"{OUT}/benchmarks/scorecard_wheelslip/scorecard_wheelslip.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
