@@ -161,6 +161,8 @@ rule discrepancy_channels:
     group: "summary"
     log:
         f"{OUT}/logs/discrepancy_channels.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_channels/discrepancy_channels.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
