@@ -183,7 +183,7 @@ def channel_detection_table(rows):
     cases = list(dict.fromkeys(r["case"] for r in rows))
     cols = list(dict.fromkeys((r["set"], r["runs"]) for r in rows))
     ok = np.full((len(cases), len(cols)), np.nan)
-    fig, ax = plt.subplots(figsize=(1.6 + 1.1 * len(cols), 0.9 + 0.45 * len(cases)), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(max(4.5, 1.6 + 1.1 * len(cols)), 1.2 + 0.45 * len(cases)), constrained_layout=True)
     for r in rows:
         i, j = cases.index(r["case"]), cols.index((r["set"], r["runs"]))
         ok[i, j] = float(r["correct"])
@@ -191,7 +191,7 @@ def channel_detection_table(rows):
     ax.imshow(ok, cmap="RdYlGn", vmin=-0.5, vmax=1.5, aspect="auto")
     labels = {"all": "all", "imu": "IMU", "imu_speed": "IMU + v(t)"}
     ax.set_xticks(np.arange(len(cols)), [f"{labels.get(s, s)}\n{n} runs" for s, n in cols], fontsize=7)
-    truth = {r["case"]: f"{r['truth']} {r['magnitude']:g}" for r in rows}
+    truth = {r["case"]: r["truth"] if r["truth"] == "none" else f"{r['truth']} {r['magnitude']:g}" for r in rows}
     ax.set_yticks(np.arange(len(cases)), [truth[c] for c in cases], fontsize=7)
-    ax.set_title("discover by channel set and run count (green: right, red: wrong)", fontsize=9)
+    ax.set_title("discover by channel set and run count\n(green: right, red: missed or false alarm)", fontsize=8)
     return fig
