@@ -86,13 +86,13 @@ def test_imu_names_an_accelerometer_bias(short):
 
 
 def test_discover_cli_on_an_imu_file_while_braking(short, tmp_path, capsys):
-    """The CLI on a file with psi_dot, a_y and a speed `v` falling 70 -> 45 km/h, 20 runs, no missing
+    """The CLI on a file with psi_dot, a_y and a speed `v` falling from 70 km/h by 27 %, 20 runs, no missing
     effect: exit 0, `none`, and verdict.json says which channels and speeds it compared and what
     it could not test."""
     case = HiddenEffectCase("null", "none", 0.0, "step", {"amplitude_deg": 2.0}, samples=20, seed=51, speed=BRAKING)
     cheap = copy.deepcopy(short)  # the time-varying model integrates by RK4: a shorter run, fewer realisations and times
-    cheap["time"]["t_end"] = 3.0
-    cheap["discrepancy"].update(model_samples=100, bootstrap=30, max_times=25)
+    cheap["time"]["t_end"] = 2.5
+    cheap["discrepancy"].update(model_samples=60, bootstrap=30, max_times=20)
     measured = tmp_path / "imu.nc"
     write_dataset(generate(cheap, case, channels=IMU), measured)
     cfg = tmp_path / "config.yaml"
@@ -101,5 +101,5 @@ def test_discover_cli_on_an_imu_file_while_braking(short, tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     v = json.loads((tmp_path / "out" / "verdict.json").read_text())
     assert v["effect"] == "none" and v["evidence"]["channels"] == list(IMU)
-    assert v["evidence"]["speed_profile"]["max"] == pytest.approx(70 / 3.6) and v["evidence"]["speed_profile"]["min"] == pytest.approx(45 / 3.6)
+    assert v["evidence"]["speed_profile"]["max"] == pytest.approx(70 / 3.6) and v["evidence"]["speed_profile"]["min"] < 0.8 * 70 / 3.6  # fell by more than 20 %
     assert [u["effect"] for u in v["untestable"]] == ["lateral_kinematics"]
