@@ -1,7 +1,13 @@
 """`discover` runs on 1000 samples against the budget of 3 minutes on 2 cores: the thesis' case
 (NLST data against the LST) and a case with three hidden effects at once (course angle, road
 bank, actuator lag; `--case combined_course_bank_lag`); prints the time of each stage and the
-ratio to budget, and the emcee posterior's share when the config samples it (discrepancy.posterior)."""
+ratio to budget, and the emcee posterior's share when the config samples it (discrepancy.posterior).
+
+`--case braking_in_turn_lag`: braking in a turn (ISO 7975, uqdrive.studies.manoeuvres.braking_in_turn:
+a 2 deg step steer at 1 s, the speed falling 80 -> 50 km/h from 3 s over 3 s) with a 0.15 s
+steering lag, recorded as a car's IMU and wheel speeds record it (psi_dot, a_y and v over time,
+no beta, no y); the model is the linear single-track model along the measured speed (RK4).
+`--samples` sets the run count (default 1000)."""
 
 import json
 import subprocess
@@ -12,22 +18,35 @@ from pathlib import Path
 
 from uqdrive.config import load_config
 from uqdrive.io import write_dataset
-from uqdrive.studies.hidden_effects import benchmark_cases, generate
+from uqdrive.studies.hidden_effects import HiddenEffectCase, benchmark_cases, generate
+from uqdrive.vehicle.channels import CHANNELS
 
 BUDGET = 180.0
+#: Cases with a changing speed: (case, measured channels).
+SPEED_CASES = {
+    "braking_in_turn_lag": (lambda n, seed: HiddenEffectCase("braking_in_turn_lag", "actuator_lag", 0.15, "step",
+                                                             {"amplitude_deg": 2.0, "t_start": 1.0, "ramp": 0.4}, n, seed,
+                                                             speed={"start_kmh": 80.0, "end_kmh": 50.0, "t_brake": 3.0, "duration": 3.0}),
+                            ("psi_dot", "a_y")),
+}
 
 
 def main(argv=None):
     import argparse
 
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--case", default="thesis_nlst", help="benchmark case (uqdrive.studies.hidden_effects.benchmark_cases)")
+    parser.add_argument("--case", default="thesis_nlst", help="benchmark case (uqdrive.studies.hidden_effects.benchmark_cases, or braking_in_turn_lag)")
+    parser.add_argument("--samples", type=int, default=1000)
     args = parser.parse_args(argv)
     config = load_config(None)
-    case = {c.name: c for c in benchmark_cases(config, samples=1000)}[args.case]
+    if args.case in SPEED_CASES:
+        make, channels = SPEED_CASES[args.case]
+        case = make(args.samples, int(config["seed"]) + 900)
+    else:
+        case, channels = {c.name: c for c in benchmark_cases(config, samples=args.samples)}[args.case], CHANNELS[:4]
     with tempfile.TemporaryDirectory() as tmp:
         measured = Path(tmp) / "measured.nc"
-        write_dataset(generate(config, case), measured)
+        write_dataset(generate(config, case, channels=channels), measured)
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-m", "uqdrive.cli.main", "discover", str(measured), "--out", str(Path(tmp) / "out")], check=True)
         wall = time.perf_counter() - t0
@@ -35,8 +54,8 @@ def main(argv=None):
     stages = verdict["evidence"]["stage_seconds"]
     post = verdict.get("posterior")
     named = [e["effect"] for e in verdict["effects"]] or [verdict["effect"]]
-    print(f"discover, 1000 samples, {args.case}: {wall:.1f} s wall (budget {BUDGET:.0f} s, ratio {wall / BUDGET:.2f}); "
-          f"effects {named}, stages {stages}")
+    print(f"discover, {args.samples} samples, {args.case} ({', '.join(channels)}): {wall:.1f} s wall (budget {BUDGET:.0f} s, ratio {wall / BUDGET:.2f}); "
+          f"effects {named}, parameters {verdict['parameters']}, untestable {[u['effect'] for u in verdict.get('untestable', [])]}, stages {stages}")
     if post:  # the optional emcee posterior (config discrepancy.posterior) is part of the wall time above
         print(f"  of which the emcee posterior: {stages.get('posterior', float('nan')):.1f} s (without it {wall - stages.get('posterior', 0.0):.1f} s); "
               f"mu mean {post['mu_mean'][0]:.4f} [{post['mu_mean'][1]:.4f}, {post['mu_mean'][2]:.4f}], "

@@ -144,7 +144,33 @@ rule discrepancy_thesis_figures:
         "(cp {input}/bands.png {output.bands} && cp {input}/localisation.png {output.localisation}) 2> {log}"
 
 
+rule discrepancy_channels:
+    input:
+        src("studies.discrepancy", "studies.hidden_effects", "inference.discrepancy", "plots.discrepancy"),
+    output:
+        table=report(f"{DISC}/channel_sets.csv", caption="../report/discrepancy_channels.rst", category="uqdrive discrepancy workflow",
+                     labels={"figure": "detection by channel set (table)", "case": "IMU, speed profile, few runs"}),
+        figure=report(f"{FIG}/fig_discrepancy_channel_sets.png", caption="../report/discrepancy_channels.rst", category="uqdrive discrepancy workflow",
+                      labels={"figure": "detection by channel set and run count", "case": "IMU, speed profile, few runs"}),
+    params:
+        **reads(*DISC_KEYS),
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=60,
+    group: "summary"
+    log:
+        f"{OUT}/logs/discrepancy_channels.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_channels/discrepancy_channels.tsv",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_channels.py"
+
+
 SCORECARD_PARTS.append("discrepancy")
+FIGURES += [f"{FIG}/fig_discrepancy_channel_sets.png"]
 FIGURES += [f"{FIG}/fig_discrepancy_confusion.png", f"{FIG}/fig_discrepancy_detection.png"]
 if "thesis_nlst" in DISCREPANCY_CASES:
     FIGURES += [f"{FIG}/fig_discrepancy_thesis_bands.png", f"{FIG}/fig_discrepancy_thesis_localisation.png"]

@@ -14,7 +14,7 @@ import numpy as np
 import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
-from ..io import MIN_RUNS, DataError, check_run_count, present_channels, read_ensemble, speed_profile
+from ..io import MIN_RUNS, DataError, check_run_count, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
 from ..vehicle.uncertainty import known_quantities
@@ -63,27 +63,26 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
     replaces the config's ``vehicle.speed_kmh`` where they differ.
+
+    The file may carry any non-empty set of channels (psi, psi_dot, beta, y, a_y) and a speed
+    ``v`` that changes over time: the baseline, the null band and every candidate are computed
+    on exactly those channels along that speed; ``verdict.json``'s ``untestable`` names the
+    candidates the channels cannot test (``lateral_kinematics`` without y).
     """
     names = _checked_candidates(candidates)
     start = _start_model(model) if model is not None else None
     ds = read_ensemble(measured)
     check_run_count(ds.sizes["sample"], str(measured), "discover")
-    missing = [c for c in ("psi", "psi_dot", "beta", "y") if c not in present_channels(ds)]
-    if missing:
-        raise DataError(f"{measured}: discover compares all four states and this file lacks {', '.join(missing)}; without them "
-                        "the candidate effects cannot be told apart: use identify for a channel subset, or record the missing channels")
-    if speed_profile(ds) is not None:
-        raise DataError(f"{measured}: discover models a constant speed and 'v' changes during the runs; give runs at one speed "
-                        "(identify handles a speed profile)")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
-    if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed
-        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
+    profile = speed_profile(ds)
+    if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed; a profile's mean stands for it
+        ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0]) if profile is None else float(np.mean(profile))
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
         config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
     finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
-    if int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
+    if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
     verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
@@ -131,8 +130,9 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
     try:
         (tmp / "verdict.json").write_text(json.dumps(verdict, indent=2) + "\n")
         (tmp / "model.yaml").write_text(yaml.safe_dump(finder.model_document(), sort_keys=False))
-        save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"]), tmp / "bands.png")
-        save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold), tmp / "localisation.png")
+        save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"],
+                                       channels=finder.channels_), tmp / "bands.png")
+        save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold, channels=finder.channels_), tmp / "localisation.png")
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
             out.rename(old / out.name)

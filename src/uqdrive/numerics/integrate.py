@@ -12,6 +12,7 @@ from .discretise import foh_discretise, foh_discretise_derivatives
 from .recursion import consecutive_slice, decoupled_blocks, identical_block_groups, linear_recursion_in_place
 
 __all__ = [
+    "cumulative_trapezoid",
     "decoupled_blocks",
     "foh_discretise",
     "foh_discretise_derivatives",
@@ -302,4 +303,27 @@ def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, 
         x += k2
         if (i + 1) % record_every == 0:
             out[(i + 1) // record_every] = x
+    return out
+
+
+def cumulative_trapezoid(f, h: float):
+    """Integral from 0 of samples f (..., K + 1) on a grid of step h (trapezoid), same shape.
+
+    Parameters
+    ----------
+    f : ndarray, shape (..., K + 1)
+        Samples on a uniform grid (any unit u).
+    h : float
+        Grid step (s).
+
+    Returns
+    -------
+    ndarray, shape (..., K + 1)
+        The integral from 0 (u s).
+
+    It integrates v (sin c - c), c = psi + k beta, whose size is c^3 / 6: the trapezoid's error,
+    h^2 / 12 of its second derivative, is ~1e-3 of the term itself on a 4 s slalom at h = 0.07 s.
+    """
+    out = np.zeros_like(f)
+    np.cumsum(0.5 * h * (f[..., 1:] + f[..., :-1]), axis=-1, out=out[..., 1:])
     return out

@@ -8,23 +8,31 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..studies.discrepancy import detection_limits
-from ..vehicle.single_track import STATE_UNITS, STATES
+from ..vehicle.channels import CHANNEL_UNITS
+from ..vehicle.single_track import STATES
 from .figure import label_state, state_axes, time_axis
 
-__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect"]
+__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect",
+           "channel_detection_table"]
 
 
-def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0):
-    """Measured mean +- k std against the baseline and the augmented model, per state.
+def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0, channels=STATES):
+    """Measured mean +- k std against the baseline and the augmented model, per measured channel.
 
     Parameters
     ----------
     time : ndarray, shape (K,)
-    measured, before, after : ndarray, shape (2, 4, K)
+    measured, before, after : ndarray, shape (2, C, K)
         [mean, std] of the data, the baseline model and the augmented model.
+    channels : sequence of str
+        The C measured channels (default the four states).
     """
-    fig, axes = state_axes(title=f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'")
-    for i, (ax, state) in enumerate(zip(axes, STATES)):
+    title = f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'"
+    fig, axes = state_axes(nrows=(len(channels) + 1) // 2, ncols=2 if len(channels) > 1 else 1, title=title)
+    for ax in axes[len(channels):]:
+        ax.remove()
+    axes = axes[: len(channels)]
+    for i, (ax, state) in enumerate(zip(axes, channels)):
         m, s = measured[0, i], measured[1, i]
         ax.fill_between(time, m - band_sigmas * s, m + band_sigmas * s, color="0.75", label="measured")
         ax.plot(time, m, color="k", lw=1.0)
@@ -37,24 +45,27 @@ def bands_before_after(time, measured, before, after, effect: str, band_sigmas: 
     return time_axis(fig, axes)
 
 
-def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap"):
+def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap", channels=STATES):
     """|z| of the baseline per signal and statistic over time, with the scan threshold.
 
     Parameters
     ----------
     time : ndarray, shape (K,)
-    z : ndarray, shape (2, 4, K)
-        Standardised gap (units of the null band).
+    z : ndarray, shape (2, C, K)
+        Standardised gap (units of the null band) over the C measured ``channels``.
     threshold : float
         Family-wise threshold of the scan statistic (same units).
+    channels : sequence of str
+        The measured channels (default the four states).
     """
-    rows = [f"{s} {stat}" for stat in ("mean", "std") for s in STATES]
-    values = np.abs(np.asarray(z)).reshape(8, -1)
+    rows = [f"{s} {stat}" for stat in ("mean", "std") for s in channels]
+    values = np.abs(np.asarray(z)).reshape(len(rows), -1)
     fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
     top = max(float(values.max()), threshold * 1.5)
-    mesh = ax.pcolormesh(time, np.arange(8), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
-    ax.contour(time, np.arange(8), values, levels=[threshold], colors="c", linewidths=0.8)
-    ax.set_yticks(np.arange(8), [f"{r} [{STATE_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
+    mesh = ax.pcolormesh(time, np.arange(len(rows)), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
+    if len(rows) > 1:  # a contour needs a 2-D grid
+        ax.contour(time, np.arange(len(rows)), values, levels=[threshold], colors="c", linewidths=0.8)
+    ax.set_yticks(np.arange(len(rows)), [f"{r} [{CHANNEL_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
     ax.set_xlabel("time [s]")
     cb = fig.colorbar(mesh, ax=ax)
     cb.set_label("|z| [units of the null band]")
@@ -156,4 +167,31 @@ def gap_per_effect(ds):
     else:
         ax.text(0.5, 0.5, "no combined cases in this benchmark run", ha="center", va="center", transform=ax.transAxes)
     ax.set_title("Gap per added effect: each justified addition closes part of it", fontsize=9)
+    return fig
+
+
+def channel_detection_table(rows):
+    """Detection by channel set and run count: one row per case, one column per (set, runs), each
+    cell green where the verdict is right (the effect named, or ``none`` for a null case), red
+    where not, with the verdict written in it.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        :func:`uqdrive.studies.discrepancy.channel_detection` (case, truth, magnitude, set, runs, verdict, correct).
+    """
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    cols = list(dict.fromkeys((r["set"], r["runs"]) for r in rows))
+    ok = np.full((len(cases), len(cols)), np.nan)
+    fig, ax = plt.subplots(figsize=(max(4.5, 1.6 + 1.1 * len(cols)), 1.2 + 0.45 * len(cases)), constrained_layout=True)
+    for r in rows:
+        i, j = cases.index(r["case"]), cols.index((r["set"], r["runs"]))
+        ok[i, j] = float(r["correct"])
+        ax.text(j, i, r["verdict"].replace("_", " "), ha="center", va="center", fontsize=6)
+    ax.imshow(ok, cmap="RdYlGn", vmin=-0.5, vmax=1.5, aspect="auto")
+    labels = {"all": "all", "imu": "IMU", "imu_speed": "IMU + v(t)"}
+    ax.set_xticks(np.arange(len(cols)), [f"{labels.get(s, s)}\n{n} runs" for s, n in cols], fontsize=7)
+    truth = {r["case"]: r["truth"] if r["truth"] == "none" else f"{r['truth']} {r['magnitude']:g}" for r in rows}
+    ax.set_yticks(np.arange(len(cases)), [truth[c] for c in cases], fontsize=7)
+    ax.set_title("discover by channel set and run count\n(green: right, red: missed or false alarm)", fontsize=8)
     return fig

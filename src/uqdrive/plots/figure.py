@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..io import atomic_path  # noqa: E402
-from ..vehicle.single_track import STATE_NAMES, STATE_UNITS  # noqa: E402
+from ..vehicle.channels import CHANNEL_NAMES, CHANNEL_UNITS  # noqa: E402
 
 __all__ = ["save_figure", "state_axes", "time_axis", "label_state"]
 
@@ -48,7 +48,7 @@ def time_axis(fig, axes):
 
 
 def label_state(ax, state):
-    """Label ``ax`` with the state's name and unit (``STATE_UNITS``) and add a light grid."""
-    ax.set_ylabel(f"{state} [{STATE_UNITS[state]}]")
-    ax.set_title(STATE_NAMES[state])
+    """Label ``ax`` with the state's (or measured channel's) name and unit (``CHANNEL_UNITS``) and add a light grid."""
+    ax.set_ylabel(f"{state} [{CHANNEL_UNITS[state]}]")
+    ax.set_title(CHANNEL_NAMES[state])
     ax.grid(alpha=0.3)

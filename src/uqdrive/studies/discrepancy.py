@@ -14,7 +14,16 @@ from .hidden_effects import MAGNITUDE_UNITS
 from .scorecard import ScoreRow
 
 __all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows", "clopper_pearson",
-           "false_alarm_row"]
+           "false_alarm_row", "CHANNEL_SETS", "BRAKING", "channel_detection"]
+
+#: Channel sets of the detection table (docs/discovery.md): name -> (channels recorded, speed falling while braking).
+CHANNEL_SETS = {
+    "all": (("psi", "psi_dot", "beta", "y", "a_y"), False),
+    "imu": (("psi_dot", "a_y"), False),
+    "imu_speed": (("psi_dot", "a_y"), True),
+}
+#: The braking of the ``imu_speed`` set: 70 -> 45 km/h from t = 3 s over 3 s (-2.3 m/s^2, the speed falls by 36 %).
+BRAKING = {"start_kmh": 70.0, "end_kmh": 45.0, "t_brake": 3.0, "duration": 3.0}
 
 
 def exact_set(truths: Sequence[str], named: Sequence[Mapping]) -> bool:
@@ -213,3 +222,44 @@ def false_alarm_row(alarms: int, replicates: int, max_rate: float = 0.05, eviden
     if upper <= max_rate:
         return ScoreRow(quantity, "uqdrive check", 0.0, upper, max_rate, "pass", "", evidence)
     return ScoreRow(quantity, "uqdrive check", 0.0, upper, max_rate, "fail", "not understood: the bound exceeds the target", evidence)
+
+
+def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], runs: Sequence[int]) -> list[dict]:
+    """``discover`` on each benchmark case recorded by each channel set at each run count.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (its ``discrepancy`` settings run every discovery).
+    cases : sequence of HiddenEffectCase
+        Benchmark cases (:func:`.hidden_effects.benchmark_cases`); their seeds, manoeuvres and noise.
+    sets : sequence of str
+        Keys of :data:`CHANNEL_SETS`.
+    runs : sequence of int
+        Run counts (>= 10).
+
+    Returns
+    -------
+    list of dict
+        Per cell: case, truth (effect), magnitude, set, runs, verdict (first named effect or
+        ``none``), correct (the truth named, or ``none`` for a null case), untestable, seconds.
+    """
+    import dataclasses
+    import time
+
+    from ..inference.discrepancy import DiscrepancyFinder
+    from .hidden_effects import generate
+
+    rows = []
+    for n in runs:
+        for name in sets:
+            channels, braking = CHANNEL_SETS[name]
+            for case in cases:
+                data = generate(config, dataclasses.replace(case, samples=int(n), speed=BRAKING if braking else {}), channels=channels)
+                clock = time.perf_counter()
+                v = DiscrepancyFinder(config).fit(data).verdict_
+                named = {v["effect"], *v.get("ambiguous_with", [])}
+                rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": name, "runs": int(n),
+                             "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",
+                             "untestable": ";".join(u["effect"] for u in v["untestable"]), "seconds": round(time.perf_counter() - clock, 1)})
+    return rows

@@ -42,15 +42,17 @@ import numpy as np
 import yaml
 
 from ..rng import rng_stream
-from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, magic_formula
+from ..vehicle.channels import CHANNEL_NAMES, CHANNEL_UNITS, CHANNELS
+from ..vehicle.single_track import STATES
 from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
+from .hidden.reality import reality_rhs, rk4_left_limit, speed_of_case
 from .manoeuvres import MANOEUVRES, steering_command
 
 if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
-           "simulate_states", "wind_kle"]
+           "simulate_states", "simulate_channels", "wind_kle"]
 
 EFFECTS = (
     "none", "tyre_saturation", "actuator_lag", "actuator_delay", "road_bank",
@@ -103,6 +105,10 @@ class HiddenEffectCase:
         None unless a sensor effect.
     hold : {"linear", "previous"}
         The command between output samples: the smooth manoeuvre, or each sample held.
+    speed : mapping
+        A changing speed: the keyword arguments of
+        :func:`uqdrive.studies.manoeuvres.braking_in_turn_speed` (start_kmh, end_kmh, t_brake,
+        duration); empty: the config's constant speed.
     """
 
     name: str
@@ -117,6 +123,7 @@ class HiddenEffectCase:
     noise: float = 0.01
     extra: Any = ()
     hold: str = "linear"
+    speed: Any = ()
 
     @property
     def effects(self) -> tuple:
@@ -147,11 +154,12 @@ class HiddenEffectCase:
             raise ValueError(f"{self.name}: the magnitude of {self.effect} is the steering amplitude; drop amplitude_deg")
         object.__setattr__(self, "manoeuvre_params", _pairs(params))
         object.__setattr__(self, "shift", _pairs(self.shift))
+        object.__setattr__(self, "speed", _pairs(self.speed))
         unknown = set(dict(self.shift)) - set(PARAMETERS)
         if unknown:
             raise ValueError(f"{self.name}: shift of unknown parameters {sorted(unknown)}; known: {', '.join(PARAMETERS)}")
-        if (self.channel is not None) != (self.effect in SENSOR_EFFECTS) or self.channel not in (None, *STATES):
-            raise ValueError(f"{self.name}: a channel ({', '.join(STATES)}) is given for sensor effects, and only for them")
+        if (self.channel is not None) != (self.effect in SENSOR_EFFECTS) or self.channel not in (None, *CHANNELS):
+            raise ValueError(f"{self.name}: a channel ({', '.join(CHANNELS)}) is given for sensor effects, and only for them")
         if self.effect == "none" and self.magnitude != 0:
             raise ValueError(f"{self.name}: effect 'none' has magnitude 0")
         if self.effect in ("actuator_lag", "wind_gust", "sensor_scale") and self.magnitude <= 0:
@@ -217,75 +225,6 @@ def _actual_steering(case: HiddenEffectCase, t, dt: float, left: bool = False) -
     return np.where(started, steering_command(case.manoeuvre, np.maximum(shifted, 0.0), params), 0.0)
 
 
-def _reality_rhs(config: Mapping[str, Any], case: HiddenEffectCase, draws, delta_half, gust_half, delta_left=None):
-    """RK4 right-hand side f(x, j, end) of the reality on the half-step grid index j; ``end``:
-    the last stage of a step, which sees the steering's limit from the left ``delta_left``
-    (a held command jumps at its samples; default: ``delta_half``, a continuous command).
-
-    x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
-    fifth state for actuator_lag. Several effects act together (a combined case).
-    """
-    veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
-    v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
-    C, E, B_f, B_r = tyre["C"], tyre["E"], veh["c_Sf"], veh["c_Sr"]
-    mu, l_f = draws["mu"], draws["l_f"]
-    m = veh["m_base"] + draws["m_load"]
-    I_z, l_r = m * veh["J0"], L - l_f
-    F_fz, F_rz = m * g * l_r / L, m * g * l_f / L
-    c_f, c_r = F_fz * B_f * C * mu, F_rz * B_r * C * mu  # slopes of the Magic Formula at zero slip
-    inv_Iz, inv_mv = 1.0 / I_z, 1.0 / (m * v)
-    w_mean = draws["F_w_mean"]
-    gust_moment = bool(w["gust_yaw_moment"])
-    present = {e for e, _, _ in case.effects}
-    lag, saturating, course = case.size("actuator_lag"), "tyre_saturation" in present, "lateral_kinematics" in present
-    bank = g * np.sin(np.deg2rad(case.size("road_bank"))) / v
-
-    delta_left = delta_half if delta_left is None else delta_left
-
-    def rhs(x, j, end=False):
-        u = delta_left[j] if end else delta_half[j]
-        psi, r, beta = x[0], x[1], x[2]
-        d = x[4] if lag > 0 else u
-        gust = gust_half[j]
-        F_w = w_mean + gust
-        M_w = M_c * (F_w if gust_moment else w_mean)
-        out = np.empty_like(x)
-        out[0] = r
-        if saturating:  # non-linear single-track model (5.3) of the thesis
-            vx, vy = v * np.cos(beta), v * np.sin(beta)
-            F_f = magic_formula(d - np.arctan((vy + l_f * r) / vx), F_fz, B_f, C, mu, E) * np.cos(d)
-            F_r = magic_formula(-np.arctan((vy - l_r * r) / vx), F_rz, B_r, C, mu, E)
-            out[2] = (F_f + F_r + F_w) * np.cos(beta) * inv_mv - r + bank
-            out[3] = v * np.sin(psi + beta) if course else v * np.sin(psi)
-        else:  # linear tyres and small angles (5.4)
-            F_f = c_f * (d - beta - l_f * r / v)
-            F_r = c_r * (l_r * r / v - beta)
-            out[2] = (F_f + F_r + F_w) * inv_mv - r + bank
-            out[3] = v * np.sin(psi + beta) if course else v * psi
-        out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
-        if lag > 0:
-            out[4] = (u - d) / lag
-        return out
-
-    return rhs
-
-
-def _rk4(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
-    """Classical RK4, inputs on the half-step grid; x every ``every`` steps, (n_steps // every + 1, *x0.shape)."""
-    out = np.empty((n_steps // every + 1,) + x0.shape)
-    out[0] = x = x0
-    for k in range(n_steps):
-        j = 2 * k
-        k1 = rhs(x, j)
-        k2 = rhs(x + 0.5 * h * k1, j + 1)
-        k3 = rhs(x + 0.5 * h * k2, j + 1)
-        k4 = rhs(x + h * k3, j + 2, True)
-        x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        if (k + 1) % every == 0:
-            out[(k + 1) // every] = x
-    return out
-
-
 def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=None, kle: KarhunenLoeve | None = None):
     """Clean (noise- and sensor-error-free) response of the case's reality.
 
@@ -298,6 +237,23 @@ def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=Non
         Output times (s) and commanded steering angle (rad).
     x : ndarray, shape (4, samples, T)
         True states psi, psi_dot, beta, y.
+    """
+    t, delta, x, _, _ = simulate_channels(config, case, draws, kle)
+    return t, delta, x
+
+
+def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=None, kle: KarhunenLoeve | None = None):
+    """:func:`simulate_states` with the lateral acceleration and the speed.
+
+    Returns
+    -------
+    t, delta, x
+        As :func:`simulate_states`.
+    a_y : ndarray, shape (samples, T)
+        Clean accelerometer reading at the centre of gravity (m/s^2): the lateral tyre and wind
+        forces over the mass.
+    v : ndarray, shape (T,)
+        Speed (m/s): the config's constant one, or the case's braking profile.
     """
     kle = wind_kle(config) if kle is None else kle
     draws = draw_realisations(config, case, kle) if draws is None else draws
@@ -312,56 +268,71 @@ def simulate_states(config: Mapping[str, Any], case: HiddenEffectCase, draws=Non
     delta_left = _actual_steering(case, t_half, dt, left=True) if case.hold == "previous" else None
     n = np.shape(draws["mu"])[0]
     x0 = np.zeros((5 if case.size("actuator_lag") > 0 else 4, n))
-    rhs = _reality_rhs(config, case, draws, delta_half, gust_half, delta_left)
-    x = _rk4(rhs, x0, h, n_steps, substeps)[:, :4]  # (T, 4, n)
+    speed_half = speed_of_case(config, case, t_half) if case.speed else None
+    rhs = reality_rhs(config, case, draws, delta_half, gust_half, delta_left, speed_half)
+    full = rk4_left_limit(rhs, x0, h, n_steps, substeps)  # (T, 4 or 5, n)
+    a_y = np.stack([rhs.a_y(full[k], 2 * k * substeps) for k in range(t.size)], axis=-1)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
-    return t, delta, np.ascontiguousarray(x.transpose(1, 2, 0))
+    v = speed_of_case(config, case, t)[0]
+    return t, delta, np.ascontiguousarray(full[:, :4].transpose(1, 2, 0)), a_y, v
 
 
-def measure(case: HiddenEffectCase, x) -> np.ndarray:
+def measure(case: HiddenEffectCase, x, a_y=None) -> np.ndarray:
     """Measured channels: sensor effect of the case plus white Gaussian noise.
 
     Each channel gets noise of std ``case.noise`` times its typical RMS (median over
     realisations of the RMS over time of the true signal; the median keeps realisations that
     lost control from inflating it), drawn from stream "hidden_noise" of ``case.seed``; the
     noise germs do not depend on the effect, so cases differing only in a sensor error share them.
+    The lateral acceleration's noise is drawn after the states' (the states' stay as without it).
 
     Parameters
     ----------
     x : ndarray, shape (4, samples, T)
+    a_y : ndarray, shape (samples, T), optional
 
     Returns
     -------
-    ndarray, shape (4, samples, T)
+    ndarray, shape (4, samples, T), or (5, samples, T) with a_y last
     """
     rng = rng_stream(case.seed, "hidden_noise")
-    out = np.empty_like(x)
-    for i, name in enumerate(STATES):
-        zeta = rng.standard_normal(x[i].shape)
-        scale = case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
+    signals = list(x) + ([] if a_y is None else [np.asarray(a_y)])
+    out = np.empty((len(signals),) + x.shape[1:])
+    for i, (name, xi) in enumerate(zip(CHANNELS, signals)):
+        zeta = rng.standard_normal(xi.shape)
+        scale = case.noise * np.median(np.sqrt(np.mean(xi ** 2, axis=-1)))
         gain = next((m for e, m, c in case.effects if e == "sensor_scale" and c == name), 1.0)
         offset = next((m for e, m, c in case.effects if e == "sensor_bias" and c == name), 0.0)
-        out[i] = gain * x[i] + offset + scale * zeta
+        out[i] = gain * xi + offset + scale * zeta
     return out
 
 
-def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoeve | None = None) -> xr.Dataset:
+def generate(config: Mapping[str, Any], case: HiddenEffectCase, kle: KarhunenLoeve | None = None, channels=STATES) -> xr.Dataset:
     """Measured ensemble of a case in the uqdrive data schema (``io.validate_ensemble``).
 
-    Variables psi, psi_dot, beta, y (sample, time) and the commanded steering ``delta`` (time),
-    coordinate time (s), attribute v_c (m/s); no label, draws, noise level or spin flag.
+    The ``channels`` (any of psi, psi_dot, beta, y and a_y, the accelerometer's reading in
+    m/s^2) over (sample, time) and the commanded steering ``delta`` (time), coordinate time
+    (s), attribute v_c (m/s), or a variable ``v`` (time) for a case with a speed profile; no
+    label, draws, noise level or spin flag.
     """
     import xarray as xr  # here, not above: the workflow lists the cases while it parses its rules
 
-    t, delta, x = simulate_states(config, case, kle=kle)
-    y = measure(case, x)
+    unknown = [c for c in channels if c not in CHANNELS]
+    if unknown or not channels:
+        raise ValueError(f"channels {list(channels)}: choose a non-empty subset of {', '.join(CHANNELS)}")
+    t, delta, x, a_y, v = simulate_channels(config, case, kle=kle)
+    y = measure(case, x, a_y if "a_y" in channels else None)
     data_vars = {
-        name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
-        for i, name in enumerate(STATES)
+        name: (("sample", "time"), y[CHANNELS.index(name)], {"units": CHANNEL_UNITS[name], "long_name": f"measured {CHANNEL_NAMES[name]}"})
+        for name in CHANNELS if name in channels
     }
     data_vars["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle", "interpolation": case.hold})
     coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
-    attrs = {"title": "measured single-track ensemble", "v_c": float(config["vehicle"]["speed_kmh"]) / 3.6}
+    attrs = {"title": "measured single-track ensemble"}
+    if case.speed:
+        data_vars["v"] = ("time", v, {"units": "m/s", "long_name": "vehicle speed"})
+    else:
+        attrs["v_c"] = float(config["vehicle"]["speed_kmh"]) / 3.6
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 
 

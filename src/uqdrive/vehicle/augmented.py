@@ -13,11 +13,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..numerics.integrate import lti_foh_response
+from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from .effects import ModelStructure
-from .single_track import VehicleParameters, lst_matrices
+from .single_track import STATES, VehicleParameters, lst_matrices
 from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
-from .track_rk4 import integrate_single_track
+from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
+                        rk4_lateral_acceleration, speed_on_half_steps)
 from .uncertainty import Germs, kle_nystrom
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
@@ -146,6 +147,10 @@ class AugmentedSimulator:
     interpolation : {"linear", "previous"}
         How ``delta`` is reconstructed between its samples (the data file's ``delta`` attribute
         ``interpolation``): piecewise linear, or each sample held (zero-order hold).
+    channels : sequence of str
+        Measured channels returned, in order: of psi, psi_dot, beta, y, a_y (:mod:`.track_rk4`).
+    speed : ndarray, shape (T,), optional
+        Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
 
     Attributes
     ----------
@@ -153,8 +158,11 @@ class AugmentedSimulator:
         Times (s) of the returned states.
     """
 
-    def __init__(self, config: Mapping[str, Any], time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear"):
+    def __init__(self, config: Mapping[str, Any], time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear",
+                 channels=STATES, speed=None):
         time = np.asarray(time, float)
+        self.channels = tuple(channels)
+        self.spin_row = self.channels.index("beta") if "beta" in self.channels else None
         self.interpolation = _checked_interpolation(interpolation)
         self.stride = max(1, int(stride))
         horizon = float(time[-1])  # the wind's KLE lives on the data's whole horizon
@@ -176,15 +184,16 @@ class AugmentedSimulator:
         load = config["uncertainty"]["m_load"]
         self.m_load = load["mean"] + load["std"] * germs.m_load
         self.base = replace(VehicleParameters.from_config(config), v_c=float(v_c))
+        self.speed = None if speed is None else np.asarray(speed, float)[:usable]
 
     @classmethod
     def drawn(cls, config: Mapping[str, Any], time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
-              matched: bool = False, interpolation: str = "linear") -> "AugmentedSimulator":
+              matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None) -> "AugmentedSimulator":
         """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
         moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
         w = config["wind"]
         n_modes = kle_nystrom(0.0, float(np.asarray(time)[-1]), w["Tc"], w["kle_quadrature"], w["kle_truncation"]).n_modes
-        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation)
+        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
 
     def with_germs(self, germs: Germs) -> "AugmentedSimulator":
         """The same model on other germs (the KLE is reused)."""
@@ -225,11 +234,14 @@ class AugmentedSimulator:
         return p, wind, coeffs
 
     def simulate(self, theta, structure: ModelStructure = ModelStructure(), germs: Germs | None = None) -> np.ndarray:
-        """States as measured, shape (4, n, K + 1) at ``output_time``: psi, psi_dot, beta, y of
-        every realisation (of ``germs`` if given, else of the simulator's own)."""
+        """Channels as measured, shape (C, n, K + 1) at ``output_time``: the ``channels`` (by
+        default psi, psi_dot, beta, y) of every realisation (of ``germs`` if given, else of the
+        simulator's own)."""
         p, wind, coeffs = self.parameters(theta, germs)
         coeffs = coeffs * structure.gust_scale
         delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
+        if self.speed is not None or self.channels != STATES:
+            return self._channels(p, wind, coeffs, delta, structure)
         if structure.nonlinear:
             x = self._rk4(p, wind, coeffs, delta, structure)
         else:
@@ -266,13 +278,43 @@ class AugmentedSimulator:
         batch = replace(first, tyre_curvature=per("tyre_curvature", self.config["tyre"]["E"]),
                         lateral_acceleration=per("lateral_acceleration", 0.0), course_weight=per("course_weight", 0.0))
         delta = actual_steering(self.delta, self.dt, first.steering_lag, first.steering_delay, self.interpolation)
-        x = self._rk4(p, wind, coeffs, delta, batch, groups=None if groups is None else [g * n for g in groups])
+        groups = None if groups is None else [g * n for g in groups]
+        if self.speed is not None or self.channels != STATES:
+            x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
+            a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
+            return [measured_channels(x[:, i * n:(i + 1) * n], None if a_y is None else a_y[i * n:(i + 1) * n], s, self.channels)
+                    for i, s in enumerate(structures)]
+        x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
         out = []
         for i, s in enumerate(structures):
             gain = np.asarray(s.output_gain, float)[:, None, None]
             offset = np.asarray(s.output_offset, float)[:, None, None]
             out.append(x[:, i * n:(i + 1) * n] * gain + offset)
         return out
+
+    def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
+        """The measured channels (C, n, K + 1) with the structure's output map: the states of the
+        exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
+        a_y = None
+        if uses_chassis_terms(s) and s.nonlinear:
+            if self.speed is not None or "a_y" in self.channels:
+                raise ValueError("the chassis effects' model has no speed profile and no a_y output: leave the effect out")
+            x = self._rk4(p, wind, coeffs, delta, s)
+        elif self.speed is not None or s.nonlinear:
+            x, rhs, js = self._rk4(p, wind, coeffs, delta, s, with_rhs=True)
+            a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
+        else:
+            x = self._exact(p, wind, coeffs, delta, s)
+            if "a_y" in self.channels:
+                F_w = wind[:, None] + coeffs @ self.f[:, :: self.stride]
+                a_y = linear_lateral_acceleration(p, x, delta[:: self.stride], F_w, p.v_c, s.compliance_steer)
+        return measured_channels(x, a_y, s, self.channels)
+
+    def _eigenfunctions(self, t_half):  # the KLE eigenfunctions (n_c, J), kept for the next call on the same grid
+        key = (t_half.size, float(t_half[-1]))
+        if getattr(self, "_f_half", (None,))[0] != key:
+            self._f_half = (key, self.kle.eigenfunctions(t_half))
+        return self._f_half[1]
 
     def _held_input(self, s: ModelStructure) -> bool:
         """The actual steering is the held command itself (delayed): piecewise constant."""
@@ -303,16 +345,18 @@ class AugmentedSimulator:
         if held:
             x += B.T[:, :, None] * delta[:: self.stride][None, None, :]
         if s.course_exact:
-            x[3] += p.v_c * _cumulative_trapezoid(np.sin(x[0] + s.course_weight * x[2]) - (x[0] + s.course_weight * x[2]), self.dt * self.stride)
+            x[3] += p.v_c * cumulative_trapezoid(np.sin(x[0] + s.course_weight * x[2]) - (x[0] + s.course_weight * x[2]), self.dt * self.stride)
         return x
 
-    def _rk4(self, p, wind, coeffs, delta, s: ModelStructure, groups=None):
+    def _rk4(self, p, wind, coeffs, delta, s: ModelStructure, groups=None, with_rhs: bool = False):
         """RK4 states (4, n, K + 1), a time-major view (as :func:`lti_foh_response`'s).
 
         ``groups``: sizes (realisations) of consecutive parts whose gusts are computed as one
         product each (default: one part). BLAS rounds a product differently for other widths,
         so a realisation's last bits depend on the product it was computed in (and on nothing
-        else: the RK4 is element-wise); see :meth:`simulate_many`.
+        else: the RK4 is element-wise); see :meth:`simulate_many`. ``with_rhs``: also the
+        right-hand side and the half-step index of every returned time (for a_y); along a
+        speed profile a linear structure is integrated here too (:class:`LinearTrackRHS`).
         """
         sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, p.v_c, _RK4_MAX_STEP) - 1e-9)))
         h = self.dt / sub
@@ -328,7 +372,7 @@ class AugmentedSimulator:
                                 + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
         else:
             delta_half = np.interp(t_half, self.time, delta)
-        f_half = self.kle.eigenfunctions(t_half)  # (n_c, n_half)
+        f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
         # wind force per half step with one contiguous row of realisations each, (n_half, n)
         F_w_half = np.empty((t_half.size, wind.size))
         start = 0
@@ -337,21 +381,19 @@ class AugmentedSimulator:
             start += size
         F_w_half += wind
         E = self.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature
+        if with_rhs:
+            js = np.arange(self.output_time.size) * (2 * sub * self.stride)
+            speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
+            if not s.nonlinear:
+                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
+                return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
+            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed)
+            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed)
+            return out.transpose(1, 2, 0), rhs, js
         if uses_chassis_terms(s):
             return integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
-
-
-def _cumulative_trapezoid(f, h: float):
-    """Integral from 0 of samples f (..., K + 1) on a grid of step h (trapezoid), same shape.
-
-    It integrates v (sin c - c), c = psi + k beta, whose size is c^3 / 6: the trapezoid's error,
-    h^2 / 12 of its second derivative, is ~1e-3 of the term itself on a 4 s slalom at h = 0.07 s.
-    """
-    out = np.zeros_like(f)
-    np.cumsum(0.5 * h * (f[..., 1:] + f[..., :-1]), axis=-1, out=out[..., 1:])
-    return out
 
 
 def ensemble_moments(x, spin_threshold: float | None = None):

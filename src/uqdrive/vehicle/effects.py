@@ -15,7 +15,7 @@ import numpy as np
 
 from .single_track import STATES
 
-__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "effect", "expand_names", "channel_effects", "structure_from_effects"]
+__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,9 @@ class ModelStructure:
         Front steer angle change per lateral acceleration (deg/g), positive: out of the turn.
     relaxation_length : float
         Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
+    a_y_offset, a_y_gain : float
+        Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
+        bias and scale error (the states' are in ``output_offset``, ``output_gain``).
     """
 
     tyre: str = "linear"
@@ -75,6 +78,15 @@ class ModelStructure:
     roll_share_front: float = 0.5
     compliance_steer: float = 0.0
     relaxation_length: float = 0.0
+    a_y_offset: float = 0.0
+    a_y_gain: float = 1.0
+
+    def output_map(self, channels=STATES) -> tuple[np.ndarray, np.ndarray]:
+        """Gain and offset (each shape (C,)) of the measured ``channels`` (names of
+        :data:`uqdrive.vehicle.channels.CHANNELS`): measured = gain * true + offset."""
+        gain = [self.a_y_gain if c == "a_y" else self.output_gain[STATES.index(c)] for c in channels]
+        offset = [self.a_y_offset if c == "a_y" else self.output_offset[STATES.index(c)] for c in channels]
+        return np.asarray(gain, float), np.asarray(offset, float)
 
     @property
     def nonlinear(self) -> bool:
@@ -168,6 +180,8 @@ class SensorBias(Effect):
     channel: str = "psi"
 
     def apply(self, s, v):
+        if self.channel == "a_y":
+            return replace(s, a_y_offset=float(v[0]))
         offset = list(s.output_offset)
         offset[STATES.index(self.channel)] = float(v[0])
         return replace(s, output_offset=tuple(offset))
@@ -180,6 +194,8 @@ class SensorScale(Effect):
     channel: str = "psi"
 
     def apply(self, s, v):
+        if self.channel == "a_y":
+            return replace(s, a_y_gain=float(v[0]))
         gain = list(s.output_gain)
         gain[STATES.index(self.channel)] = float(v[0])
         return replace(s, output_gain=tuple(gain))
@@ -221,17 +237,20 @@ class TyreRelaxation(Effect):
         return replace(s, relaxation_length=float(v[0]))
 
 
-_BIAS_BOUND = {"psi": 0.2, "psi_dot": 0.2, "beta": 0.05, "y": 5.0}
+_BIAS_BOUND = {"psi": 0.2, "psi_dot": 0.2, "beta": 0.05, "y": 5.0, "a_y": 2.0}
+#: Channels a sensor effect can act on: the four states and the lateral acceleration (m/s^2).
+SENSOR_CHANNELS = STATES + ("a_y",)
+_UNITS = {"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m", "a_y": "m/s^2"}
 
 
 def channel_effects(kind: str) -> dict[str, Effect]:
     """One sensor effect per measured channel, named ``<kind>_<channel>``."""
     out = {}
-    for ch in STATES:
+    for ch in SENSOR_CHANNELS:
         if kind == "sensor_bias":
             b = _BIAS_BOUND[ch]
             out[f"sensor_bias_{ch}"] = SensorBias(
-                f"sensor_bias_{ch}", (f"offset_{ch}",), ({"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m"}[ch],),
+                f"sensor_bias_{ch}", (f"offset_{ch}",), (_UNITS[ch],),
                 ((-b, b),), (0.0,), f"constant offset on the measured {ch}",
                 f"{ch}: mean shifted by a constant at every time, std unchanged, other channels untouched", channel=ch)
         else:
@@ -295,7 +314,18 @@ EFFECTS: dict[str, Effect] = {
 }
 
 #: Families that name several registry entries at once.
-FAMILIES = {"sensor_bias": tuple(f"sensor_bias_{c}" for c in STATES), "sensor_scale": tuple(f"sensor_scale_{c}" for c in STATES)}
+FAMILIES = {"sensor_bias": tuple(f"sensor_bias_{c}" for c in SENSOR_CHANNELS), "sensor_scale": tuple(f"sensor_scale_{c}" for c in SENSOR_CHANNELS)}
+
+
+def acts_on(name: str) -> tuple | None:
+    """The measured channels an effect alone acts on, or None when it changes the dynamics (every
+    channel): a sensor effect its channel, ``lateral_kinematics`` y (the course kinematics)."""
+    e = effect(name)
+    if isinstance(e, (SensorBias, SensorScale)):
+        return (e.channel,)
+    if isinstance(e, LateralKinematics):
+        return ("y",)
+    return None
 
 
 def effect(name: str) -> Effect:

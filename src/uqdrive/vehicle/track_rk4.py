@@ -14,6 +14,21 @@ bits (tried: computing sin and cos from the half-angle tangent, vectorised in Nu
 cos are not, halved the cost of a step at 2400 realisations; the fits moved by 1e-10, but the
 posterior of the thesis case moved by Monte-Carlo noise and its surrogate validation, 0.45 of the
 0.5 allowed, failed).
+
+What the sensors of an augmented single-track model record: the lateral acceleration a_y beside
+the states, and the linear model along a speed profile v(t) (past the thesis).
+
+a_y is what an accelerometer at the centre of gravity reads, the specific force: the lateral
+tyre and wind forces over the mass, (F_f cos delta + F_r + F_w) / m. At constant speed and on a
+level road it equals v (beta_dot + psi_dot); on a banked road the gravity component g sin(phi)
+acts on the body and on the sensor alike, so the sensor does not feel it (a bank shows in a_y as
+the tyre force that holds the car against it); while the speed changes the kinematic
+acceleration gains v_dot beta (:func:`uqdrive.vehicle.single_track.lateral_acceleration_map`).
+
+Along a speed profile the linear single-track model (5.4) is time-varying: its matrices follow
+v(t) and the side-slip equation gains -v_dot / v beta (:func:`lst_matrices_at_speed`). The
+augmented simulator integrates it by fixed-step RK4 on the forces (every realisation at once),
+as its non-linear tyre.
 """
 
 from __future__ import annotations
@@ -22,9 +37,11 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from .effects import ModelStructure
-from .single_track import VehicleParameters
+from .single_track import STATES, VehicleParameters
+from .track_extended import compliance_gain
 
-__all__ = ["SingleTrackRHS", "integrate_single_track"]
+__all__ = ["SingleTrackRHS", "integrate_single_track", "speed_on_half_steps", "linear_lateral_acceleration", "LinearTrackRHS",
+           "integrate_linear_ltv", "rk4_lateral_acceleration", "measured_channels"]
 
 
 class SingleTrackRHS:
@@ -48,9 +65,12 @@ class SingleTrackRHS:
         The gusts exert the yaw moment M_c F_w too (else M_c times the mean wind only).
     wind : ndarray, shape (n,)
         Mean wind (N).
+    speed_half : tuple of two ndarrays, shape (J,), optional
+        Speed v (m/s) and its rate v_dot (m/s^2) per half step (a speed profile): the speed
+        change acts along the velocity, so beta_dot gains -(v_dot / v) sin beta; None: ``p.v_c``.
     """
 
-    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind):
+    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None):
         n = F_w_half.shape[1]
         v = float(p.v_c)
         self.v = v
@@ -71,11 +91,32 @@ class SingleTrackRHS:
         self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
         self._sin_b, self._cos_b, self._t, self._fc, self._tmp = (np.empty(n) for _ in range(5))
         self._q, self._bx, self._F = np.empty((2, n)), np.empty((2, n)), np.empty((2, n))
+        self.speed_half = None
+        if speed_half is not None:
+            self.speed_half = tuple(np.asarray(a, float) for a in speed_half)
+            self.inv_m, self.a_lat = 1.0 / p.m, s.lateral_acceleration
+
+    def _at(self, j: int):
+        """Speed, 1 / (m v) and a_lat / v at half step ``j`` (the constants without a profile)."""
+        if self.speed_half is None:
+            return self.v, self.inv_mv, self.a_v
+        v = float(self.speed_half[0][j])
+        return v, self.inv_m / v, self.a_lat / v
+
+    def lateral_acceleration(self, x, j: int):
+        """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: the lateral forces over
+        the mass, (F_f cos delta + F_r + F_w) / m, recovered from beta_dot of the right-hand side."""
+        out = np.empty_like(x)
+        self(x, j, out)
+        v, _, a_v = self._at(j)
+        slip_rate = 0.0 if self.speed_half is None else self.speed_half[1][j] / v * np.sin(x[2])
+        return (out[2] + x[1] - a_v + slip_rate) * v / np.cos(x[2])
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of the states ``x`` (4, n) at half step ``j`` into ``out`` (4, n)."""
         psi, psi_dot, beta = x[0], x[1], x[2]
-        v, sin_b, cos_b, t, q, F = self.v, self._sin_b, self._cos_b, self._t, self._q, self._F
+        sin_b, cos_b, t, q, F = self._sin_b, self._cos_b, self._t, self._q, self._F
+        v, inv_mv, a_v = self._at(j)
         np.sin(beta, sin_b)
         np.cos(beta, cos_b)
         # slip angles -arctan((v sin beta + lever psi_dot) / (v cos beta)), + delta at the front
@@ -118,9 +159,11 @@ class SingleTrackRHS:
         np.add(fc, F[1], o2)
         o2 += F_w
         o2 *= cos_b
-        o2 *= self.inv_mv
+        o2 *= inv_mv
         o2 -= psi_dot
-        o2 += self.a_v
+        o2 += a_v
+        if self.speed_half is not None:
+            o2 -= self.speed_half[1][j] / v * sin_b
         o3 = out[3]  # v sin(psi + k beta)
         np.multiply(beta, self.k, o3)
         o3 += psi
@@ -129,7 +172,7 @@ class SingleTrackRHS:
 
 
 def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                           n_steps: int, record_every: int):
+                           n_steps: int, record_every: int, speed_half=None):
     """States of the single-track model from rest by RK4.
 
     Parameters
@@ -140,11 +183,191 @@ def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_hal
         RK4 step (s).
     n_steps, record_every : int
         Steps, and the stride of the returned states (``n_steps`` a multiple of it).
+    speed_half : tuple of two ndarrays, shape (2 ``n_steps`` + 1,), optional
+        A speed profile (v, v_dot) per half step (:class:`SingleTrackRHS`).
 
     Returns
     -------
     ndarray, shape (n_steps // record_every + 1, 4, n)
         psi, psi_dot, beta, y (rad, rad/s, rad, m) every ``record_every`` steps from t = 0.
     """
-    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind)
+    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, speed_half)
     return rk4_fixed_step_into(rhs, np.zeros((4, F_w_half.shape[1])), h, n_steps, record_every)
+
+
+def speed_on_half_steps(time, speed, t_half):
+    """Speed v (m/s) and its rate v_dot (m/s^2) on the RK4 half-step grid, shape (J,) each.
+
+    Parameters
+    ----------
+    time, speed : ndarray, shape (T,)
+        The measured grid (s) and the speed on it (m/s), linear between samples.
+    t_half : ndarray, shape (J,)
+        Half-step times (s).
+    """
+    v = np.interp(t_half, time, speed)
+    slope = np.diff(speed) / np.diff(time)
+    i = np.clip(np.searchsorted(time, t_half, side="right") - 1, 0, slope.size - 1)
+    v_dot = slope[i]
+    # at a sample the slopes on either side meet: their mean (a kink of a ramp's ends)
+    on = np.isclose(t_half, time[np.clip(np.searchsorted(time, t_half), 0, time.size - 1)], rtol=0, atol=1e-12)
+    k = np.clip(np.searchsorted(time, t_half), 1, slope.size)
+    both = 0.5 * (slope[k - 1] + slope[np.minimum(k, slope.size - 1)])
+    return v, np.where(on, both, v_dot)
+
+
+def linear_lateral_acceleration(p: VehicleParameters, x, delta, F_w, v, compliance_steer: float = 0.0):
+    """a_y (m/s^2) of the linear single-track model (5.4): (F_f + F_r + F_w) / m.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Per-realisation parameters (arrays of shape (n,) or scalars).
+    x : ndarray, shape (4, n, K)
+        States psi (rad), psi_dot (rad/s), beta (rad), y (m).
+    delta : ndarray, shape (K,)
+        Actual road-wheel angle (rad).
+    F_w : ndarray, shape (n, K)
+        Side wind (N).
+    v : float or ndarray, shape (K,)
+        Speed (m/s).
+    compliance_steer : float
+        K (deg/g): the front wheels steer by -K a_y with a_y ~ v psi_dot (as the simulator's model).
+
+    Returns
+    -------
+    ndarray, shape (n, K)
+    """
+    col = lambda a: np.asarray(a, float)[..., None] if np.ndim(a) else float(a)  # noqa: E731 (per realisation: a column)
+    psi_dot, beta = x[1], x[2]
+    l_f, l_r, c_f, c_r, m = col(p.l_f), col(p.l_r), col(p.c_f), col(p.c_r), col(p.m)
+    d = np.asarray(delta, float) - compliance_gain(compliance_steer, p.g) * v * psi_dot
+    F_f = c_f * (d - beta - l_f * psi_dot / v)
+    F_r = c_r * (l_r * psi_dot / v - beta)
+    return (F_f + F_r + F_w) / m
+
+
+class LinearTrackRHS:
+    """dx/dt of the linear single-track model (5.4) along a speed profile, for n realisations.
+
+    Slip angles and forces as (5.4) at the local speed v_j: F_f = c_f (delta - beta - l_f psi_dot / v),
+    F_r = c_r (l_r psi_dot / v - beta); psi_ddot = (l_f F_f - l_r F_r + M_w) / I_z,
+    beta_dot = (F_f + F_r + F_w) / (m v) - psi_dot - (v_dot / v) beta + a_lat / v,
+    y_dot = v (psi + k beta), or v sin(psi + k beta) for the exact course kinematics.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Per-realisation parameters.
+    s : ModelStructure
+        ``course_weight``, ``course_exact``, ``lateral_acceleration`` (m/s^2), ``compliance_steer`` (deg/g).
+    delta_half : ndarray, shape (J,)
+        Actual steering angle (rad) on the half-step grid.
+    F_w_half : ndarray, shape (J, n)
+        Side wind (N) per half step and realisation.
+    yaw_gust : bool
+        The gusts exert the yaw moment M_c F_w too (else M_c times the mean wind).
+    wind : ndarray, shape (n,)
+        Mean wind (N).
+    v_half, v_dot_half : ndarray, shape (J,)
+        Speed (m/s) and its rate (m/s^2) per half step.
+    """
+
+    def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half):
+        self.p, self.k, self.exact = p, float(s.course_weight), bool(s.course_exact)
+        self.a_lat = np.asarray(s.lateral_acceleration, float)
+        self._has_lat = bool(np.any(self.a_lat))
+        self.K = compliance_gain(float(s.compliance_steer), p.g)
+        self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
+        self.v_half, self.v_dot_half = np.asarray(v_half, float), np.asarray(v_dot_half, float)
+        self.l_f, self.l_r, self.c_f, self.c_r = np.asarray(p.l_f, float), p.l_r, p.c_f, p.c_r
+        self.m, self.I_z = p.m, p.I_z
+        n = F_w_half.shape[1]
+        as_n = lambda a: np.broadcast_to(np.asarray(a, float), (n,)).copy()  # noqa: E731
+        cf, cr, lf, lr, m, I_z = self.c_f, self.c_r, self.l_f, self.l_r, self.m, self.I_z
+        # (5.4) with the speed factored out: psi_ddot = (P / v) r + a12 beta + a13 d + M_w / I_z,
+        # beta_dot = (Q / v^2 - 1) r + (R / v - v_dot / v) beta + (S / v) d + F_w / (m v) + a_lat / v
+        self.P, self.a12, self.a13 = as_n(-(cf * lf**2 + cr * lr**2) / I_z), as_n((cr * lr - cf * lf) / I_z), as_n(cf * lf / I_z)
+        self.Q, self.R, self.S, self.inv_m = as_n((cr * lr - cf * lf) / m), as_n(-(cf + cr) / m), as_n(cf / m), as_n(1.0 / m)
+        self.W1 = as_n(p.M_c / I_z)
+        self.M_term = None if yaw_gust else as_n(p.M_c * np.asarray(wind, float) / I_z)
+        self.inv_v = [float(1.0 / v) for v in self.v_half]
+        self.rate = [float(vd / v) for v, vd in zip(self.v_half, self.v_dot_half)]
+        self._t, self._u = np.empty(n), np.empty(n)
+
+    def forces(self, x, j: int):
+        """Front and rear tyre forces (N), each shape (n,), at half step ``j``."""
+        v, psi_dot, beta = self.v_half[j], x[1], x[2]
+        d = self.delta_half[j] - self.K * v * psi_dot
+        return self.c_f * (d - beta - self.l_f * psi_dot / v), self.c_r * (self.l_r * psi_dot / v - beta)
+
+    def __call__(self, x, j: int, out) -> None:
+        """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
+        r, b, t, u = x[1], x[2], self._t, self._u
+        iv, rate, d, F_w = self.inv_v[j], self.rate[j], float(self.delta_half[j]), self.F_w_half[j]
+        o1, o2, o3 = out[1], out[2], out[3]
+        np.multiply(self.P, r, o1)
+        o1 *= iv
+        np.multiply(self.a12, b, t)
+        o1 += t
+        np.multiply(self.a13, d, t)
+        o1 += t
+        if self.M_term is None:
+            np.multiply(self.W1, F_w, t)
+            o1 += t
+        else:
+            o1 += self.M_term
+        np.multiply(self.Q, r, o2)
+        o2 *= iv * iv
+        o2 -= r
+        np.multiply(self.R, b, t)
+        t *= iv
+        o2 += t
+        np.multiply(b, rate, t)
+        o2 -= t
+        np.multiply(self.S, d * iv, t)
+        o2 += t
+        np.multiply(self.inv_m, F_w, t)
+        t *= iv
+        o2 += t
+        if self._has_lat:
+            o2 += self.a_lat * iv
+        if self.K:  # the steer angle's compliance part -K v psi_dot
+            np.multiply(r, self.K / iv, u)
+            np.multiply(self.a13, u, t)
+            o1 -= t
+            np.multiply(self.S, u, t)
+            t *= iv
+            o2 -= t
+        out[0] = r
+        np.multiply(b, self.k, o3)
+        o3 += x[0]
+        if self.exact:
+            np.sin(o3, o3)
+        o3 /= iv
+
+    def lateral_acceleration(self, x, j: int):
+        """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: (F_f + F_r + F_w) / m."""
+        F_f, F_r = self.forces(x, j)
+        return (F_f + F_r + self.F_w_half[j]) / self.m
+
+
+def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
+    """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``)."""
+    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.F_w_half.shape[1])), h, n_steps, record_every)
+    return out.transpose(1, 2, 0)
+
+
+def rk4_lateral_acceleration(rhs, x, js):
+    """a_y (m/s^2), shape (n, K + 1), of RK4 states x (4, n, K + 1) from the right-hand side
+    ``rhs`` (its ``lateral_acceleration(x, j)``) at the half-step indices ``js`` (K + 1,)."""
+    return np.stack([rhs.lateral_acceleration(np.ascontiguousarray(x[:, :, k]), j) for k, j in enumerate(js)], axis=-1)
+
+
+def measured_channels(x, a_y, structure, channels):
+    """The ``channels`` (C, n, K + 1) as measured: states x (4, n, K + 1) and a_y (n, K + 1) (None
+    when not measured) in the channels' order, with the structure's gain and offset
+    (:meth:`uqdrive.vehicle.effects.ModelStructure.output_map`)."""
+    rows = [a_y if c == "a_y" else x[STATES.index(c)] for c in channels]
+    gain, offset = structure.output_map(channels)
+    return np.stack(rows) * gain[:, None, None] + offset[:, None, None]

@@ -20,21 +20,21 @@ def moment_statistics(x, index):
 
     Parameters
     ----------
-    x : ndarray, shape (4, n, T)
+    x : ndarray, shape (C, n, T)
         Realisations of the four states.
     index : ndarray of int, shape (K,)
         Selected time indices.
 
     Returns
     -------
-    ndarray, shape (2, 4, K)
+    ndarray, shape (2, C, K)
         [mean, std] per state and time.
     """
     return mean_std(x[:, :, index])
 
 
 def compared_times(x, index):
-    """x[:, :, index] for x (4, n, T): a view when ``index`` is a run of consecutive times (the
+    """x[:, :, index] for x (C, n, T): a view when ``index`` is a run of consecutive times (the
     evenly spaced comparison times at stride 1), else NumPy's copy."""
     if np.all(np.diff(index) == 1):
         return x[:, :, index[0]:index[-1] + 1]
@@ -42,7 +42,7 @@ def compared_times(x, index):
 
 
 def mean_std(xs):
-    """[mean, std (ddof 1)] over axis 1 of xs (4, n, K), shape (2, 4, K).
+    """[mean, std (ddof 1)] over axis 1 of xs (C, n, K), shape (2, C, K).
 
     The std is NumPy's given the mean (``mean=``): its own formula without its second sum over
     the realisations. The order of the sums follows xs's memory layout (a C-contiguous xs sums
@@ -62,7 +62,7 @@ def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):
 
     Parameters
     ----------
-    x : ndarray, shape (4, n, T)
+    x : ndarray, shape (C, n, T)
     index : ndarray of int, shape (K,)
     model_ratio : float
     floor : float
@@ -71,7 +71,7 @@ def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):
 
     Returns
     -------
-    ndarray, shape (2, 4, K)
+    ndarray, shape (2, C, K)
     """
     xs = x[:, :, index]
     n = xs.shape[1]
@@ -101,14 +101,14 @@ def replicate_statistics(x, model_ratio: float = 0.0, floor: float = 1e-3):
 
     Parameters
     ----------
-    x : ndarray, shape (4, R, n, K)
+    x : ndarray, shape (C, R, n, K)
         R replicates of n realisations of the four states at K times.
     model_ratio, floor : float
         As in :func:`statistic_scale`.
 
     Returns
     -------
-    statistics, scale : ndarray, shape (R, 2, 4, K)
+    statistics, scale : ndarray, shape (R, 2, C, K)
         Equal to ``moment_statistics(x[:, r], all)`` and ``statistic_scale(x[:, r], all, ...)``
         for each replicate r (to rounding).
     """
@@ -123,7 +123,7 @@ def replicate_statistics(x, model_ratio: float = 0.0, floor: float = 1e-3):
 
 
 def standardised_gap(measured, model, scale):
-    """z = (measured - model) / scale, all of shape (2, 4, K): the gap in units of the null band."""
+    """z = (measured - model) / scale, all of shape (2, C, K): the gap in units of the null band."""
     return (np.asarray(measured) - np.asarray(model)) / np.asarray(scale)
 
 
@@ -138,12 +138,12 @@ def refit_projection(z, jacobian):
 
     Parameters
     ----------
-    z : ndarray, shape (B, 2, 4, K)
+    z : ndarray, shape (B, 2, C, K)
     jacobian : ndarray, shape (2 * 4 * K, p)
 
     Returns
     -------
-    ndarray, shape (B, 2, 4, K)
+    ndarray, shape (B, 2, C, K)
     """
     z = np.asarray(z, float)
     flat = z.reshape(z.shape[0], -1)
@@ -172,12 +172,12 @@ def scan(z, windows):
 
     Parameters
     ----------
-    z : ndarray, shape (..., 2, 4, K)
+    z : ndarray, shape (..., 2, C, K)
     windows : ndarray of int, shape (n_w, 2)
 
     Returns
     -------
-    ndarray, shape (..., 2, 4, n_w)
+    ndarray, shape (..., 2, C, n_w)
     """
     c = np.concatenate([np.zeros(z.shape[:-1] + (1,)), np.cumsum(z, axis=-1)], axis=-1)
     lengths = windows[:, 1] - windows[:, 0]
@@ -191,7 +191,7 @@ class NullBand:
     Attributes
     ----------
     windows : ndarray, shape (n_w, 2)
-    cell_scale : ndarray, shape (2, 4, n_w)
+    cell_scale : ndarray, shape (2, C, n_w)
         Bootstrap standard deviation of each scan cell (the cells are divided by it).
     max_null : ndarray, shape (B,)
         The maximum |standardised cell| of every replicate.
@@ -219,7 +219,7 @@ class NullBand:
 
     @classmethod
     def from_replicates(cls, z_null, windows, level: float = 0.05) -> "NullBand":
-        """Calibrate from z of B replicates, shape (B, 2, 4, K)."""
+        """Calibrate from z of B replicates, shape (B, 2, C, K)."""
         cells = scan(z_null, windows)
         scale = cells.std(axis=0, ddof=1)
         scale = np.where(scale > 0, scale, 1.0)
@@ -264,11 +264,11 @@ class NullBand:
         return float(np.mean((self.max_null > self.threshold) & (excess > 2.0 * self.chi2_null_sd)))
 
     def cells(self, z):
-        """Standardised scan cells of z (2, 4, K): shape (2, 4, n_w)."""
+        """Standardised scan cells of z (2, C, K): shape (2, C, n_w)."""
         return scan(z, self.windows) / self.cell_scale
 
     def max_statistic(self, z) -> float:
-        """Largest absolute scan cell of the standardised gap ``z`` (shape (2, 4, K)), compared with the
+        """Largest absolute scan cell of the standardised gap ``z`` (shape (2, C, K)), compared with the
         threshold."""
         return float(np.abs(self.cells(z)).max())
 
@@ -288,9 +288,9 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
     """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric bootstrap.
 
     ``bootstrap`` replicates of n realisations of base's model (fresh germs from ``rng``) with
-    the measurement noise (variance ``noise`` (4,)) added, their statistics standardised by
-    their own scale (model error ratio ``ratio``), realisations beyond ``spin`` (|beta|, rad)
-    left out as in the data, each replicate refitted to first order (:func:`refit_projection`).
+    the measurement noise (variance ``noise`` (C,), one per measured channel of ``sim``) added,
+    their statistics standardised by their own scale (model error ratio ``ratio``), realisations
+    beyond ``spin`` (|beta|, rad; None where beta is not measured) left out as in the data, each replicate refitted to first order (:func:`refit_projection`).
     """
     per_call = max(1, 4000 // max(n, 1))
     z = []
@@ -299,13 +299,13 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
         germs = type(sim.germs).draw(rng, reps * n, sim.germs.kle.shape[1])
         x = sim.simulate(base.theta_, base.structure_, germs=germs)
         # x[:, :, index] + noise, computed in the noise's array (no copies of x; the same sums)
-        xb = rng.standard_normal((4, x.shape[1], index.size))
+        xb = rng.standard_normal((x.shape[0], x.shape[1], index.size))
         xb *= np.sqrt(noise)[:, None, None]
         xb += compared_times(x, index)
-        xb = xb.reshape(4, reps, n, -1)
-        keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[2]) > spin, axis=-1)
+        xb = xb.reshape(x.shape[0], reps, n, -1)
+        keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[sim.spin_row]) > spin, axis=-1)
         whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
-        stats, scale = np.empty((reps, 2, 4, xb.shape[-1])), np.empty((reps, 2, 4, xb.shape[-1]))
+        stats, scale = np.empty((reps, 2, x.shape[0], xb.shape[-1])), np.empty((reps, 2, x.shape[0], xb.shape[-1]))
         if whole.any():
             stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
         for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate

@@ -9,9 +9,38 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...vehicle.augmented import actual_steering, reconstruction_error
-from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure
+from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, SensorBias, SensorScale, acts_on
+from ...vehicle.track_extended import uses_chassis_terms
 
-__all__ = ["EffectSet", "family_of", "resolvable"]
+__all__ = ["EffectSet", "family_of", "resolvable", "testable"]
+
+
+def testable(candidates: Sequence[str], channels: Sequence[str], speed_profile: bool) -> tuple[list[str], list[dict]]:
+    """The candidates that data with ``channels`` (and a changing speed if ``speed_profile``) can
+    test, and {"effect", "reason"} for the others.
+
+    An effect acting only on channels that are not measured changes nothing that the data show
+    (``lateral_kinematics`` without y); a sensor error of an unrecorded channel is no question at
+    all and is dropped without a reason. The numerically integrated chassis models (load transfer,
+    tyre relaxation) have no speed profile and no a_y output.
+    """
+    keep, untestable = [], []
+    for name in candidates:
+        e = EFFECTS[name]
+        on = acts_on(name)
+        if on is not None and not set(on) & set(channels):
+            if not isinstance(e, (SensorBias, SensorScale)):
+                untestable.append({"effect": family_of(name), "registry_name": name,
+                                   "reason": f"without {' or '.join(on)}, {name} cannot be tested (it acts on {', '.join(on)} only)"})
+            continue
+        s = e.augment(ModelStructure(), e.start)
+        if s.nonlinear and uses_chassis_terms(s) and (speed_profile or "a_y" in channels):
+            why = "a speed that changes" if speed_profile else "a_y"
+            untestable.append({"effect": name, "registry_name": name,
+                               "reason": f"{name}'s numerically integrated chassis model does not simulate {why}"})
+            continue
+        keep.append(name)
+    return keep, untestable
 
 
 def family_of(name: str) -> str:

@@ -15,10 +15,9 @@ from ...numerics.threads import single_blas_thread
 from ...rng import rng_stream
 from ...vehicle.augmented import AugmentedSimulator
 from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
-from ...vehicle.noise import estimate_noise_variance
-from ...vehicle.single_track import STATES
+from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
-from .effectset import EffectSet, family_of, resolvable
+from .effectset import EffectSet, family_of, resolvable, testable
 from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .separate import suggest_input
@@ -87,6 +86,9 @@ class DiscrepancyFinder:
         Receives one progress line per finished stage (baseline fit, null band, screening,
         joint fits, verdict, posterior) with its seconds, e.g. ``print`` to a log file.
 
+    The data may carry any channels of :data:`uqdrive.vehicle.channels.CHANNELS` and a speed ``v``
+    that changes: model, null band and fits compare exactly those channels along that speed.
+
     Attributes
     ----------
     verdict_ : dict
@@ -98,7 +100,10 @@ class DiscrepancyFinder:
         The null bands of ``baseline_`` and ``augmented_``.
     steps_ : list of dict
         The effects added, in order (name, joint fit, band, gap after, ambiguity).
-    measured_, scale_ : ndarray, shape (2, 4, K)
+    measured_, scale_ : ndarray, shape (2, C, K)
+        Over the measured channels ``channels_`` (tuple of str).
+    candidates_, untestable_ : list
+        The candidates the data can test; {"effect", "reason"} of those they cannot.
     time_ : ndarray, shape (K,)
     fits_ : dict
         Joint fit per re-identified candidate of the first step.
@@ -129,20 +134,10 @@ class DiscrepancyFinder:
 
     # -- data ---------------------------------------------------------------------------------
     def _prepare(self, ds):
-        """States (4, n, K + 1) on the compared grid (every ``stride`` samples from t = 0), the
-        indices compared (t = 0 left out), the noise variance per state, the spin threshold."""
-        x = np.stack([np.asarray(ds[s].values, float) for s in STATES])  # (4, n, T)
-        thr = float(self.config["montecarlo"]["spin_threshold"])
-        spun = np.any(np.abs(x[2]) > thr, axis=-1)
-        policy = self.config["montecarlo"]["spin_policy"]
-        used = ~spun if policy == "exclude" else np.ones_like(spun)
-        T = x.shape[-1]
-        self.stride_ = stride = max(1, int(np.ceil((T - 1) / self.max_times)))
-        K = (T - 1) // stride
-        noise = np.array([estimate_noise_variance(x[i, used], order=4) for i in range(4)])
-        self.spun_ = np.flatnonzero(spun)
-        self.samples_used_ = int(used.sum())
-        return x[:, used][:, :, : K * stride + 1 : stride], np.arange(1, K + 1), noise, (thr if policy == "exclude" else None)
+        """The measured data on the compared grid (:func:`.data.prepare_measured`)."""
+        m = prepare_measured(ds, self.config["montecarlo"], self.max_times)
+        self.channels_, self.stride_, self.spun_, self.samples_used_ = m.channels, m.stride, m.spun, m.samples_used
+        return m.x, m.index, m.noise, m.spin
 
     # -- workflow -----------------------------------------------------------------------------
     def fit(self, ds) -> "DiscrepancyFinder":
@@ -167,9 +162,13 @@ class DiscrepancyFinder:
         t = np.asarray(ds["time"].values, float)
         delta = np.asarray(ds["delta"].values, float)
         self.interpolation_ = str(ds["delta"].attrs.get("interpolation", "linear"))
-        v_c = float(ds.attrs["v_c"])
+        speed = speed_profile(ds)
+        v_c = float(ds.attrs["v_c"]) if speed is None else float(np.mean(speed))
+        self.speed_profile_ = None if speed is None else {"min": float(speed.min()), "max": float(speed.max()), "mean": v_c}
+        self.candidates_, self.untestable_ = testable(self.candidates, self.channels_, speed is not None)
         raw = AugmentedSimulator.drawn(self.config, t, delta, v_c, self.model_samples, rng_stream(self.seed, "discrepancy_model"),
-                                       stride=self.stride_, interpolation=self.interpolation_)
+                                       stride=self.stride_, interpolation=self.interpolation_,
+                                       channels=self.channels_, speed=speed)
         self._raw_germs = raw.germs
         sim = raw.with_germs(raw.germs.matched())  # linear models: moment-matched germs (Germs.matched)
         self.time_ = sim.output_time[index]
@@ -251,7 +250,7 @@ class DiscrepancyFinder:
         names, values = list(start_effects), dict(start_effects)
         explained = False
         while not explained and len(self.steps_) < self.max_effects:
-            pool = [c for c in self.candidates if c not in names]
+            pool = [c for c in self.candidates_ if c not in names]
             if not pool:
                 break
             screening = self._screen(ctx, cur, pool)

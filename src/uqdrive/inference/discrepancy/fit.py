@@ -44,10 +44,12 @@ class StructureFit:
         Model realisations on fixed germs (common random numbers) on the data's grid.
     index : ndarray of int, shape (K,)
         Time indices compared.
-    noise_variance : ndarray, shape (4,)
-        Measurement-noise variance per state (added to the model's variance).
+    noise_variance : ndarray, shape (C,)
+        Measurement-noise variance per measured channel (the simulator's ``channels``; added to
+        the model's variance).
     spin_threshold : float or None
-        |beta| (rad) beyond which a model realisation lost control and is excluded, as the data's.
+        |beta| (rad) beyond which a model realisation lost control and is excluded, as the data's
+        (None where beta is not measured: the data cannot tell which runs spun).
     effect : Effect, optional
         The effect added to ``base`` whose parameters are fitted with theta; None fits theta only.
     base : ModelStructure
@@ -65,15 +67,15 @@ class StructureFit:
         Fitted distribution parameters in :data:`THETA_NAMES` order (|std|, wind bounds sorted).
     effect_values_ : ndarray, shape (n_effect,)
     structure_ : ModelStructure
-    statistics_ : ndarray, shape (2, 4, K)
+    statistics_ : ndarray, shape (2, C, K)
         Model [mean, std] at the estimate.
-    measured_, scale_ : ndarray, shape (2, 4, K)
+    measured_, scale_ : ndarray, shape (2, C, K)
         The measured statistics and the null-band scale the fit was given.
-    z_ : ndarray, shape (2, 4, K)
+    z_ : ndarray, shape (2, C, K)
         Standardised gap at the estimate.
     chi2_ : float
         sum(z_^2).
-    jacobian_ : ndarray, shape (2 * 4 * K, p)
+    jacobian_ : ndarray, shape (2 * C * K, p)
         d z / d parameters at the estimate (the null band projects it out of bootstrap replicates).
     parameter_cov_ : ndarray, shape (p, p)
         Gauss-Newton covariance (J'J)^-1 of all fitted parameters (theta first) in z units.
@@ -117,7 +119,8 @@ class StructureFit:
     @staticmethod
     def _dynamic(structure: ModelStructure) -> ModelStructure:
         """The structure without its output map (the part that needs a simulation)."""
-        return ModelStructure(**{**structure.__dict__, "output_offset": (0.0,) * 4, "output_gain": (1.0,) * 4, "effects": ()})
+        return ModelStructure(**{**structure.__dict__, "output_offset": (0.0,) * 4, "output_gain": (1.0,) * 4, "effects": (),
+                                 "a_y_offset": 0.0, "a_y_gain": 1.0})
 
     def _keys(self, pairs):
         return [(np.asarray(th, float).tobytes(), self._dynamic(s)) for th, s in pairs]
@@ -165,11 +168,11 @@ class StructureFit:
         return [self._cache[k] for k in keys]
 
     def statistics(self, theta, structure: ModelStructure):
-        """Model [mean, std] (2, 4, K) with the noise variance added to the model's variance."""
+        """Model [mean, std] (2, C, K) with the noise variance added to the model's variance."""
         return self._measured_statistics(self._simulate([(theta, structure)])[0], structure)
 
     def statistics_many(self, thetas, structures, batch: int = 32):
-        """:meth:`statistics` of many (theta, structure) pairs, shape (B, 2, 4, K); simulated in
+        """:meth:`statistics` of many (theta, structure) pairs, shape (B, 2, C, K); simulated in
         batches of ``batch`` pairs (one RK4 pass each for a non-linear tyre), bypassing the cache."""
         out = []
         for start in range(0, len(thetas), batch):
@@ -179,19 +182,20 @@ class StructureFit:
         return np.array(out)
 
     def _measured_statistics(self, x, structure: ModelStructure):
-        """[mean, std] (2, 4, K) of realisations x (4, n, T) as measured: spun ones excluded,
+        """[mean, std] (2, C, K) of realisations x (4, n, T) as measured: spun ones excluded,
         the structure's output map applied, the noise variance added."""
         if self.spin_threshold is not None:
-            keep = ~np.any(np.abs(x[2]) > self.spin_threshold, axis=-1)
+            keep = ~np.any(np.abs(x[self.simulator.spin_row]) > self.spin_threshold, axis=-1)
             if keep.sum() >= 2 and not keep.all():  # else all realisations
                 x = x[:, keep]
         # one C-contiguous copy of the compared times (from the simulators' time-major layout):
         # sums over realisations one after the other, as the earlier copies x[:, keep][:, :, index]
         # had them, so the same numbers at a fifth of the cost
         xs = np.ascontiguousarray(compared_times(x, self.index))
-        gain = np.asarray(structure.output_gain, float)[:, None]
+        gain, offset = structure.output_map(self.simulator.channels)
+        gain = gain[:, None]
         stats = mean_std(xs)
-        mean = stats[0] * gain + np.asarray(structure.output_offset, float)[:, None]
+        mean = stats[0] * gain + offset[:, None]
         std = np.sqrt((stats[1] * gain) ** 2 + self.noise_variance[:, None])
         return np.stack([mean, std])
 
@@ -202,7 +206,7 @@ class StructureFit:
         return np.asarray(theta0, float), params
 
     def fit(self, measured, scale, theta0, effect_start=None) -> "StructureFit":
-        """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, 4, K)."""
+        """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, C, K)."""
         measured, scale = np.asarray(measured, float), np.asarray(scale, float)
         theta0 = np.clip(np.asarray(theta0, float), [b[0] for b in THETA_BOUNDS], [b[1] for b in THETA_BOUNDS])
         eff = self.effect

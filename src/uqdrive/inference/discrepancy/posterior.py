@@ -100,16 +100,17 @@ def gaussian_design(n: int, p: int, spread: float, rng: np.random.Generator):
     return np.vstack([np.zeros((1, p)), spread * norm.ppf(cube)])[:n]
 
 
-def likelihood_times(K: int, n: int, max_times: int):
+def likelihood_times(K: int, n: int, max_times: int, channels: int = 4):
     """Evenly spaced indices into K compared times for the whitened likelihood: at most
-    ``max_times`` and at most (n - 2) / 16, so the 8 k-dimensional covariance of [mean, std]
-    (4 states) is estimated from n realisations with the Hartlap factor >= 1/2.
+    ``max_times`` and at most (n - 2) / (4 C), so the 2 C k-dimensional covariance of [mean, std]
+    (C measured channels, 4 states by default) is estimated from n realisations with the Hartlap
+    factor >= 1/2.
 
     Returns
     -------
     ndarray of int, shape (k,)
     """
-    k = int(max(1, min(K, max_times, (n - 2) // 16)))
+    k = int(max(1, min(K, max_times, (n - 2) // (4 * channels))))
     return np.unique(np.round(np.linspace(K / k - 1.0, K - 1.0, k)).astype(int))
 
 
@@ -307,8 +308,8 @@ class AugmentedPosterior:
         fit : StructureFit
             A fitted joint fit (``fit_theta`` True) on common random numbers; its optimum, Jacobian
             and scale start the design.
-        x : ndarray, shape (4, n, T_out)
-            Measured realisations (spun ones already excluded) on the simulator's output grid, so
+        x : ndarray, shape (C, n, T_out)
+            Measured channels (those of ``fit.simulator``) of the realisations (spun ones already excluded) on the simulator's output grid, so
             that ``fit.index`` selects the compared times.
         rng : numpy.random.Generator
             Design, walkers' starts, emcee's moves and the validation draws.
@@ -319,7 +320,7 @@ class AugmentedPosterior:
         x = np.asarray(x, float)
         n, M = x.shape[1], fit.simulator.germs.n
         K = fit.index.size
-        sel = likelihood_times(K, n, self.times)
+        sel = likelihood_times(K, n, self.times, x.shape[0])
         like = MomentLikelihood.from_samples(x[:, :, fit.index[sel]], self.model_error)
         self._chol = like.chol * np.sqrt(1.0 + n / M)
         self._factor = like.precision_factor
@@ -329,7 +330,7 @@ class AugmentedPosterior:
         p = len(names)
         centre = np.concatenate([fit.theta_, fit.effect_values_])
         # Laplace approximation: d statistics / d parameters from the fit's Jacobian (z units)
-        J = (fit.jacobian_.reshape(2, 4, K, p)[:, :, sel] * np.asarray(fit.scale_)[:, :, sel, None]).reshape(-1, p)
+        J = (fit.jacobian_.reshape(2, x.shape[0], K, p)[:, :, sel] * np.asarray(fit.scale_)[:, :, sel, None]).reshape(-1, p)
         Jw = self._whiten(J.T).T
         width = self._hi - self._lo
         info = self._factor * Jw.T @ Jw + np.diag((1e-3 / width) ** 2)

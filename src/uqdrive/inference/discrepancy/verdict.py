@@ -65,10 +65,11 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
         "parameters": {k: v for k, v in effects[0]["parameters"].items()} if effects else {},
         "effects": [{k: v for k, v in e.items() if k != "registry_name"} for e in effects],
         "distributions": {"before": distributions(base.theta_), "after": distributions(aug.theta_)},
-        "localisation": localise(finder.time_, base.z_, band),
+        "localisation": localise(finder.time_, base.z_, band, signals=finder.channels_),
+        "untestable": list(finder.untestable_),
         "gap_before": round(gap0, 4),
         "gap_after": round(gap1, 4),
-        "gap_metric": "excess_rms_z: sqrt(max(mean(z^2) - null mean(z^2), 0)) over [mean, std] x 4 signals x time, "
+        "gap_metric": f"excess_rms_z: sqrt(max(mean(z^2) - null mean(z^2), 0)) over [mean, std] x {len(finder.channels_)} signals x time, "
                       "z = (measured - model) / null-band scale (0 = no misfit beyond sampling); null mean(z^2) from each "
                       "model's own parametric bootstrap (gap_after: the final model's, evidence.named_band)",
         "evidence": {
@@ -101,7 +102,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "samples_used": finder.samples_used_,
             "n_spun": int(finder.spun_.size),
             "spun_indices": [int(i) for i in finder.spun_],
-            "noise_variance": {s: float(v) for s, v in zip(STATES, finder.noise_variance_)},
+            "noise_variance": {s: float(v) for s, v in zip(finder.channels_, finder.noise_variance_)},
+            "channels": list(finder.channels_),
+            "speed_profile": finder.speed_profile_,
             "baseline_converged": bool(base.success_),
             "model_samples": finder.model_samples,
             "theta_names": list(THETA_NAMES),
@@ -110,14 +113,15 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     return verdict
 
 
-def localise(time, z, band, limit: int = 20):
-    """Cells beyond the threshold, merged per signal and statistic into time intervals."""
+def localise(time, z, band, limit: int = 20, signals=STATES):
+    """Cells beyond the threshold, merged per signal and statistic into time intervals; z has
+    shape (2, C, K) over the measured ``signals`` (C names)."""
     cells = band.cells(z)
     thr = band.threshold
     t = time
     out = []
     for si, stat in enumerate(STATISTICS):
-        for xi, signal in enumerate(STATES):
+        for xi, signal in enumerate(signals):
             hits = [(band.windows[w, 0], band.windows[w, 1], abs(cells[si, xi, w])) for w in range(cells.shape[-1]) if abs(cells[si, xi, w]) > thr]
             hits.sort()
             merged = []

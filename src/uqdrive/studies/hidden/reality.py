@@ -1,0 +1,167 @@
+"""The reality of the hidden-effect benchmark (:mod:`uqdrive.studies.hidden_effects`): its
+right-hand side with the switchable effects, the accelerometer's reading, the braking speed
+profile and the RK4 that integrates it, kept apart from the LST/NLST code of :mod:`uqdrive.vehicle`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ...vehicle.single_track import magic_formula
+from ..manoeuvres import braking_in_turn_speed
+
+__all__ = ["speed_of_case", "reality_rhs", "rk4_left_limit"]
+
+
+def speed_of_case(config: Mapping[str, Any], case, t_half):
+    """Speed and its rate on a time grid: the case's braking profile, or the config's constant speed.
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (``vehicle.speed_kmh``).
+    case : HiddenEffectCase
+        Its ``speed``: keyword arguments of :func:`uqdrive.studies.manoeuvres.braking_in_turn_speed`, or empty.
+    t_half : ndarray, shape (J,)
+        Times (s).
+
+    Returns
+    -------
+    v, v_dot : ndarray, shape (J,)
+        Speed (m/s) and its rate (m/s^2).
+    """
+    if not case.speed:
+        return np.full(t_half.size, config["vehicle"]["speed_kmh"] / 3.6), np.zeros(t_half.size)
+    v = braking_in_turn_speed(t_half, **dict(case.speed))
+    return v, np.gradient(v, t_half)
+
+
+def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, delta_left=None, speed_half=None):
+    """RK4 right-hand side f(x, j, end) of the reality on the half-step grid index j; ``end``:
+    the last stage of a step, which sees the steering's limit from the left ``delta_left``
+    (a held command jumps at its samples; default: ``delta_half``, a continuous command).
+
+    x has shape (4, n) [psi, psi_dot, beta, y], or (5, n) with the actual steering angle as
+    fifth state for actuator_lag. Several effects act together (a combined case). ``speed_half``:
+    (v, v_dot) per half step along a speed profile (the speed change acts along the velocity:
+    beta_dot gains -(v_dot / v) sin beta). ``rhs.a_y(x, j)`` is the accelerometer's reading, the
+    lateral tyre and wind forces over the mass (a bank's gravity is not felt).
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (vehicle, tyre, wind).
+    case : HiddenEffectCase
+        The effects and their sizes.
+    draws : mapping
+        Per-realisation mu, m_load (kg), l_f (m), F_w_mean (N), each shape (n,).
+    delta_half, delta_left : ndarray, shape (J,)
+        Actual steering (rad) on the half-step grid, and its limit from the left.
+    gust_half : ndarray, shape (J, n)
+        Gust force (N) per half step and realisation.
+    speed_half : tuple of two ndarrays, shape (J,), optional
+        v (m/s) and v_dot (m/s^2) per half step.
+
+    Returns
+    -------
+    callable
+        f(x, j, end) -> dx/dt, shape of x ((4, n) or (5, n)); with the attribute ``a_y(x, j)``
+        -> shape (n,) (m/s^2).
+    """
+    veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
+    v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
+    C, E, B_f, B_r = tyre["C"], tyre["E"], veh["c_Sf"], veh["c_Sr"]
+    mu, l_f = draws["mu"], draws["l_f"]
+    m = veh["m_base"] + draws["m_load"]
+    I_z, l_r = m * veh["J0"], L - l_f
+    F_fz, F_rz = m * g * l_r / L, m * g * l_f / L
+    c_f, c_r = F_fz * B_f * C * mu, F_rz * B_r * C * mu  # slopes of the Magic Formula at zero slip
+    inv_Iz, inv_mv = 1.0 / I_z, 1.0 / (m * v)
+    v_half, v_dot_half = (None, None) if speed_half is None else speed_half
+    w_mean = draws["F_w_mean"]
+    gust_moment = bool(w["gust_yaw_moment"])
+    present = {e for e, _, _ in case.effects}
+    lag, saturating, course = case.size("actuator_lag"), "tyre_saturation" in present, "lateral_kinematics" in present
+    bank_acc = g * np.sin(np.deg2rad(case.size("road_bank")))
+    bank = bank_acc / v
+
+    delta_left = delta_half if delta_left is None else delta_left
+
+    def forces(x, j, end=False):
+        """Steering, front and rear tyre forces, wind, 1/(m v), bank / v and v at half step j."""
+        u = delta_left[j] if end else delta_half[j]
+        r, beta = x[1], x[2]
+        d = x[4] if lag > 0 else u
+        F_w = w_mean + gust_half[j]
+        vj, imv, bk = (v, inv_mv, bank) if v_half is None else (v_half[j], 1.0 / (m * v_half[j]), bank_acc / v_half[j])
+        if saturating:  # non-linear single-track model (5.3) of the thesis
+            vx, vy = vj * np.cos(beta), vj * np.sin(beta)
+            F_f = magic_formula(d - np.arctan((vy + l_f * r) / vx), F_fz, B_f, C, mu, E) * np.cos(d)
+            F_r = magic_formula(-np.arctan((vy - l_r * r) / vx), F_rz, B_r, C, mu, E)
+        else:  # linear tyres and small angles (5.4)
+            F_f = c_f * (d - beta - l_f * r / vj)
+            F_r = c_r * (l_r * r / vj - beta)
+        return d, F_f, F_r, F_w, imv, bk, vj
+
+    def a_y(x, j):
+        _, F_f, F_r, F_w, _, _, _ = forces(x, j)
+        return (F_f + F_r + F_w) / m
+
+    def rhs(x, j, end=False):
+        psi, r, beta = x[0], x[1], x[2]
+        u = delta_left[j] if end else delta_half[j]
+        d, F_f, F_r, F_w, imv, bk, vj = forces(x, j, end)
+        M_w = M_c * (F_w if gust_moment else w_mean)
+        out = np.empty_like(x)
+        out[0] = r
+        if saturating:
+            out[2] = (F_f + F_r + F_w) * np.cos(beta) * imv - r + bk
+            out[3] = vj * np.sin(psi + beta) if course else vj * np.sin(psi)
+        else:
+            out[2] = (F_f + F_r + F_w) * imv - r + bk
+            out[3] = vj * np.sin(psi + beta) if course else vj * psi
+        if v_half is not None:
+            out[2] -= v_dot_half[j] / vj * (np.sin(beta) if saturating else beta)
+        out[1] = (l_f * F_f - l_r * F_r + M_w) * inv_Iz
+        if lag > 0:
+            out[4] = (u - d) / lag
+        return out
+
+    rhs.a_y = a_y
+    return rhs
+
+
+def rk4_left_limit(rhs, x0, h: float, n_steps: int, every: int) -> np.ndarray:
+    """Classical RK4 with the inputs on the half-step grid; the last stage of a step sees the
+    inputs' limit from the left (``rhs(x, j, end=True)``).
+
+    Parameters
+    ----------
+    rhs : callable
+        f(x, j, end) of :func:`reality_rhs`.
+    x0 : ndarray, shape (d, n)
+        Initial state.
+    h : float
+        Step (s).
+    n_steps, every : int
+        Steps, and the stride of the returned states.
+
+    Returns
+    -------
+    ndarray, shape (n_steps // every + 1, d, n)
+    """
+    out = np.empty((n_steps // every + 1,) + x0.shape)
+    out[0] = x = x0
+    for k in range(n_steps):
+        j = 2 * k
+        k1 = rhs(x, j)
+        k2 = rhs(x + 0.5 * h * k1, j + 1)
+        k3 = rhs(x + 0.5 * h * k2, j + 1)
+        k4 = rhs(x + h * k3, j + 2, True)
+        x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        if (k + 1) % every == 0:
+            out[(k + 1) // every] = x
+    return out
