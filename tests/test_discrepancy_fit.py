@@ -98,6 +98,8 @@ class _Analytic:
     A mu_mean + B l_f_mean + C mid + D a_lat and sqrt((A mu_std)^2 + (B l_f_std)^2 + (C hw / sqrt 3)^2).
     ``spun``: realisations given |beta| = 1e4 (beyond the threshold 1e5 of the tests; the others stay below 1e4)."""
 
+    channels, spin_row = ("psi", "psi_dot", "beta", "y"), 2  # the four states; beta flags lost control
+
     def __init__(self, n=40, T=12, spun=()):
         rng = np.random.default_rng(5)
         q, _ = np.linalg.qr(np.column_stack([np.ones(n), rng.standard_normal((n, 3))]))
