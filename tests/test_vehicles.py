@@ -313,11 +313,12 @@ def test_write_outputs_creates_parents_and_removes_them_on_failure(tmp_path, mon
     import uqdrive.plots.discrepancy as plots
     from uqdrive.cli.discover import write_outputs
 
-    monkeypatch.setattr(plots, "bands_before_after", lambda *a: plt.figure())
-    monkeypatch.setattr(plots, "localisation_map", lambda *a: plt.figure())
+    monkeypatch.setattr(plots, "bands_before_after", lambda *a, **k: plt.figure())
+    monkeypatch.setattr(plots, "localisation_map", lambda *a, **k: plt.figure())
 
     class Finder:
         time_ = measured_ = None
+        channels_ = ("psi", "psi_dot", "beta", "y")
         baseline_ = augmented_ = band_ = type("S", (), {"statistics_": None, "z_": None, "threshold": None})()
         fail = False
 
