@@ -146,15 +146,15 @@ def _running_slurm_jobs(log, max_age=None):
         return []
     out = subprocess.run(["squeue", "-h", "-t", "R", "-n", uuid, "-o", "%i %M"], capture_output=True, text=True).stdout
     jobs = [line.split() for line in out.splitlines() if line.strip()]
-    return [jobid for jobid, elapsed in jobs if max_age is None or _clock_seconds(elapsed) <= max_age]
+    return [jobid for jobid, elapsed in jobs if max_age is None or clock_seconds(elapsed) <= max_age]
 
 
-def _clock_seconds(elapsed):
-    """squeue's %M ([D-][H:]M:SS) in seconds."""
-    days, _, clock = elapsed.rpartition("-")
-    seconds = 0
+def clock_seconds(value):
+    """A Slurm duration (squeue's %M, sacct's Elapsed: [D-][HH:]MM:SS[.s]) in seconds."""
+    days, _, clock = value.rpartition("-")
+    seconds = 0.0
     for part in clock.split(":"):
-        seconds = 60 * seconds + int(part)
+        seconds = 60 * seconds + float(part)
     return (int(days) if days else 0) * 86400 + seconds
 
 

@@ -26,7 +26,7 @@ import pytest
 import yaml
 
 from conftest import REPO
-from dag_runs import SLURM_PROFILE, SLURM_SCRIPT, TEST_CONFIG, slurm_command, slurm_jobids
+from dag_runs import SLURM_PROFILE, SLURM_SCRIPT, TEST_CONFIG, clock_seconds, slurm_command, slurm_jobids
 
 pytestmark = pytest.mark.workflow
 
@@ -61,15 +61,6 @@ def _mb(value):
     value = value.rstrip("nc")
     scale = {"K": 1 / 1024, "M": 1.0, "G": 1024.0, "T": 1024.0**2}
     return float(value[:-1]) * scale[value[-1]] if value[-1] in scale else float(value) / 2**20
-
-
-def _seconds(value):
-    """A sacct duration ([D-]HH:MM:SS or MM:SS.s) in seconds."""
-    days, _, clock = value.rpartition("-")
-    parts = [float(p) for p in clock.split(":")]
-    while len(parts) < 3:
-        parts.insert(0, 0.0)
-    return (int(days) if days else 0) * 86400 + parts[0] * 3600 + parts[1] * 60 + parts[2]
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +136,7 @@ def test_each_job_used_less_memory_and_time_than_it_declared(slurm_runs):
     assert jobs
     table, over = [], []
     for jobid, job in sorted(jobs.items(), key=lambda item: int(item[0])):
-        declared_mb, used_s, limit_s = _mb(job["ReqMem"]), _seconds(job["Elapsed"]), _seconds(job["Timelimit"])
+        declared_mb, used_s, limit_s = _mb(job["ReqMem"]), clock_seconds(job["Elapsed"]), clock_seconds(job["Timelimit"])
         table.append(f"{jobid:>5} {job['Comment'][:60]:<60} {job['peak']:7.0f} of {declared_mb:6.0f} MB {used_s:5.0f} of {limit_s:5.0f} s")
         if job["peak"] > declared_mb or used_s > limit_s:
             over.append(table[-1])
