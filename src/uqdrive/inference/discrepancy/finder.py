@@ -18,8 +18,9 @@ from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, resolvable, testable
-from .fit import StructureFit, gauss_newton_chi2, known_theta
+from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
+from .ranking import screen
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
 
@@ -253,9 +254,7 @@ class DiscrepancyFinder:
             pool = [c for c in self.candidates_ if c not in names]
             if not pool:
                 break
-            anchors, t_screen = self._anchors(cur), _time.perf_counter()
-            screening = self._screen(ctx, cur, pool, anchors)
-            t_screen = _time.perf_counter() - t_screen
+            screening = self._screen(ctx, cur, pool)
             # on a non-linear model: the best-ranked linear candidate, finished if its short fit pays
             linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if cur.structure_.nonlinear else self.top]
             tried = linear + [c for c in pool if self._nonlinear(c)]  # non-linear ones always fitted jointly
@@ -275,8 +274,7 @@ class DiscrepancyFinder:
             step = len(self.steps_)
             if step == 0:
                 self.fits_, self.screening_ = fits, screening
-            lap(f"step_{step + 1}", f" (screened {len(pool)} at {', '.join(anchors)} in {t_screen:.1f} s, fitted "
-                                    f"{', '.join(c + ('@' + screening[c]['anchor'] if c in linear and screening[c]['anchor'] != 'current' else '') for c in tried)})")
+            lap(f"step_{step + 1}", f" (screened {len(pool)}, fitted {', '.join(tried)})")
             margin, per_param = self._criterion(cur_band)
             prev_gap = excess_rms(cur.z_, cur_band)
             chosen, best = None, min(fits, key=lambda c: self._chi2(fits[c]))
@@ -305,8 +303,7 @@ class DiscrepancyFinder:
             self.steps_.append({"name": chosen, "fit": fc, "band": after_band, "band_kind": which, "explains": bool(explains),
                                 "gap_after": gap, "ambiguous": sorted({family_of(c) for c in tie} - {family_of(chosen)}),
                                 "candidates": {c: round(self._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: self._chi2(kv[1]))},
-                                "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]]
-                                              for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])}})
+                                "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]] for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])}})
             names.append(chosen)
             values = {k: list(v) for k, v in fc.effect.split(fc.effect_values_).items()}
             cur, cur_band, explained = fc, after_band, explains
@@ -370,55 +367,21 @@ class DiscrepancyFinder:
         set turned one excluded realisation into a kept one and multiplied beta's std misfit)."""
         return sim.with_germs(self._raw_germs.head(self.nonlinear_samples)) if structure.nonlinear else sim
 
-    def _screen(self, ctx, cur, pool, anchors=None):
-        """Rank the candidates by what their joint fit (distributions and added effects free)
-        would reach: a cheap score per candidate, its parameters and where the joint fit starts.
-
-        Each linear candidate's own parameters are fitted on top of ``cur`` (its effects held, a
-        non-linear tyre linearised) with the distributions held at each of ``anchors`` (label ->
-        theta; default ``cur``'s). At the current distributions the score is the chi2 one
-        Gauss-Newton step of the joint fit would reach from that held fit (:func:`.fit.gauss_newton_chi2`,
-        ``cur``'s Jacobian for the parameters already fitted): holding them alone ranks out an
-        effect they have absorbed (after an addition the joint refit widens the mean-wind range
-        to stand in for stronger gusts, or lowers mu to stand in for a roll steer, and the
-        candidate then lowers the held chi2 by nothing while the joint fit closes most of the
-        gap). At another anchor the score is the held chi2, a point the joint fit can reach.
-        The best score counts and the joint fit starts from its held fit (``theta``, ``values``).
-        """
-        anchors = {"current": cur.theta_} if anchors is None else anchors
-        fitted = cur.jacobian_ * (cur.scale_.ravel()[:, None] if cur.jacobian_.size else 1.0)  # d statistics / d parameters
-        at = np.concatenate([cur.theta_, cur.effect_values_]) if fitted.size else np.zeros(0)
-        lo, hi = cur.parameter_bounds
-        out = {}
-        for name in pool:
-            if self._nonlinear(name):
-                start = [self.config["tyre"]["E"]] if name == "tyre_saturation" else list(EFFECTS[name].start)
-                out[name] = {"chi2": float("nan"), "held": float("nan"), "values": np.asarray(start, float), "theta": cur.theta_, "anchor": "current"}
-                continue
-            base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
-            structure = EFFECTS[name].augment(base, EFFECTS[name].start)
-            scale = self._scale_for(structure, ctx.n)
-            for label, theta in anchors.items():
-                f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
-                                 fit_theta=False, max_nfev=40)
-                f.fit(self.measured_, scale, theta)
-                score = f.chi2_
-                if label == "current" and fitted.size:
-                    c_lo, c_hi = f.parameter_bounds
-                    score = gauss_newton_chi2(f.z_.ravel(), np.hstack([fitted / scale.ravel()[:, None], f.jacobian_]),
-                                              np.concatenate([lo - at, c_lo - f.effect_values_]), np.concatenate([hi - at, c_hi - f.effect_values_]))
-                if name not in out or score < out[name]["chi2"]:
-                    out[name] = {"chi2": score, "held": f.chi2_, "values": f.effect_values_, "theta": f.theta_, "anchor": label}
-        return out
-
-    def _anchors(self, cur):
-        """The distributions at which candidates are screened: the current estimate and the
-        start (the prior, or the start model's), the one estimate no misfit has bent."""
-        out = {"current": np.asarray(cur.theta_, float)}
+    def _screen(self, ctx, cur, pool):
+        """Rank the candidates by the prediction of their joint fit (:func:`.ranking.screen`), held at ``cur``'s distributions
+        and at the start's (the prior or the start model's, the one estimate no misfit has bent), a non-linear tyre linearised."""
         start = np.asarray(self._start()[0], float)
-        if not np.allclose(start, out["current"], rtol=1e-9, atol=1e-12):
-            out["start"] = start
-        return out
+        anchors = {"current": np.asarray(cur.theta_, float), **({} if np.allclose(start, cur.theta_, rtol=1e-9, atol=1e-12) else {"start": start})}
+        base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
+
+        def held(name, theta):
+            structure = EFFECTS[name].augment(base, EFFECTS[name].start)
+            f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
+                             fit_theta=False, max_nfev=40)
+            return f.fit(self.measured_, self._scale_for(structure, ctx.n), theta)
+
+        fixed = {c: [self.config["tyre"]["E"]] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if self._nonlinear(c)}
+        return screen(cur, pool, anchors, held, fixed)
 
     def _probe(self, ctx, theta, names, values):
         """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the prior's distributions, the better one: a linear

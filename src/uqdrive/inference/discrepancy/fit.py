@@ -8,14 +8,14 @@ that is comparable across candidate effects; trust-region least squares with bou
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares, lsq_linear
+from scipy.optimize import least_squares
 
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from ...vehicle.uncertainty import known_quantities
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit", "gauss_newton_chi2", "known_theta"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit", "known_theta"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
 THETA_BOUNDS = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
@@ -33,47 +33,6 @@ def known_theta(config) -> dict[int, float]:
             i, j = where[name]
             out.update({i: value, j: value if name == "F_w_mean" else 0.0})
     return out
-
-
-def gauss_newton_chi2(z, jacobian, lower=None, upper=None) -> float:
-    """The chi2 one Gauss-Newton step reaches: min over d of |z + J d|^2, lower <= d <= upper.
-
-    The first-order prediction of a least-squares fit of all of J's parameters from the point
-    with standardised residuals z (the Gauss-Newton model, Nocedal & Wright (10.23), with the
-    parameters' bounds as bounds on the step: a parameter on its bound moves away from it only).
-    With J the Jacobian of the distributions, the effects already fitted and a new candidate's
-    parameters it predicts how far a joint fit lowers chi2 (the score test's measure): the
-    parameters the candidate is confounded with move along, their share of its signature
-    projected out.
-
-    Parameters
-    ----------
-    z : ndarray, shape (M,)
-        Standardised residuals (-) at the point.
-    jacobian : ndarray, shape (M, p)
-        d z / d parameters there; all-zero columns (known parameters) are left out, the others
-        normalised (the prediction does not depend on the parameters' units).
-    lower, upper : ndarray, shape (p,), optional
-        Bounds of the step (parameter bound minus value, in the parameters' units); default
-        unbounded.
-
-    Returns
-    -------
-    float
-        min |z + J d|^2 over the allowed steps, at most |z|^2.
-    """
-    z, jac = np.asarray(z, float), np.asarray(jacobian, float)
-    p = jac.shape[1]
-    lower = np.full(p, -np.inf) if lower is None else np.minimum(np.asarray(lower, float), 0.0)
-    upper = np.full(p, np.inf) if upper is None else np.maximum(np.asarray(upper, float), 0.0)
-    norm = np.linalg.norm(jac, axis=0)
-    keep = norm > 0
-    if not keep.any():
-        return float(z @ z)
-    jac, norm = jac[:, keep] / norm[keep], norm[keep]
-    step = lsq_linear(jac, -z, bounds=(lower[keep] * norm, upper[keep] * norm), method="bvls")
-    r = z + jac @ step.x
-    return float(min(r @ r, z @ z))
 
 
 class StructureFit:
