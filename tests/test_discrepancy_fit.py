@@ -286,6 +286,8 @@ def test_forward_selection_names_an_effect_the_distributions_absorbed(config):
     assert bank["held"] > gust["held"] and bank["chi2"] < gust["chi2"]  # held: the gusts first; predicted jointly: the bank
     assert bank["chi2"] == pytest.approx(f.fits_["road_bank"].chi2_, rel=1e-3)  # the prediction is what the joint fit reaches
     assert [s["name"] for s in f.steps_] == ["road_bank", "wind_gust"]
+    # exact moments: only the joint fit's convergence (60 evaluations, gust within 1e-4) limits the estimates;
+    # the spreads of mu and l_f are not checked, the gusts' variance and theirs trade on these 12 times
     np.testing.assert_allclose(final.effect_values_, [2.0, 6.0], rtol=1e-3)
     np.testing.assert_allclose(final.theta_[[0, 2, 4, 5]], TRUTH[[0, 2, 4, 5]], rtol=1e-3)
     assert final.chi2_ < 1e-3
