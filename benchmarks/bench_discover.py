@@ -10,6 +10,7 @@ no beta, no y); the model is the linear single-track model along the measured sp
 `--samples` sets the run count (default 1000)."""
 
 import json
+import resource
 import subprocess
 import sys
 import tempfile
@@ -47,15 +48,17 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         measured = Path(tmp) / "measured.nc"
         write_dataset(generate(config, case, channels=channels), measured)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
         subprocess.run([sys.executable, "-m", "uqdrive.cli.main", "discover", str(measured), "--out", str(Path(tmp) / "out")], check=True)
-        wall = time.perf_counter() - t0
+        wall, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (c1.ru_utime + c1.ru_stime) - (c0.ru_utime + c0.ru_stime)  # the discover process's CPU time: less sensitive to the machine's load than wall time
         verdict = json.loads((Path(tmp) / "out" / "verdict.json").read_text())
     stages = verdict["evidence"]["stage_seconds"]
     post = verdict.get("posterior")
     named = [e["effect"] for e in verdict["effects"]] or [verdict["effect"]]
-    print(f"discover, {args.samples} samples, {args.case} ({', '.join(channels)}): {wall:.1f} s wall (budget {BUDGET:.0f} s, ratio {wall / BUDGET:.2f}); "
-          f"effects {named}, parameters {verdict['parameters']}, untestable {[u['effect'] for u in verdict.get('untestable', [])]}, stages {stages}")
+    print(f"discover, {args.samples} samples, {args.case} ({', '.join(channels)}): {wall:.1f} s wall, {cpu:.1f} s CPU (budget {BUDGET:.0f} s, ratio {wall / BUDGET:.2f}); "
+          f"effects {named}, gap {verdict['gap_before']} -> {verdict['gap_after']}, "
+          f"parameters {[e['parameters'] for e in verdict['effects']]}, untestable {[u['effect'] for u in verdict.get('untestable', [])]}, stages {stages}")
     if post:  # the optional emcee posterior (config discrepancy.posterior) is part of the wall time above
         print(f"  of which the emcee posterior: {stages.get('posterior', float('nan')):.1f} s (without it {wall - stages.get('posterior', 0.0):.1f} s); "
               f"mu mean {post['mu_mean'][0]:.4f} [{post['mu_mean'][1]:.4f}, {post['mu_mean'][2]:.4f}], "

@@ -85,6 +85,10 @@ def main(argv=None):
     ap.add_argument("--no-discover", action="store_true", help="only generate the data")
     ap.add_argument("--quick", action="store_true", help=f"discover with the reduced settings {QUICK} (about 4x faster)")
     ap.add_argument("--table", action="store_true", help="print the results table of the verdicts in --out and exit")
+    ap.add_argument("--channels", default=None,
+                    help="comma-separated measured channels written to the data (default: all the generator records, "
+                         "psi, psi_dot, beta, y, a_y); the numerically integrated chassis candidates simulate no a_y, so they "
+                         "are fitted only on files without it, e.g. --channels psi,psi_dot,beta,y")
     args = ap.parse_args(argv)
     out = args.out
     if args.table:
@@ -111,7 +115,11 @@ def main(argv=None):
         data = out / "data" / f"{tag}.nc"
         if not data.exists():
             amplitude = amplitude_for(config, car, case, limit)
-            write_dataset(generate(config, case, amplitude, car), data)
+            ds = generate(config, case, amplitude, car)
+            if args.channels:
+                keep_channels = set(args.channels.split(","))
+                ds = ds.drop_vars([v for v in ds.data_vars if v != "delta" and v not in keep_channels])
+            write_dataset(ds, data)
             (out / "labels" / f"{tag}.json").write_text(json.dumps(case_label(case, amplitude, limit, car), indent=1))
         row = {"case": tag, "name": case.name}
         if not args.no_discover:

@@ -20,6 +20,7 @@ from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, resolvable, testable
 from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
+from .ranking import screen
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
 
@@ -258,9 +259,9 @@ class DiscrepancyFinder:
             linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if cur.structure_.nonlinear else self.top]
             tried = linear + [c for c in pool if self._nonlinear(c)]  # non-linear ones always fitted jointly
             fits, (margin, per_param) = {}, self._criterion(cur_band)
-            for c in linear:
+            for c in linear:  # each from the distributions where its screening was best
                 budget = PROBE_NFEV if cur.structure_.nonlinear else None
-                fits[c] = self._joint(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
+                fits[c] = self._joint(ctx, screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
                 if budget and self._chi2(cur) - self._chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
                     start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
                     fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
@@ -301,7 +302,8 @@ class DiscrepancyFinder:
             tie = [c for c in fits if c != chosen and self._chi2(fits[c]) - self._chi2(fc) <= margin]
             self.steps_.append({"name": chosen, "fit": fc, "band": after_band, "band_kind": which, "explains": bool(explains),
                                 "gap_after": gap, "ambiguous": sorted({family_of(c) for c in tie} - {family_of(chosen)}),
-                                "candidates": {c: round(self._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: self._chi2(kv[1]))}})
+                                "candidates": {c: round(self._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: self._chi2(kv[1]))},
+                                "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]] for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])}})
             names.append(chosen)
             values = {k: list(v) for k, v in fc.effect.split(fc.effect_values_).items()}
             cur, cur_band, explained = fc, after_band, explains
@@ -366,21 +368,20 @@ class DiscrepancyFinder:
         return sim.with_germs(self._raw_germs.head(self.nonlinear_samples)) if structure.nonlinear else sim
 
     def _screen(self, ctx, cur, pool):
-        """Each linear candidate's own parameters fitted on top of ``cur`` (distributions and
-        effects held; a non-linear tyre linearised): a cheap ranking of which to fit jointly."""
-        out = {}
-        for name in pool:
-            if self._nonlinear(name):
-                start = [self.config["tyre"]["E"]] if name == "tyre_saturation" else list(EFFECTS[name].start)
-                out[name] = {"chi2": float("nan"), "values": np.asarray(start, float)}
-                continue
-            base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
+        """Rank the candidates by the prediction of their joint fit (:func:`.ranking.screen`), held at ``cur``'s distributions
+        and at the start's (the prior or the start model's, the one estimate no misfit has bent), a non-linear tyre linearised."""
+        start = np.asarray(self._start()[0], float)
+        anchors = {"current": np.asarray(cur.theta_, float), **({} if np.allclose(start, cur.theta_, rtol=1e-9, atol=1e-12) else {"start": start})}
+        base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
+
+        def held(name, theta):
             structure = EFFECTS[name].augment(base, EFFECTS[name].start)
             f = StructureFit(self._sim_for(ctx.sim, structure), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
                              fit_theta=False, max_nfev=40)
-            f.fit(self.measured_, self._scale_for(structure, ctx.n), cur.theta_)
-            out[name] = {"chi2": f.chi2_, "values": f.effect_values_}
-        return out
+            return f.fit(self.measured_, self._scale_for(structure, ctx.n), theta)
+
+        fixed = {c: [self.config["tyre"]["E"]] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if self._nonlinear(c)}
+        return screen(cur, pool, anchors, held, fixed)
 
     def _probe(self, ctx, theta, names, values):
         """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the prior's distributions, the better one: a linear
