@@ -20,22 +20,15 @@ wind_gust              factor on the config's gust std wind.sigma
 lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
 sensor_bias            offset added to the measured ``channel`` (its SI unit)
 sensor_scale           gain on the measured ``channel``
-longitudinal_load_     centre-of-gravity height h (m) of the load moved between the axles by the
-transfer               body's longitudinal acceleration, F_zf = m (g l_r - a_x h) / L
-lateral_load_transfer  load sensitivity p_Dz (-) of each wheel's peak, with the roll moment's
-                       transfer split 0.55 : 0.45 front : rear (vehicle.cg_height, track_width)
-compliance_steer       K (deg/g): the front wheels turn out of the turn by K per g of the front
-                       axle's lateral force over its static mass share
+longitudinal_load_tr.  cg height h (m) of the load the body's a_x moves: F_zf = m (g l_r - a_x h) / L
+lateral_load_transfer  each wheel's load sensitivity p_Dz (-); transfer h m a_y / t, 0.55 of it front
+compliance_steer       K (deg/g): front steer -K per g of the front force over its static mass share
 tyre_relaxation        relaxation length sigma (m) of both axles' slip angles
 =====================  ==========================================================================
 
-The chassis effects (:data:`CHASSIS_EFFECTS`, equations in :mod:`.hidden.chassis`) give each
-wheel a peak mu F_zw (1 + p_Dz dfz) and its tyre the slope B C times it (a linear tyre whose
-cornering stiffness follows its load; with tyre_saturation the Magic Formula on that peak): load
-transfer then changes the axle forces, by the loads' shift alone for the longitudinal one
-(stiffness proportional to load), by p_Dz (dF / F_z0)^2 of the axle's force for the lateral one.
-Their cases are part of the benchmark when discover may name them (every chassis effect of the
-case among ``discrepancy.candidates``).
+The chassis effects (:data:`CHASSIS_EFFECTS`; :mod:`.hidden.chassis`) give each tyre the slope
+B C D of its wheel's load-dependent peak D; their cases are in the benchmark when discover may
+name them (each chassis effect of the case among ``discrepancy.candidates``).
 
 The command is either a smooth function of time (``hold: linear``) or its samples on the output
 grid held between samples (``hold: previous``, a zero-order hold as a digital controller sends
@@ -280,10 +273,9 @@ def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=N
     """
     kle = wind_kle(config) if kle is None else kle
     draws = draw_realisations(config, case, kle) if draws is None else draws
-    speed_max = float(config["vehicle"]["speed_kmh"]) / 3.6 if not case.speed else float(np.max(speed_of_case(config, case, np.array([0.0]))[0]))
-    sigma = case.size("tyre_relaxation")
-    # a slip lag's time constant sigma / v spans at least two RK4 steps (|h lambda| <= 0.5: RK4 error ~ 3e-4 a step)
-    t, h, substeps = _time_grid(config, min(MAX_STEP, 0.5 * sigma / speed_max) if sigma > 0 else MAX_STEP)
+    sigma, v_max = case.size("tyre_relaxation"), float(speed_of_case(config, case, np.zeros(1))[0][0])  # the speed at the start
+    # a slip lag's time constant sigma / v spans at least two RK4 steps (|h lambda| <= 0.5)
+    t, h, substeps = _time_grid(config, min(MAX_STEP, 0.5 * sigma / v_max) if sigma > 0 else MAX_STEP)
     n_steps = (t.size - 1) * substeps
     t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
     sigma = float(config["wind"]["sigma"]) * case.size("wind_gust", 1.0)
@@ -388,16 +380,11 @@ def _case_tables() -> dict:
 
 def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
-    every effect but the chassis ones at two magnitudes on manoeuvres other than the thesis slalom,
-    six combined cases (two or three effects at once), three ``none`` cases with a held
-    (zero-order-hold) pulse or step at 300 realisations or fewer, the chassis cases (each chassis
-    effect alone, and with others) whose chassis effects are all among the config's
-    ``discrepancy.candidates``, and "thesis_nlst", the thesis' own NLST reality
-    (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
-
-    Seeds: the root seed + 101 + the case's position in the tables' order (single, combined,
-    held_null, chassis, chassis_combined), whether or not a chassis case is included; new cases
-    go at the end of the last table so that no case's seed moves.
+    every other effect but the chassis ones at two magnitudes off the thesis slalom, six combined
+    cases, three ``none`` cases with a held pulse or step at 300 realisations or fewer, the chassis
+    cases whose chassis effects are all in ``discrepancy.candidates``, and "thesis_nlst", the
+    thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
+    Seeds: root + 101 + the position in the tables' order, included or not (new cases go last).
 
     Parameters
     ----------
