@@ -70,7 +70,7 @@ AMPLITUDE_EFFECTS = ("tyre_saturation", "lateral_kinematics")  # magnitude = ste
 #: Unit of each effect's magnitude (the table of the module docstring); sensor effects: the channel's.
 MAGNITUDE_UNITS = {"none": "-", "tyre_saturation": "deg", "actuator_lag": "s", "actuator_delay": "s", "road_bank": "deg",
                    "wind_gust": "x sigma", "lateral_kinematics": "deg", "sensor_bias": "channel unit", "sensor_scale": "gain",
-                   "longitudinal_load_transfer": "m", "lateral_load_transfer": "p_Dz", "compliance_steer": "deg/g",
+                   "longitudinal_load_transfer": "m", "lateral_load_transfer": "-", "compliance_steer": "deg/g",
                    "tyre_relaxation": "m"}
 SENSOR_EFFECTS = ("sensor_bias", "sensor_scale")
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
