@@ -17,6 +17,7 @@ runs (docs/discovery.md: 400 model and 150 non-linear realisations, 100 replicat
 times, no posterior). Each named effect is printed with its 95 % intervals and the gap after it."""
 
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -51,6 +52,7 @@ def main(argv=None):
     parser.add_argument("--samples", type=int, default=1000)
     parser.add_argument("--chassis", action="store_true", help="add the car's cg_height, track_width and the chassis candidates")
     parser.add_argument("--quick", action="store_true", help="reduced discover settings (docs/discovery.md), no posterior")
+    parser.add_argument("--keep", type=Path, help="copy discover's output folder (verdict.json, figures) to this new folder")
     args = parser.parse_args(argv)
     config = load_config(None)
     if args.chassis:
@@ -73,6 +75,8 @@ def main(argv=None):
                        check=True)
         wall = time.perf_counter() - t0
         verdict = json.loads((Path(tmp) / "out" / "verdict.json").read_text())
+        if args.keep:
+            shutil.copytree(Path(tmp) / "out", args.keep)
     stages = verdict["evidence"]["stage_seconds"]
     post = verdict.get("posterior")
     named = [e["effect"] for e in verdict["effects"]] or [verdict["effect"]]
