@@ -8,23 +8,23 @@ mu, m_load, l_f and mean wind, KLE gusts (yaw moment M_c F_w as in the Monte Car
 and white measurement noise, plus switchable effects, each with a magnitude (one, or several at
 once in a combined case):
 
-=====================  ==========================================================================
-effect                 magnitude
-=====================  ==========================================================================
-none                   0 (the model itself: the null case)
-tyre_saturation        steering amplitude (deg); NLST of the thesis: Magic-Formula tyres
-actuator_lag           time constant T (s) of a first-order steering lag
-actuator_delay         pure steering delay tau (s)
-road_bank              bank angle phi (deg): lateral force m g sin(phi), no yaw moment
-wind_gust              factor on the config's gust std wind.sigma
-lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
-sensor_bias            offset added to the measured ``channel`` (its SI unit)
-sensor_scale           gain on the measured ``channel``
-longitudinal_load_tr.  cg height h (m) of the load the body's a_x moves: F_zf = m (g l_r - a_x h) / L
-lateral_load_transfer  each wheel's load sensitivity p_Dz (-); transfer h m a_y / t, 0.55 of it front
-compliance_steer       K (deg/g): front steer -K per g of the front force over its static mass share
-tyre_relaxation        relaxation length sigma (m) of both axles' slip angles
-=====================  ==========================================================================
+==========================  ========================================================================
+effect                      magnitude
+==========================  ========================================================================
+none                        0 (the model itself: the null case)
+tyre_saturation             steering amplitude (deg); NLST of the thesis: Magic-Formula tyres
+actuator_lag                time constant T (s) of a first-order steering lag
+actuator_delay              pure steering delay tau (s)
+road_bank                   bank angle phi (deg): lateral force m g sin(phi), no yaw moment
+wind_gust                   factor on the config's gust std wind.sigma
+lateral_kinematics          steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
+sensor_bias                 offset added to the measured ``channel`` (its SI unit)
+sensor_scale                gain on the measured ``channel``
+longitudinal_load_transfer  cg height h (m) of the load the body's a_x moves: F_zf = m (g l_r - a_x h) / L
+lateral_load_transfer       each wheel's load sensitivity p_Dz (-); transfer h m a_y / t, 0.55 of it front
+compliance_steer            K (deg/g): front steer -K per g of the front force over its static mass share
+tyre_relaxation             relaxation length sigma (m) of both axles' slip angles
+==========================  ========================================================================
 
 The chassis effects (:data:`CHASSIS_EFFECTS`; :mod:`.hidden.chassis`) give each tyre the slope
 B C D of its wheel's load-dependent peak D; their cases are in the benchmark when discover may
