@@ -58,6 +58,10 @@ autosummary_ignore_module_all = True
 autodoc_default_options = {"members": True, "undoc-members": True, "member-order": "bysource", "show-inheritance": True}
 autodoc_typehints = "none"  # the numpydoc sections state the types, with shapes and units
 
+# No ToC entry per documented object: furo puts the whole toctree, objects included, into every
+# page's navigation, which made writing the 100 pages take 80 % of the build (a table of the
+# module's classes and functions heads each API page instead: docs/_templates/autosummary).
+toc_object_entries = False
 numpydoc_show_class_members = False  # autodoc's :members: documents methods once
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False

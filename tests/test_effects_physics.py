@@ -193,3 +193,52 @@ def test_chassis_loads_stay_physical_when_a_realisation_spins(config):
     assert np.all(np.isfinite(P)) and np.all(P >= 0.0)
     sim, _ = _simulator(config, lambda t: np.deg2rad(10.0) * (t >= 0.2), t_end=4.0)
     assert np.all(np.isfinite(sim.simulate([1.0, 0.0, 1.55, 0.0, 0.0, 0.0], s)))
+
+
+def test_chassis_a_y_is_the_specific_force_of_the_lagged_tyres_and_the_wind(config):
+    """a_y of the chassis model, (F_f cos delta + F_r + F_w) / m, against the same force read off
+    the right-hand side's beta_dot, (beta_dot + psi_dot) v / cos(beta) (no bank), at random states
+    with relaxing tyres (their lagged slip angles away from the steady ones), load transfer and
+    wind: equal to rounding (1e-9 m/s^2). Without the wind, the cos delta, or with the steady slip
+    angles in place of the lagged ones the two differ by 1e-2 m/s^2 or more."""
+    from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
+
+    rng = np.random.default_rng(3)
+    n = 50
+    s = _saturating(lateral_load_transfer=[0.6, -0.3], tyre_relaxation=[0.5])
+    p = VehicleParameters.from_config(config, mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
+    F_w = rng.uniform(-800.0, 800.0, (3, n))
+    rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), F_w, True, np.zeros(n), H, T_W)
+    x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.3, n), rng.normal(0, 0.03, n), rng.normal(0, 1, n),
+                   rng.normal(0, 0.05, (2, n))])
+    out = np.empty_like(x)
+    rhs(x, 1, out)
+    from_beta_dot = (out[2] + x[1]) * V / np.cos(x[2])
+    a_y = rhs.lateral_acceleration(x, 1)
+    np.testing.assert_allclose(a_y, from_beta_dot, rtol=0, atol=1e-9)
+    q_steady, _ = rhs.steady_slip(x, 1)
+    assert np.abs(rhs.tyre_forces(q_steady, x[1], x[2]) - rhs.tyre_forces(x[4:6], x[1], x[2])).sum(0).max() / p.m > 1e-2
+
+
+def test_a_chassis_model_records_a_y_beside_its_states(config):
+    """On a file with a_y, a chassis candidate (tyre relaxation) is simulated with it: the
+    states equal those of the four-channel simulation bit for bit, and a_y follows the lateral
+    kinematics, v (beta_dot + psi_dot) / cos(beta) from the recorded states (central
+    differences on the 10 ms grid: agreement to 1e-3 of a_y's range)."""
+    from uqdrive.inference.discrepancy.effectset import testable
+    from uqdrive.vehicle.channels import CHANNELS
+
+    s = _saturating(tyre_relaxation=[0.5])
+    delta = lambda t: np.deg2rad(3.0) * np.sin(2 * np.pi * 0.5 * t)  # noqa: E731
+    sim4, t = _simulator(config, delta, t_end=3.0)
+    cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
+    sim5 = AugmentedSimulator.drawn(cfg, t, delta(t), V, 2, np.random.default_rng(0), channels=CHANNELS)
+    sim5.sigma = 0.0
+    x4, x5 = sim4.simulate(THETA, s), sim5.simulate(THETA, s)
+    assert x5.shape[0] == 5 and np.array_equal(x5[:4], x4)
+    psi_dot, beta, a_y = x5[1, 0], x5[2, 0], x5[4, 0]
+    kinematic = V * (np.gradient(beta, DT) + psi_dot) / np.cos(beta)
+    assert np.abs(a_y - kinematic)[2:-2].max() < 1e-3 * np.ptp(a_y)
+    keep, untestable = testable(["tyre_relaxation", "lateral_load_transfer"], CHANNELS, speed_profile=False)
+    assert keep == ["tyre_relaxation", "lateral_load_transfer"] and untestable == []
+    assert [u["effect"] for u in testable(["tyre_relaxation"], CHANNELS, speed_profile=True)[1]] == ["tyre_relaxation"]

@@ -7,8 +7,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "consecutive_slice",
@@ -41,6 +39,11 @@ def decoupled_blocks(pattern) -> list[np.ndarray]:
 
 @functools.lru_cache(maxsize=32)
 def _components(n, packed: bytes) -> tuple:
+    # Imported here: scipy.sparse costs ~0.4 s of CPU at import, and most workflow jobs (statistics,
+    # figures, scorecards) import this module through uqdrive.io without ever decoupling a model.
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
     pattern = np.unpackbits(np.frombuffer(packed, np.uint8), count=n * n).reshape(n, n).astype(bool)
     count, labels = connected_components(csr_matrix(pattern), directed=False)
     blocks = tuple(np.flatnonzero(labels == c) for c in range(count))

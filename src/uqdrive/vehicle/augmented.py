@@ -296,11 +296,9 @@ class AugmentedSimulator:
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
         exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
         a_y = None
-        if uses_chassis_terms(s) and s.nonlinear:
-            if self.speed is not None or "a_y" in self.channels:
-                raise ValueError("the chassis effects' model has no speed profile and no a_y output: leave the effect out")
-            x = self._rk4(p, wind, coeffs, delta, s)
-        elif self.speed is not None or s.nonlinear:
+        if uses_chassis_terms(s) and s.nonlinear and self.speed is not None:
+            raise ValueError("the chassis effects' model has no speed profile: leave the effect out")
+        if self.speed is not None or s.nonlinear:
             x, rhs, js = self._rk4(p, wind, coeffs, delta, s, with_rhs=True)
             a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
         else:
@@ -384,6 +382,8 @@ class AugmentedSimulator:
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
             speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
+            if uses_chassis_terms(s) and s.nonlinear and speed is None:  # every state (the lagged slip angles: a_y needs them)
+                return (*integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True), js)
             if not s.nonlinear:
                 rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js

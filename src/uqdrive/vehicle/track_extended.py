@@ -131,6 +131,25 @@ class ExtendedSingleTrackRHS:
         q[0] += delta
         return q, delta
 
+    def tyre_forces(self, q, psi_dot, beta):
+        """Lateral axle forces (2, n) (N) at slip angles ``q`` (2, n) (rad), on the loads of
+        :meth:`axle_loads`: Magic Formula or linear, as the structure's tyre."""
+        peak = self.axle_loads(psi_dot, beta) * self.mu
+        if self.saturating:
+            bx = self.B * q
+            return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
+        return peak * self.B * self.C * q
+
+    def lateral_acceleration(self, x, j: int):
+        """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
+        an accelerometer at the centre of gravity reads, (F_f cos delta + F_r + F_w) / m, with the
+        lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention)."""
+        q, delta = self.steady_slip(x, j)
+        if self.relaxed:
+            q = np.where(self.sigma > 0, x[4:6], q)
+        F = self.tyre_forces(q, x[1], x[2])
+        return (F[0] * np.cos(delta) + F[1] + self.F_w_half[j]) / self.m
+
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
@@ -139,12 +158,7 @@ class ExtendedSingleTrackRHS:
         if self.relaxed:
             out[4:6] = (q - x[4:6]) * (self.v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
             q = np.where(self.sigma > 0, x[4:6], q)
-        peak = self.axle_loads(psi_dot, beta) * self.mu
-        if self.saturating:
-            bx = self.B * q
-            F = peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
-        else:
-            F = peak * self.B * self.C * q
+        F = self.tyre_forces(q, psi_dot, beta)
         F_w = self.F_w_half[j]
         fc = F[0] * np.cos(delta)
         M_w = F_w * self.M_c if self.M_w is None else self.M_w
@@ -155,14 +169,19 @@ class ExtendedSingleTrackRHS:
 
 
 def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                      n_steps: int, record_every: int):
+                      n_steps: int, record_every: int, with_rhs: bool = False):
     """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
     RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track`, plus the config
-    whose vehicle section gives cg_height and track_width to the lateral load transfer."""
+    whose vehicle section gives cg_height and track_width to the lateral load transfer.
+
+    With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
+    right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
     h_t = (0.0, 1.0)
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
         h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
     rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
+    if with_rhs:
+        return out.transpose(1, 2, 0), rhs
     return out[:, :4].transpose(1, 2, 0)
