@@ -14,7 +14,8 @@ longitudinal_load_transfer, lateral_load_transfer, compliance_steer and tyre_rel
 puts the benchmark's chassis cases in reach of `--case` (e.g. `--chassis --case
 compliance_steer_05`). `--quick`: the reduced discover settings of the combined benchmark at 300
 runs (docs/discovery.md: 400 model and 150 non-linear realisations, 100 replicates, 80 compared
-times, no posterior). Each named effect is printed with its 95 % intervals and the gap after it."""
+times, no posterior). Each named effect is printed with its 95 % intervals and the gap after it;
+`--keep DIR` keeps discover's output folder (verdict.json with the evidence, figures)."""
 
 import json
 import shutil
