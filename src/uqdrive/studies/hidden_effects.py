@@ -8,19 +8,27 @@ mu, m_load, l_f and mean wind, KLE gusts (yaw moment M_c F_w as in the Monte Car
 and white measurement noise, plus switchable effects, each with a magnitude (one, or several at
 once in a combined case):
 
-=====================  ==========================================================================
-effect                 magnitude
-=====================  ==========================================================================
-none                   0 (the model itself: the null case)
-tyre_saturation        steering amplitude (deg); NLST of the thesis: Magic-Formula tyres
-actuator_lag           time constant T (s) of a first-order steering lag
-actuator_delay         pure steering delay tau (s)
-road_bank              bank angle phi (deg): lateral force m g sin(phi), no yaw moment
-wind_gust              factor on the config's gust std wind.sigma
-lateral_kinematics     steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
-sensor_bias            offset added to the measured ``channel`` (its SI unit)
-sensor_scale           gain on the measured ``channel``
-=====================  ==========================================================================
+==========================  ========================================================================
+effect                      magnitude
+==========================  ========================================================================
+none                        0 (the model itself: the null case)
+tyre_saturation             steering amplitude (deg); NLST of the thesis: Magic-Formula tyres
+actuator_lag                time constant T (s) of a first-order steering lag
+actuator_delay              pure steering delay tau (s)
+road_bank                   bank angle phi (deg): lateral force m g sin(phi), no yaw moment
+wind_gust                   factor on the config's gust std wind.sigma
+lateral_kinematics          steering amplitude (deg); y_dot = v sin(psi + beta) instead of v psi (or v sin psi)
+sensor_bias                 offset added to the measured ``channel`` (its SI unit)
+sensor_scale                gain on the measured ``channel``
+longitudinal_load_transfer  cg height h (m) of the load the body's a_x moves: F_zf = m (g l_r - a_x h) / L
+lateral_load_transfer       each wheel's load sensitivity p_Dz (-); transfer h m a_y / t, 0.55 of it front
+compliance_steer            K (deg/g): front steer -K per g of the front force over its static mass share
+tyre_relaxation             relaxation length sigma (m) of both axles' slip angles
+==========================  ========================================================================
+
+The chassis effects (:data:`CHASSIS_EFFECTS`; :mod:`.hidden.chassis`) give each tyre the slope
+B C D of its wheel's load-dependent peak D; their cases are in the benchmark when discover may
+name them (each chassis effect of the case among ``discrepancy.candidates``).
 
 The command is either a smooth function of time (``hold: linear``) or its samples on the output
 grid held between samples (``hold: previous``, a zero-order hold as a digital controller sends
@@ -45,23 +53,25 @@ from ..rng import rng_stream
 from ..vehicle.channels import CHANNEL_NAMES, CHANNEL_UNITS, CHANNELS
 from ..vehicle.single_track import STATES
 from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
-from .hidden.reality import reality_rhs, rk4_left_limit, speed_of_case
+from .hidden.reality import CHASSIS_EFFECTS, reality_rhs, rk4_left_limit, speed_of_case, state_size
 from .manoeuvres import MANOEUVRES, steering_command
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
+__all__ = ["CHASSIS_EFFECTS", "EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
            "simulate_states", "simulate_channels", "wind_kle"]
 
 EFFECTS = (
     "none", "tyre_saturation", "actuator_lag", "actuator_delay", "road_bank",
-    "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale",
+    "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale", *CHASSIS_EFFECTS,
 )
 AMPLITUDE_EFFECTS = ("tyre_saturation", "lateral_kinematics")  # magnitude = steering amplitude (deg)
 #: Unit of each effect's magnitude (the table of the module docstring); sensor effects: the channel's.
 MAGNITUDE_UNITS = {"none": "-", "tyre_saturation": "deg", "actuator_lag": "s", "actuator_delay": "s", "road_bank": "deg",
-                   "wind_gust": "x sigma", "lateral_kinematics": "deg", "sensor_bias": "channel unit", "sensor_scale": "gain"}
+                   "wind_gust": "x sigma", "lateral_kinematics": "deg", "sensor_bias": "channel unit", "sensor_scale": "gain",
+                   "longitudinal_load_transfer": "m", "lateral_load_transfer": "-", "compliance_steer": "deg/g",
+                   "tyre_relaxation": "m"}
 SENSOR_EFFECTS = ("sensor_bias", "sensor_scale")
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
 MAX_STEP = 0.005  # s, largest internal RK4 step
@@ -166,6 +176,12 @@ class HiddenEffectCase:
             raise ValueError(f"{self.name}: {self.effect} needs a magnitude > 0")
         if self.effect == "actuator_delay" and self.magnitude < 0:
             raise ValueError(f"{self.name}: actuator_delay needs a magnitude >= 0")
+        if self.effect in ("longitudinal_load_transfer", "tyre_relaxation") and self.magnitude <= 0:
+            raise ValueError(f"{self.name}: {self.effect} needs a magnitude > 0 (m)")
+        if self.effect == "lateral_load_transfer" and not -1.0 <= self.magnitude < 0.0:
+            raise ValueError(f"{self.name}: lateral_load_transfer's magnitude is the load sensitivity p_Dz, in [-1, 0)")
+        if self.effect == "compliance_steer" and self.magnitude == 0:
+            raise ValueError(f"{self.name}: compliance_steer needs a magnitude other than 0 (deg/g)")
         if self.samples < 1 or self.noise < 0:
             raise ValueError(f"{self.name}: samples >= 1 and noise >= 0 required")
 
@@ -205,10 +221,10 @@ def draw_realisations(config: Mapping[str, Any], case: HiddenEffectCase, kle: Ka
     return draws
 
 
-def _time_grid(config: Mapping[str, Any]):
-    """Output times, RK4 step h <= MAX_STEP dividing the output step, and the substeps."""
+def _time_grid(config: Mapping[str, Any], max_step: float = MAX_STEP):
+    """Output times, RK4 step h <= max_step dividing the output step, and the substeps."""
     t_end, dt = float(config["time"]["t_end"]), float(config["time"]["dt"])
-    substeps = int(np.ceil(dt / min(float(config["time"]["step"]), MAX_STEP) - 1e-9))
+    substeps = int(np.ceil(dt / min(float(config["time"]["step"]), max_step) - 1e-9))
     n_out = round(t_end / dt)
     return np.arange(n_out + 1) * dt, dt / substeps, substeps
 
@@ -257,7 +273,9 @@ def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=N
     """
     kle = wind_kle(config) if kle is None else kle
     draws = draw_realisations(config, case, kle) if draws is None else draws
-    t, h, substeps = _time_grid(config)
+    sigma, v_max = case.size("tyre_relaxation"), float(speed_of_case(config, case, np.zeros(1))[0][0])  # the speed at the start
+    # a slip lag's time constant sigma / v spans at least two RK4 steps (|h lambda| <= 0.5)
+    t, h, substeps = _time_grid(config, min(MAX_STEP, 0.5 * sigma / v_max) if sigma > 0 else MAX_STEP)
     n_steps = (t.size - 1) * substeps
     t_half = np.arange(2 * n_steps + 1) * (0.5 * h)
     sigma = float(config["wind"]["sigma"]) * case.size("wind_gust", 1.0)
@@ -267,10 +285,10 @@ def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=N
     delta_half = _actual_steering(case, t_half, dt)
     delta_left = _actual_steering(case, t_half, dt, left=True) if case.hold == "previous" else None
     n = np.shape(draws["mu"])[0]
-    x0 = np.zeros((5 if case.size("actuator_lag") > 0 else 4, n))
+    x0 = np.zeros((state_size(case), n))
     speed_half = speed_of_case(config, case, t_half) if case.speed else None
     rhs = reality_rhs(config, case, draws, delta_half, gust_half, delta_left, speed_half)
-    full = rk4_left_limit(rhs, x0, h, n_steps, substeps)  # (T, 4 or 5, n)
+    full = rk4_left_limit(rhs, x0, h, n_steps, substeps)  # (T, state_size, n)
     a_y = np.stack([rhs.a_y(full[k], 2 * k * substeps) for k in range(t.size)], axis=-1)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
     v = speed_of_case(config, case, t)[0]
@@ -362,10 +380,11 @@ def _case_tables() -> dict:
 
 def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> list[HiddenEffectCase]:
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
-    every effect at two magnitudes on manoeuvres other than the thesis slalom, six combined
-    cases (two or three effects at once), three ``none`` cases with a held (zero-order-hold)
-    pulse or step at 300 realisations or fewer, and "thesis_nlst", the thesis' own NLST reality
-    (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
+    every other effect but the chassis ones at two magnitudes off the thesis slalom, six combined
+    cases, three ``none`` cases with a held pulse or step at 300 realisations or fewer, the chassis
+    cases whose chassis effects are all in ``discrepancy.candidates``, and "thesis_nlst", the
+    thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
+    Seeds: root + 101 + the position in the tables' order, included or not (new cases go last).
 
     Parameters
     ----------
@@ -385,6 +404,15 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     start += len(tables["combined"])
     for i, (name, manoeuvre, params, held_samples, shift, noise) in enumerate(tables["held_null"]):
         cases.append(HiddenEffectCase(name, "none", 0.0, manoeuvre, params, min(n, held_samples), start + i, None, shift, noise, hold="previous"))
+    start += len(tables["held_null"])
+    chassis = [HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise)
+               for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(tables["chassis"])]
+    start += len(tables["chassis"])
+    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(tables["chassis_combined"]):
+        (effect, size, channel), extra = effects[0], effects[1:]
+        chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
+    candidates = set(config["discrepancy"]["candidates"])
+    cases += [c for c in chassis if {e for e, _, _ in c.effects if e in CHASSIS_EFFECTS} <= candidates]
     st = config["steering"]
     thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",
                               {"period": float(st["period"])}, n, root, noise=0.01)

@@ -1,5 +1,5 @@
 """The hidden-effect benchmark's reality (right-hand side and integrator)."""
 
-from .reality import reality_rhs, rk4_left_limit, speed_of_case
+from .reality import CHASSIS_EFFECTS, reality_rhs, rk4_left_limit, speed_of_case, state_size
 
-__all__ = ["reality_rhs", "rk4_left_limit", "speed_of_case"]
+__all__ = ["CHASSIS_EFFECTS", "reality_rhs", "rk4_left_limit", "speed_of_case", "state_size"]
