@@ -87,8 +87,7 @@ def main(argv=None):
     ap.add_argument("--table", action="store_true", help="print the results table of the verdicts in --out and exit")
     ap.add_argument("--channels", default=None,
                     help="comma-separated measured channels written to the data (default: all the generator records, "
-                         "psi, psi_dot, beta, y, a_y); the numerically integrated chassis candidates simulate no a_y, so they "
-                         "are fitted only on files without it, e.g. --channels psi,psi_dot,beta,y")
+                         "psi, psi_dot, beta, y, a_y), e.g. --channels psi,psi_dot,beta,y for the four states only")
     args = ap.parse_args(argv)
     out = args.out
     if args.table:
