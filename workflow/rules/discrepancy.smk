@@ -11,8 +11,9 @@ DISC = f"{OUT}/discrepancy"
 #: What the reality generator and `discover` read: the car, its priors, the wind, the spin policy.
 DISC_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "montecarlo", "discrepancy")
 #: What the hidden-effect generator alone reads: the car and its inputs, not the analysis settings
-#: (a new spin policy or bootstrap count reruns discover, not the 26 benchmark ensembles).
-CASE_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "discrepancy.benchmark")
+#: (a new spin policy or bootstrap count reruns discover, not the 26 benchmark ensembles); the
+#: candidates decide which chassis cases are in the benchmark (studies.hidden_effects.benchmark_cases).
+CASE_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "discrepancy.benchmark", "discrepancy.candidates")
 
 wildcard_constraints:
     case="|".join(DISCREPANCY_CASES) or "none",

@@ -57,7 +57,7 @@ def speed_of_case(config: Mapping[str, Any], case, t_half):
     if not case.speed:
         return np.full(t_half.size, config["vehicle"]["speed_kmh"] / 3.6), np.zeros(t_half.size)
     v = braking_in_turn_speed(t_half, **dict(case.speed))
-    return v, np.gradient(v, t_half)
+    return v, (np.gradient(v, t_half) if t_half.size > 1 else np.zeros_like(v))  # one time: the speed alone is asked
 
 
 def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, delta_left=None, speed_half=None):
