@@ -53,7 +53,7 @@ from ..rng import rng_stream
 from ..vehicle.channels import CHANNEL_NAMES, CHANNEL_UNITS, CHANNELS
 from ..vehicle.single_track import STATES
 from ..vehicle.uncertainty import KarhunenLoeve, kle_nystrom
-from .hidden.reality import CHASSIS_EFFECTS, reality_rhs, rk4_left_limit, speed_of_case, state_size
+from .hidden.reality import CHASSIS_EFFECTS, case_speed, reality_rhs, rk4_left_limit, speed_of_case, state_size
 from .manoeuvres import MANOEUVRES, steering_command
 
 if TYPE_CHECKING:
@@ -273,7 +273,7 @@ def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=N
     """
     kle = wind_kle(config) if kle is None else kle
     draws = draw_realisations(config, case, kle) if draws is None else draws
-    sigma, v_max = case.size("tyre_relaxation"), float(speed_of_case(config, case, np.zeros(1))[0][0])  # the speed at the start
+    sigma, v_max = case.size("tyre_relaxation"), float(case_speed(config, case, np.zeros(1))[0])  # the speed at the start
     # a slip lag's time constant sigma / v spans at least two RK4 steps (|h lambda| <= 0.5)
     t, h, substeps = _time_grid(config, min(MAX_STEP, 0.5 * sigma / v_max) if sigma > 0 else MAX_STEP)
     n_steps = (t.size - 1) * substeps
@@ -291,7 +291,7 @@ def simulate_channels(config: Mapping[str, Any], case: HiddenEffectCase, draws=N
     full = rk4_left_limit(rhs, x0, h, n_steps, substeps)  # (T, state_size, n)
     a_y = np.stack([rhs.a_y(full[k], 2 * k * substeps) for k in range(t.size)], axis=-1)
     delta = steering_command(case.manoeuvre, t, dict(case.manoeuvre_params))
-    v = speed_of_case(config, case, t)[0]
+    v = case_speed(config, case, t)
     return t, delta, np.ascontiguousarray(full[:, :4].transpose(1, 2, 0)), a_y, v
 
 

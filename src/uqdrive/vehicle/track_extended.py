@@ -140,25 +140,27 @@ class ExtendedSingleTrackRHS:
             return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
         return peak * self.B * self.C * q
 
+    def _forces(self, x, j: int):
+        """Steady slip angles (2, n), front steer angle (n,) and axle forces (2, n) at ``x``: the
+        lagged slip angles where the tyres relax."""
+        q_steady, delta = self.steady_slip(x, j)
+        q = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else q_steady
+        return q_steady, delta, self.tyre_forces(q, x[1], x[2])
+
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
         an accelerometer at the centre of gravity reads, (F_f cos delta + F_r + F_w) / m, with the
         lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention)."""
-        q, delta = self.steady_slip(x, j)
-        if self.relaxed:
-            q = np.where(self.sigma > 0, x[4:6], q)
-        F = self.tyre_forces(q, x[1], x[2])
+        _, delta, F = self._forces(x, j)
         return (F[0] * np.cos(delta) + F[1] + self.F_w_half[j]) / self.m
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
-        q, delta = self.steady_slip(x, j)
+        q, delta, F = self._forces(x, j)
         cos_b = np.cos(beta)
         if self.relaxed:
             out[4:6] = (q - x[4:6]) * (self.v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
-            q = np.where(self.sigma > 0, x[4:6], q)
-        F = self.tyre_forces(q, psi_dot, beta)
         F_w = self.F_w_half[j]
         fc = F[0] * np.cos(delta)
         M_w = F_w * self.M_c if self.M_w is None else self.M_w

@@ -24,7 +24,7 @@ from .chassis import (
     wheel_load_transfer,
 )
 
-__all__ = ["CHASSIS_EFFECTS", "speed_of_case", "reality_rhs", "rk4_left_limit", "state_size"]
+__all__ = ["CHASSIS_EFFECTS", "case_speed", "speed_of_case", "reality_rhs", "rk4_left_limit", "state_size"]
 
 #: Effects of the chassis (:mod:`.chassis`): loads moved by the body's accelerations, the steering's
 #: compliance, the tyres' relaxation.
@@ -54,10 +54,16 @@ def speed_of_case(config: Mapping[str, Any], case, t_half):
     v, v_dot : ndarray, shape (J,)
         Speed (m/s) and its rate (m/s^2).
     """
+    v = case_speed(config, case, t_half)
+    return v, (np.gradient(v, t_half) if case.speed else np.zeros(t_half.size))
+
+
+def case_speed(config: Mapping[str, Any], case, t):
+    """Speed (m/s), shape (T,), at times ``t`` (s), shape (T,): the case's braking profile
+    (:func:`uqdrive.studies.manoeuvres.braking_in_turn_speed`), or the config's constant speed."""
     if not case.speed:
-        return np.full(t_half.size, config["vehicle"]["speed_kmh"] / 3.6), np.zeros(t_half.size)
-    v = braking_in_turn_speed(t_half, **dict(case.speed))
-    return v, (np.gradient(v, t_half) if t_half.size > 1 else np.zeros_like(v))  # one time: the speed alone is asked
+        return np.full(np.size(t), config["vehicle"]["speed_kmh"] / 3.6)
+    return braking_in_turn_speed(np.asarray(t, float), **dict(case.speed))
 
 
 def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, delta_left=None, speed_half=None):
