@@ -44,7 +44,10 @@ def test_exact_set_counts_ambiguity_sets_and_refuses_extras():
     assert exact_set(["actuator_delay", "road_bank"], [lag, bank])  # the truth in an ambiguity set counts
     assert not exact_set(["road_bank"], [lag, bank])  # one too many
     assert not exact_set(["road_bank", "actuator_lag"], [bank])  # one missing
-    assert not exact_set(["road_bank", "actuator_lag"], [bank, {"effect": "unrecognised", "ambiguous_with": []}])
+    rest = {"effect": "unrecognised", "ambiguous_with": []}
+    assert not exact_set(["road_bank", "actuator_lag"], [bank, rest])  # a rest stands in for no effect
+    assert exact_set(["road_bank", "actuator_lag"], [bank, lag, rest])  # nor counts against the set
+    assert not exact_set(["road_bank"], [lag, rest])
     assert not exact_set(["actuator_lag", "road_bank"], [lag, lag])  # each truth needs its own entry
 
 
@@ -55,7 +58,9 @@ def test_combined_outcomes_and_their_confusion_table():
                "distributions": {"before": {"mu": {"mean": 1.0}}, "after": {"mu": {"mean": 1.0}}}}
     o = case_outcome(label, verdict)
     assert o["combined"] and o["correct"] and o["gap_halved"] and o["gap_steps"] == "10;6;0.5"
-    assert o["truth_set"] == o["named_set"] == "road_bank+sensor_bias"
+    assert o["truth_set"] == o["named_set"] == "road_bank+sensor_bias" and not o["rest_unexplained"]
+    rest = case_outcome(label, dict(verdict, effects=verdict["effects"] + [{"effect": "unrecognised", "gap_after": 0.5}]))
+    assert rest["correct"] and rest["rest_unexplained"] and rest["gap_steps"] == "10;6;0.5"
     wrong = dict(verdict, effects=verdict["effects"][:1])
     null = case_outcome({"name": "n", "effect": "none"}, {**verdict, "effect": "none", "effects": []})
     ds = benchmark_dataset([o, case_outcome(dict(label, name="d"), wrong), null])

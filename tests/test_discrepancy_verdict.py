@@ -1,5 +1,6 @@
 """The verdict's closing entry: `unrecognised` follows the named effects when the selection
-stopped at its effect budget with the model still outside its band."""
+stopped (its effect budget spent or nothing further justified) with the model still outside its
+band by the null-calibrated gate."""
 
 from types import SimpleNamespace
 
@@ -38,11 +39,26 @@ def _verdict(rest, max_effects):
     return [e["effect"] for e in assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)["effects"]]
 
 
-def test_unrecognised_follows_when_the_budget_ends_with_the_model_outside_its_band():
+def test_unrecognised_follows_when_the_selection_ends_with_the_model_outside_its_band():
     rest = np.zeros((2, 4, K))
     rest[0, 3, 10:20] = 4.0  # a local misfit of 4 band units: the scan crosses, chi2 rises by 160 (> 2 null sd ~ 50)
     assert _verdict(rest, max_effects=1) == ["actuator_lag", "unrecognised"]
-    # below the budget the selection stopped because nothing more was justified: the rest stays unnamed
-    assert _verdict(rest, max_effects=3) == ["actuator_lag"]
-    # at the budget but inside the band: nothing is left
+    # below the budget, the selection stopped because no candidate explains the rest: still unexplained
+    assert _verdict(rest, max_effects=3) == ["actuator_lag", "unrecognised"]
+    # inside the band, at the budget or below it: nothing is left
     assert _verdict(np.zeros((2, 4, K)), max_effects=1) == ["actuator_lag"]
+    assert _verdict(np.zeros((2, 4, K)), max_effects=3) == ["actuator_lag"]
+
+
+def test_a_scan_crossing_without_excess_misfit_leaves_nothing_unexplained():
+    """The gate needs both: a single cell beyond the threshold whose chi2 excess stays within two null
+    sd is the scan's own false alarm, not a rest (the rule is the gate, not the scan alone)."""
+    rest = np.zeros((2, 4, K))
+    rest[0, 3, 12] = 6.0  # one cell: the scan crosses (6 > threshold 3.85), chi2 rises by ~36 < 2 null sd (~50)
+    names = _verdict(rest, max_effects=3)
+    rng = np.random.default_rng(0)
+    band = NullBand.from_replicates(rng.standard_normal((300, 2, 4, K)), scan_windows(K))
+    rng.standard_normal((2, 4, K))
+    z = rng.standard_normal((2, 4, K)) + rest
+    assert band.max_statistic(z) > band.threshold and not band.gate(z)  # the premise: a crossing, no excess
+    assert names == ["actuator_lag"]

@@ -27,10 +27,13 @@ BRAKING = {"start_kmh": 70.0, "end_kmh": 45.0, "t_brake": 3.0, "duration": 3.0}
 
 
 def exact_set(truths: Sequence[str], named: Sequence[Mapping]) -> bool:
-    """Whether the named effects are exactly the hidden ones, in any order: every named entry
-    (effect plus its ambiguity set) is matched to a different truth, none left over on either
-    side, and no ``unrecognised`` among them."""
+    """Whether the named effects are exactly the hidden ones, in any order: every named physical
+    entry (effect plus its ambiguity set) is matched to a different truth, none left over on
+    either side. An ``unrecognised`` rest after them says the fitted model stays outside its null
+    band (:func:`case_outcome`'s ``rest_unexplained``); it names no effect, so it neither counts
+    against the set nor stands in for a missing one."""
     truths = list(truths)
+    named = [e for e in named if e["effect"] != "unrecognised"]
     if len(named) != len(truths):
         return False
 
@@ -68,6 +71,7 @@ def case_outcome(label: Mapping, verdict: Mapping) -> dict:
             "correct": bool(correct), "detected": named != "none", "gap_before": before, "gap_after": after,
             "combined": bool(combined), "truth_set": "+".join(sorted(truths)) or "none",
             "named_set": "+".join(sorted(e["effect"] for e in entries)) or named, "gap_steps": ";".join(f"{g:.4g}" for g in steps),
+            "rest_unexplained": bool(entries and entries[-1]["effect"] == "unrecognised"),
             "interpolation": str(label.get("hold", "linear")),
             "gap_halved": bool(truth == "none" or after <= 0.5 * before),
             "mu_mean_before": float(verdict["distributions"]["before"]["mu"]["mean"]),

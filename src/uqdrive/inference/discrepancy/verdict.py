@@ -42,10 +42,11 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     catch_z, p_catch = smooth_discrepancy(base.z_)
     margin, per_param = finder._criterion(band)
     catch_better = float(np.sum(catch_z**2)) + per_param * p_catch < finder._chi2(aug) + per_param * len(aug.parameter_names) - margin
-    # the selection stopped at max_effects with the model still outside its band: the rest is
-    # left for want of budget, not shown to be sampling, so it is named as unexplained
-    capped = named and len(finder.steps_) >= finder.max_effects and not explains and after_band.gate(aug.z_)
-    left = significant and not finder.unresolved_.get("explains_gap") and (not named or (not explains and (catch_better or capped)))
+    # the selection stopped (its budget spent, or no further candidate justified) with the model
+    # still outside its own band by the null-calibrated gate: a part of the gap is real and no
+    # candidate explains it, so it is named as unexplained after the effects that explain the rest
+    rest = named and not explains and after_band.gate(aug.z_)
+    left = significant and not finder.unresolved_.get("explains_gap") and (not named or (not explains and (catch_better or rest)))
     if left:  # nothing named, or a part explained: the rest is real but unnamed
         effects.append({"effect": "unrecognised", "registry_name": "", "parameters": {}, "ambiguous_with": [], "gap_after": round(gap1, 4)})
     effect_name = effects[0]["effect"] if effects else "none"
