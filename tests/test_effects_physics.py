@@ -241,4 +241,71 @@ def test_a_chassis_model_records_a_y_beside_its_states(config):
     assert np.abs(a_y - kinematic)[2:-2].max() < 1e-3 * np.ptp(a_y)
     keep, untestable = testable(["tyre_relaxation", "lateral_load_transfer"], CHANNELS, speed_profile=False)
     assert keep == ["tyre_relaxation", "lateral_load_transfer"] and untestable == []
-    assert [u["effect"] for u in testable(["tyre_relaxation"], CHANNELS, speed_profile=True)[1]] == ["tyre_relaxation"]
+
+
+def _braking(t, v0=80.0 / 3.6, v1=50.0 / 3.6, t0=2.0, t1=5.0):
+    """A speed profile (m/s) that brakes linearly from v0 to v1 between t0 and t1 (-2.8 m/s^2)."""
+    return np.interp(t, [0.0, t0, t1, t[-1]], [v0, v0, v1, v1])
+
+
+def test_longitudinal_load_transfer_follows_the_brake_force_along_a_speed_profile(config):
+    """Along a measured speed the body's acceleration is a_x = v' cos(beta) - v r sin(beta)
+    (Rajamani eq. (2.27) with beta' = 0), so braking loads the front axle by m |v'| h / L. The
+    right-hand side at one state equals the hand-derived single-track balance with linear tyres
+    (slope mu F_z B C) on those loads, at the profile's speed, and beta' gains -(v' / v) sin(beta):
+    to rounding (1e-12). Fails with the v' term of a_x removed or its sign flipped, with the held
+    speed in place of v(t), or without the -(v' / v) sin(beta) term."""
+    from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
+
+    h, v, v_dot = 0.55, 16.0, -3.0  # v away from the held speed V
+    p = VehicleParameters.from_config(config, mu=np.array([0.9]), l_f=np.array([1.4]), v_c=V)  # one realisation
+    s = effect("longitudinal_load_transfer").augment(ModelStructure(), [h])
+    delta = np.deg2rad(3.0)
+    rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.full(3, delta), np.zeros((3, 1)), True, np.zeros(1),
+                                 speed_half=(np.array([V, v, V]), np.array([0.0, v_dot, 0.0])))
+    psi, r, beta = 0.1, 0.3, -0.02
+    out = np.empty((4, 1))
+    rhs(np.array([[psi], [r], [beta], [0.0]]), 1, out)
+
+    a_x = v_dot * np.cos(beta) - v * r * np.sin(beta)
+    F_zf, F_zr = p.m * (p.g * p.l_r - a_x * h) / p.wheelbase, p.m * (p.g * p.l_f + a_x * h) / p.wheelbase
+    assert F_zf > p.F_fz + 0.9 * p.m * 3.0 * h / p.wheelbase  # braking loads the front axle
+    q_f = delta - np.arctan((v * np.sin(beta) + p.l_f * r) / (v * np.cos(beta)))
+    q_r = -np.arctan((v * np.sin(beta) - p.l_r * r) / (v * np.cos(beta)))
+    F_f, F_r = p.mu * F_zf * p.c_Sf * p.C * q_f, p.mu * F_zr * p.c_Sr * p.C * q_r
+    expected = [r, (p.l_f * F_f * np.cos(delta) - p.l_r * F_r) / p.I_z,
+                (F_f * np.cos(delta) + F_r) * np.cos(beta) / (p.m * v) - r - v_dot / v * np.sin(beta), v * np.sin(psi)]
+    assert out[:, 0] == pytest.approx(np.concatenate([np.atleast_1d(e) for e in expected]), rel=1e-12, abs=1e-15)
+
+
+def test_the_chassis_model_along_a_speed_profile_is_the_single_track_model_when_its_terms_vanish(config):
+    """With a vanishing transfer (h = 1e-12 m routes the simulation through the chassis model) the
+    Magic-Formula chassis model braking in a turn gives the states of the single-track model along
+    the same speed profile (uqdrive.vehicle.track_rk4.SingleTrackRHS) to 1e-9 of each state's range;
+    with h = 0.55 m the braking loads the front axle and the yaw rate rises while the car brakes
+    (more front force: oversteer), above 1 % of its peak."""
+    t = np.arange(801) * DT
+    delta = np.deg2rad(3.0) * np.clip(t - 0.5, 0.0, 1.0)
+    cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
+    speed = _braking(t)
+    sim = AugmentedSimulator.drawn(cfg, t, delta, float(np.mean(speed)), 2, np.random.default_rng(0), speed=speed)
+    sim.sigma = 0.0
+    plain = sim.simulate(THETA, _saturating())
+    vanishing = sim.simulate(THETA, _saturating(longitudinal_load_transfer=[1e-12]))
+    loaded = sim.simulate(THETA, _saturating(longitudinal_load_transfer=[0.55]))
+    span = np.ptp(plain, axis=-1, keepdims=True)
+    assert np.all(np.abs(vanishing - plain) <= 1e-9 * span)
+    braking = (t >= 2.5) & (t <= 5.0)
+    rise = loaded[1, 0, braking] - plain[1, 0, braking]
+    assert rise.mean() > 0.01 * np.abs(plain[1, 0]).max()
+    # before the brakes only the small steady a_x = -v r sin(beta) acts
+    before = t < 2.0
+    assert np.abs(loaded[1, 0, before] - plain[1, 0, before]).max() < 0.2 * rise.mean()
+
+
+def test_every_chassis_candidate_is_testable_on_a_file_whose_speed_changes():
+    from uqdrive.inference.discrepancy.effectset import testable
+    from uqdrive.vehicle.channels import CHANNELS
+
+    names = ["longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation"]
+    assert testable(names, CHANNELS, speed_profile=True) == (names, [])

@@ -296,8 +296,6 @@ class AugmentedSimulator:
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
         exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
         a_y = None
-        if uses_chassis_terms(s) and s.nonlinear and self.speed is not None:
-            raise ValueError("the chassis effects' model has no speed profile: leave the effect out")
         if self.speed is not None or s.nonlinear:
             x, rhs, js = self._rk4(p, wind, coeffs, delta, s, with_rhs=True)
             a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
@@ -356,7 +354,8 @@ class AugmentedSimulator:
         right-hand side and the half-step index of every returned time (for a_y); along a
         speed profile a linear structure is integrated here too (:class:`LinearTrackRHS`).
         """
-        sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, p.v_c, _RK4_MAX_STEP) - 1e-9)))
+        v_max = p.v_c if self.speed is None else max(float(p.v_c), float(np.max(self.speed)))  # the fastest slip lag
+        sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, v_max, _RK4_MAX_STEP) - 1e-9)))
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)
@@ -382,8 +381,9 @@ class AugmentedSimulator:
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
             speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
-            if uses_chassis_terms(s) and s.nonlinear and speed is None:  # every state (the lagged slip angles: a_y needs them)
-                return (*integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True), js)
+            if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
+                return (*integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
+                                           speed), js)
             if not s.nonlinear:
                 rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js

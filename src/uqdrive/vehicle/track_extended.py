@@ -1,15 +1,21 @@
 """Right-hand side of the single-track model (5.3) with the chassis effects of a real car: load
-transfer (longitudinal from the body's acceleration at held speed, lateral with tyre load
-sensitivity), compliance steer and tyre relaxation; for the augmented simulator.
+transfer (longitudinal from the body's acceleration, at held speed or along a measured speed
+profile; lateral with tyre load sensitivity), compliance steer and tyre relaxation; for the
+augmented simulator.
 
 Only structures that use one of these terms come here; the thesis' structures keep
 :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit.
 
-At the held speed v the body's accelerations follow from the states without an algebraic loop
-when taken at their steady-state values (beta' = 0): the net force along the body's x axis is
--tan(beta) times the lateral one, so
+The body's accelerations follow from the states without an algebraic loop when taken at their
+steady-state values (beta' = 0). With v_x = v cos(beta), v_y = v sin(beta) (Rajamani, *Vehicle
+Dynamics and Control*, eq. (2.27): a_x = v_x' - psi_dot v_y, a_y = v_y' + psi_dot v_x):
 
-    a_x = -v psi_dot sin(beta),   a_y = v psi_dot cos(beta).
+    a_x = v' cos(beta) - v psi_dot sin(beta),   a_y = v' sin(beta) + v psi_dot cos(beta),
+
+at held speed (v' = 0) the net force along the body's x axis is -tan(beta) times the lateral one;
+along a speed profile v(t) the drive or brake force that follows it adds v' cos(beta) (braking in
+a turn: the front axle loaded by m |v'| h / L). The speed change acts along the velocity as in
+:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
 Axle loads (Gillespie, *Fundamentals of Vehicle Dynamics*, eq. (2-4) and ch. 6)::
 
@@ -78,10 +84,13 @@ class ExtendedSingleTrackRHS:
         As :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`.
     cg_height, track_width : float
         h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
+    speed_half : tuple of two ndarrays, shape (J,), optional
+        Speed v (m/s) and its rate v_dot (m/s^2) per half step (a measured speed profile); None:
+        the held speed ``p.v_c``.
     """
 
     def __init__(self, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, cg_height: float = 0.0,
-                 track_width: float = 1.0):
+                 track_width: float = 1.0, speed_half=None):
         self.v = v = float(p.v_c)
         self.l_f = np.asarray(p.l_f, float)
         self.l_r = p.l_r
@@ -103,16 +112,27 @@ class ExtendedSingleTrackRHS:
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
         self.M_c = p.M_c
         self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
+        self.a_lat = s.lateral_acceleration
+        self.speed_half = None if speed_half is None else tuple(np.asarray(a, float) for a in speed_half)
+
+    def _at(self, j: int):
+        """Speed v (m/s), its rate (m/s^2), 1 / (m v) and a_lat / v at half step ``j``."""
+        if self.speed_half is None:
+            return self.v, 0.0, self.inv_mv, self.a_v
+        v = float(self.speed_half[0][j])
+        return v, float(self.speed_half[1][j]), 1.0 / (self.m * v), self.a_lat / v
 
     @property
     def n_states(self) -> int:
         """4, or 6 with the two lagged slip angles."""
         return 6 if self.relaxed else 4
 
-    def axle_loads(self, psi_dot, beta):
-        """Effective axle loads P (2, n) (N) of the tyre forces, from the steady accelerations."""
-        a = self.v * psi_dot
-        a_x, a_y = -a * np.sin(beta), a * np.cos(beta)
+    def axle_loads(self, psi_dot, beta, v=None, v_dot=0.0):
+        """Effective axle loads P (2, n) (N) of the tyre forces, from the steady accelerations at
+        speed ``v`` (default the held speed) changing at ``v_dot`` (m/s^2)."""
+        a = (self.v if v is None else v) * psi_dot
+        sin_b, cos_b = np.sin(beta), np.cos(beta)
+        a_x, a_y = v_dot * cos_b - a * sin_b, v_dot * sin_b + a * cos_b
         shift = self.m * a_x * self.h_x / self.L
         F_z = np.maximum(self.static + np.stack([-shift, shift]), 0.0)  # an axle cannot pull the road
         dF = self.lateral_arm * (self.m * a_y)
@@ -126,15 +146,16 @@ class ExtendedSingleTrackRHS:
     def steady_slip(self, x, j: int):
         """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle."""
         psi_dot, beta = x[1], x[2]
-        delta = self.delta_half[j] - self.K_cs * self.v * psi_dot
-        q = -np.arctan((self.v * np.sin(beta) + self.lever * psi_dot) / (self.v * np.cos(beta)))
+        v = self._at(j)[0]
+        delta = self.delta_half[j] - self.K_cs * v * psi_dot
+        q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
         q[0] += delta
         return q, delta
 
-    def tyre_forces(self, q, psi_dot, beta):
+    def tyre_forces(self, q, psi_dot, beta, v=None, v_dot=0.0):
         """Lateral axle forces (2, n) (N) at slip angles ``q`` (2, n) (rad), on the loads of
         :meth:`axle_loads`: Magic Formula or linear, as the structure's tyre."""
-        peak = self.axle_loads(psi_dot, beta) * self.mu
+        peak = self.axle_loads(psi_dot, beta, v, v_dot) * self.mu
         if self.saturating:
             bx = self.B * q
             return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
@@ -145,7 +166,8 @@ class ExtendedSingleTrackRHS:
         lagged slip angles where the tyres relax."""
         q_steady, delta = self.steady_slip(x, j)
         q = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else q_steady
-        return q_steady, delta, self.tyre_forces(q, x[1], x[2])
+        v, v_dot = self._at(j)[:2]
+        return q_steady, delta, self.tyre_forces(q, x[1], x[2], v, v_dot)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
@@ -158,23 +180,27 @@ class ExtendedSingleTrackRHS:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
         q, delta, F = self._forces(x, j)
+        v, v_dot, inv_mv, a_v = self._at(j)
         cos_b = np.cos(beta)
         if self.relaxed:
-            out[4:6] = (q - x[4:6]) * (self.v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
+            out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
         F_w = self.F_w_half[j]
         fc = F[0] * np.cos(delta)
         M_w = F_w * self.M_c if self.M_w is None else self.M_w
         out[0] = psi_dot
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
-        out[2] = (fc + F[1] + F_w) * cos_b * self.inv_mv - psi_dot + self.a_v
-        out[3] = self.v * np.sin(psi + self.k * beta)  # as SingleTrackRHS's course kinematics
+        out[2] = (fc + F[1] + F_w) * cos_b * inv_mv - psi_dot + a_v
+        if self.speed_half is not None:
+            out[2] -= v_dot / v * np.sin(beta)
+        out[3] = v * np.sin(psi + self.k * beta)  # as SingleTrackRHS's course kinematics
 
 
 def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                      n_steps: int, record_every: int, with_rhs: bool = False):
+                      n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None):
     """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
-    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track`, plus the config
-    whose vehicle section gives cg_height and track_width to the lateral load transfer.
+    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half``
+    its speed profile), plus the config whose vehicle section gives cg_height and track_width to
+    the lateral load transfer.
 
     With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
     right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
@@ -182,7 +208,7 @@ def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, del
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
         h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
-    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t)
+    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:
         return out.transpose(1, 2, 0), rhs

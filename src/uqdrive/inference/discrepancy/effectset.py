@@ -10,7 +10,6 @@ import numpy as np
 
 from ...vehicle.augmented import actual_steering, reconstruction_error
 from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, SensorBias, SensorScale, acts_on
-from ...vehicle.track_extended import uses_chassis_terms
 
 __all__ = ["EffectSet", "family_of", "resolvable", "testable"]
 
@@ -21,8 +20,9 @@ def testable(candidates: Sequence[str], channels: Sequence[str], speed_profile: 
 
     An effect acting only on channels that are not measured changes nothing that the data show
     (``lateral_kinematics`` without y); a sensor error of an unrecorded channel is no question at
-    all and is dropped without a reason. The numerically integrated chassis models (load transfer,
-    tyre relaxation) have no speed profile.
+    all and is dropped without a reason. Every candidate follows a changing speed (the chassis
+    models' longitudinal load transfer from the force that follows it); ``speed_profile`` is kept
+    for callers that pass it.
     """
     keep, untestable = [], []
     for name in candidates:
@@ -32,11 +32,6 @@ def testable(candidates: Sequence[str], channels: Sequence[str], speed_profile: 
             if not isinstance(e, (SensorBias, SensorScale)):
                 untestable.append({"effect": family_of(name), "registry_name": name,
                                    "reason": f"without {' or '.join(on)}, {name} cannot be tested (it acts on {', '.join(on)} only)"})
-            continue
-        s = e.augment(ModelStructure(), e.start)
-        if s.nonlinear and uses_chassis_terms(s) and speed_profile:
-            untestable.append({"effect": name, "registry_name": name,
-                               "reason": f"{name}'s numerically integrated chassis model does not simulate a speed that changes"})
             continue
         keep.append(name)
     return keep, untestable
