@@ -250,11 +250,11 @@ def _braking(t, v0=80.0 / 3.6, v1=50.0 / 3.6, t0=2.0, t1=5.0):
 
 def test_longitudinal_load_transfer_follows_the_brake_force_along_a_speed_profile(config):
     """Along a measured speed the body's acceleration is a_x = v' cos(beta) - v r sin(beta)
-    (Rajamani eq. (2.27) with beta' = 0), so braking loads the front axle by m |v'| h / L. The
-    right-hand side at one state equals the hand-derived single-track balance with linear tyres
-    (slope mu F_z B C) on those loads, at the profile's speed, and beta' gains -(v' / v) sin(beta):
-    to rounding (1e-12). Fails with the v' term of a_x removed or its sign flipped, with the held
-    speed in place of v(t), or without the -(v' / v) sin(beta) term."""
+    (Rajamani eq. (2.27) with beta' = 0), so braking loads the front axle by m |v'| h / L. On the
+    linear tyre (the LST (5.4): small angles, slope mu F_z B C) the right-hand side at one state
+    equals the hand-derived balance on those loads at the profile's speed, with beta' gaining
+    -(v' / v) beta and y' = v psi: to rounding (1e-12). Fails with the v' term of a_x removed or
+    its sign flipped, with the held speed in place of v(t), or without the v' term of beta'."""
     from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
     h, v, v_dot = 0.55, 16.0, -3.0  # v away from the held speed V
@@ -270,12 +270,35 @@ def test_longitudinal_load_transfer_follows_the_brake_force_along_a_speed_profil
     a_x = v_dot * np.cos(beta) - v * r * np.sin(beta)
     F_zf, F_zr = p.m * (p.g * p.l_r - a_x * h) / p.wheelbase, p.m * (p.g * p.l_f + a_x * h) / p.wheelbase
     assert F_zf > p.F_fz + 0.9 * p.m * 3.0 * h / p.wheelbase  # braking loads the front axle
-    q_f = delta - np.arctan((v * np.sin(beta) + p.l_f * r) / (v * np.cos(beta)))
-    q_r = -np.arctan((v * np.sin(beta) - p.l_r * r) / (v * np.cos(beta)))
+    q_f, q_r = delta - beta - p.l_f * r / v, p.l_r * r / v - beta
     F_f, F_r = p.mu * F_zf * p.c_Sf * p.C * q_f, p.mu * F_zr * p.c_Sr * p.C * q_r
-    expected = [r, (p.l_f * F_f * np.cos(delta) - p.l_r * F_r) / p.I_z,
-                (F_f * np.cos(delta) + F_r) * np.cos(beta) / (p.m * v) - r - v_dot / v * np.sin(beta), v * np.sin(psi)]
+    expected = [r, (p.l_f * F_f - p.l_r * F_r) / p.I_z, (F_f + F_r) / (p.m * v) - r - v_dot / v * beta, v * psi]
     assert out[:, 0] == pytest.approx(np.concatenate([np.atleast_1d(e) for e in expected]), rel=1e-12, abs=1e-15)
+
+
+def test_a_vanishing_chassis_effect_on_the_linear_tyre_is_the_lst(config):
+    """A chassis effect adds its own term and keeps the baseline's kinematics: with a vanishing
+    transfer (h = 1e-12 m routes the simulation through the chassis model's RK4) the linear-tyre
+    model equals the LST, thesis (5.4), at held speed (exact discretisation) and along a braking
+    profile (uqdrive.vehicle.track_rk4.LinearTrackRHS), to the RK4's accuracy (1e-5 of each
+    state's range: 10 ms steps over the ramp's corners, measured 1.4e-6) on a step steer whose heading turns by ~1 rad (where v sin(psi) would be off by
+    ~15 % of y). With ``lateral_kinematics`` (course_exact) y follows v sin(psi + k beta) instead."""
+    t = np.arange(801) * DT
+    delta = np.deg2rad(3.0) * np.clip(t - 0.5, 0.0, 1.0)
+    cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
+    for speed in (None, _braking(t)):
+        v_c = V if speed is None else float(np.mean(speed))
+        sim = AugmentedSimulator.drawn(cfg, t, delta, v_c, 2, np.random.default_rng(0), speed=speed)
+        sim.sigma = 0.0
+        lst = sim.simulate(THETA, ModelStructure())
+        chassis = sim.simulate(THETA, effect("longitudinal_load_transfer").augment(ModelStructure(), [1e-12]))
+        span = np.ptp(lst, axis=-1, keepdims=True)
+        assert np.abs(lst[0, 0]).max() > 0.8  # the heading turns: the sine would show
+        assert np.all(np.abs(chassis - lst) <= 1e-5 * span), np.abs(chassis - lst).max(axis=(1, 2))
+        course = effect("lateral_kinematics").augment(ModelStructure(), [1.0])
+        exact = sim.simulate(THETA, course)
+        both = sim.simulate(THETA, effect("longitudinal_load_transfer").augment(course, [1e-12]))
+        assert np.all(np.abs(both - exact) <= 1e-5 * span) and np.abs(both[3] - chassis[3]).max() > 0.05 * span[3].max()
 
 
 def test_the_chassis_model_along_a_speed_profile_is_the_single_track_model_when_its_terms_vanish(config):

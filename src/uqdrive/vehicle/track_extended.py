@@ -17,6 +17,13 @@ along a speed profile v(t) the drive or brake force that follows it adds v' cos(
 a turn: the front axle loaded by m |v'| h / L). The speed change acts along the velocity as in
 :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
+The kinematics are the baseline's, so that a chassis effect adds its own term and nothing else:
+with the Magic-Formula tyre those of the NLST (5.3) (slip angles by arctan, F_f cos delta, beta_dot
+with cos beta, y_dot = v sin(psi + k beta)); with the linear tyre those of the LST (5.4) (small
+angles, y_dot = v (psi + k beta), its sine only where ``course_exact``, as
+:class:`uqdrive.vehicle.track_rk4.LinearTrackRHS`). The loads take the body's accelerations with
+their trigonometry either way.
+
 Axle loads (Gillespie, *Fundamentals of Vehicle Dynamics*, eq. (2-4) and ch. 6)::
 
     F_zf = m (g l_r - a_x h_x) / L,   F_zr = m (g l_f + a_x h_x) / L
@@ -99,6 +106,7 @@ class ExtendedSingleTrackRHS:
         self.static = np.stack(np.broadcast_arrays(p.F_fz, p.F_rz))  # (2, n) static axle loads
         self.mu, self.B, self.C, self.E = p.mu, np.array([[p.c_Sf], [p.c_Sr]]), p.C, E
         self.saturating = s.tyre == "magic_formula"
+        self.course_sine = self.saturating or bool(s.course_exact)
         self.h_x = np.asarray(s.pitch_height, float)
         self.p_Dz = np.asarray(s.load_sensitivity, float)
         chi = np.asarray(s.roll_share_front, float)
@@ -148,7 +156,10 @@ class ExtendedSingleTrackRHS:
         psi_dot, beta = x[1], x[2]
         v = self._at(j)[0]
         delta = self.delta_half[j] - self.K_cs * v * psi_dot
-        q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
+        if self.saturating:
+            q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
+        else:  # the LST's small angles
+            q = -(beta + self.lever * psi_dot / v)
         q[0] += delta
         return q, delta
 
@@ -174,25 +185,30 @@ class ExtendedSingleTrackRHS:
         an accelerometer at the centre of gravity reads, (F_f cos delta + F_r + F_w) / m, with the
         lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention)."""
         _, delta, F = self._forces(x, j)
-        return (F[0] * np.cos(delta) + F[1] + self.F_w_half[j]) / self.m
+        return (self._front(F[0], delta) + F[1] + self.F_w_half[j]) / self.m
+
+    def _front(self, F_f, delta):
+        """The front axle's force across the car: F_f cos delta (NLST), F_f (LST)."""
+        return F_f * np.cos(delta) if self.saturating else F_f
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
         q, delta, F = self._forces(x, j)
         v, v_dot, inv_mv, a_v = self._at(j)
-        cos_b = np.cos(beta)
+        cos_b = np.cos(beta) if self.saturating else 1.0
         if self.relaxed:
             out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
         F_w = self.F_w_half[j]
-        fc = F[0] * np.cos(delta)
+        fc = self._front(F[0], delta)
         M_w = F_w * self.M_c if self.M_w is None else self.M_w
         out[0] = psi_dot
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
         out[2] = (fc + F[1] + F_w) * cos_b * inv_mv - psi_dot + a_v
         if self.speed_half is not None:
-            out[2] -= v_dot / v * np.sin(beta)
-        out[3] = v * np.sin(psi + self.k * beta)  # as SingleTrackRHS's course kinematics
+            out[2] -= v_dot / v * (np.sin(beta) if self.saturating else beta)
+        course = psi + self.k * beta
+        out[3] = v * (np.sin(course) if self.course_sine else course)
 
 
 def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
