@@ -32,6 +32,22 @@ def test_quadratic_surrogate_reproduces_a_quadratic_exactly():
     assert np.allclose(fit_quadratic(u, quadratic_features(u) @ coef), coef)
 
 
+def test_walkers_start_inside_the_prior_and_apart_when_the_fit_sits_on_a_bound():
+    """A fit whose spread went to 0 (or a parameter to its limit) puts the centre on the open
+    prior's bound: every walker must still start strictly inside and no two alike (equal walkers
+    give emcee's DE snooker move a division by zero: NaN parameters, a failed run). Wide Laplace
+    factors (10x the prior) leave most first draws outside."""
+    post = AugmentedPosterior(ensembles=3, walkers=20)
+    lo, hi = np.array([0.1, 0.0, 1.0, 0.0, -600.0, -600.0, -2.0]), np.array([2.0, 1.0, 2.0, 1.0, 600.0, 600.0, 2.0])
+    post._lo, post._hi = lo, hi
+    post._centre = np.array([0.9, 0.0, 1.5, 0.2, -300.0, 300.0, -2.0])  # mu std and E on their bounds
+    post._factor_L = np.diag(10.0 * (hi - lo))
+    for x in post._starts(np.random.default_rng(0), lo.size):
+        assert x.shape == (20, 7) and post._inside(x).all()
+        gaps = np.abs(x[:, None, :] - x[None, :, :]).sum(axis=-1) + np.eye(20)
+        assert gaps.min() > 0
+
+
 @pytest.mark.parametrize("K, n, most", [(150, 1000, 30), (150, 150, 9), (5, 1000, 5), (40, 20, 1)])
 def test_likelihood_times_keep_the_covariance_estimable(K, n, most):
     sel = likelihood_times(K, n, 30)

@@ -286,16 +286,28 @@ class AugmentedPosterior:
         return current
 
     def _starts(self, rng, p):
+        """Each ensemble's walkers: the Laplace normal around the centre, every walker inside the
+        prior and no two alike. The centre may sit on a bound (a spread fitted to 0, a parameter
+        at its limit: the open prior excludes it), so it is moved inside by 1e-6 of the width;
+        walkers still outside after the redraws are pulled towards it by halving their distance.
+        (Walkers set onto one point would be equal, and emcee's DE snooker move divides by their
+        distance: NaN.)"""
         walkers = int(self.walkers or max(3 * p, 16))
+        width = self._hi - self._lo
+        centre = np.clip(self._centre, self._lo + 1e-6 * width, self._hi - 1e-6 * width)
         starts = []
         for _ in range(self.ensembles):
-            x = self._centre + rng.standard_normal((walkers, p)) @ self._factor_L.T
+            x = centre + rng.standard_normal((walkers, p)) @ self._factor_L.T
             for _ in range(100):  # redraw walkers outside the prior
                 bad = ~self._inside(x)
                 if not bad.any():
                     break
-                x[bad] = self._centre + rng.standard_normal((int(bad.sum()), p)) @ self._factor_L.T
-            x[~self._inside(x)] = self._centre
+                x[bad] = centre + rng.standard_normal((int(bad.sum()), p)) @ self._factor_L.T
+            for _ in range(60):
+                bad = ~self._inside(x)
+                if not bad.any():
+                    break
+                x[bad] = centre + 0.5 * (x[bad] - centre)
             starts.append(x)
         return starts
 
