@@ -97,6 +97,9 @@ def test_chassis_cases_join_at_the_end_and_move_no_seed(config):
     assert {e for c in added for e, _, _ in c.effects} >= set(CHASSIS_EFFECTS)
     assert sum(len(c.effects) == 1 for c in added) >= 3 and sum(len(c.effects) >= 2 for c in added) >= 2
     assert any({e for e, _, _ in c.effects} == {"lateral_kinematics", "lateral_load_transfer"} for c in added)
+    braking = [c for c in added if c.speed]  # the transfer alone, from the brake force that follows the speed
+    assert braking and braking[-1] is added[-1] and {e for c in braking for e, _, _ in c.effects} == {"longitudinal_load_transfer"}
+    assert dict(braking[0].speed)["end_kmh"] < dict(braking[0].speed)["start_kmh"]
     partial = copy.deepcopy(config)
     partial["discrepancy"]["candidates"] = list(config["discrepancy"]["candidates"]) + ["compliance_steer"]
     assert {c.name for c in benchmark_cases(partial, samples=20)} - {c.name for c in plain} == {

@@ -382,7 +382,8 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
     every other effect but the chassis ones at two magnitudes off the thesis slalom, six combined
     cases, three ``none`` cases with a held pulse or step at 300 realisations or fewer, the chassis
-    cases whose chassis effects are all in ``discrepancy.candidates``, and "thesis_nlst", the
+    cases (at held speed, and braking in a turn) whose chassis effects are all in
+    ``discrepancy.candidates``, and "thesis_nlst", the
     thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
     Seeds: root + 101 + the position in the tables' order, included or not (new cases go last).
 
@@ -411,6 +412,10 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(tables["chassis_combined"]):
         (effect, size, channel), extra = effects[0], effects[1:]
         chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
+    start += len(tables["chassis_combined"])
+    for i, (name, effects, manoeuvre, params, speed, shift, noise) in enumerate(tables.get("chassis_speed", [])):
+        (effect, size, channel), extra = effects[0], effects[1:]
+        chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra, speed=speed))
     candidates = set(config["discrepancy"]["candidates"])
     cases += [c for c in chassis if {e for e, _, _ in c.effects if e in CHASSIS_EFFECTS} <= candidates]
     st = config["steering"]
