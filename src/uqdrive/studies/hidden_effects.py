@@ -409,13 +409,9 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     chassis = [HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise)
                for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(tables["chassis"])]
     start += len(tables["chassis"])
-    for i, (name, effects, manoeuvre, params, shift, noise) in enumerate(tables["chassis_combined"]):
-        (effect, size, channel), extra = effects[0], effects[1:]
-        chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra))
-    start += len(tables["chassis_combined"])
-    for i, (name, effects, manoeuvre, params, speed, shift, noise) in enumerate(tables.get("chassis_speed", [])):
-        (effect, size, channel), extra = effects[0], effects[1:]
-        chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra, speed=speed))
+    for i, (name, effects, manoeuvre, params, *speed, shift, noise) in enumerate(tables["chassis_combined"] + tables["chassis_speed"]):
+        (effect, size, channel), extra = effects[0], effects[1:]  # a chassis_speed row holds the speed profile before the shift
+        chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra, speed=(speed or [()])[0]))
     candidates = set(config["discrepancy"]["candidates"])
     cases += [c for c in chassis if {e for e, _, _ in c.effects if e in CHASSIS_EFFECTS} <= candidates]
     st = config["steering"]
