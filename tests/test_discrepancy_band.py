@@ -81,6 +81,9 @@ def test_excess_rms_is_zero_at_the_null_level_and_grows_with_a_gap():
     band = NullBand.from_replicates(rng.standard_normal((200, 2, 4, 30)), scan_windows(30))
     assert excess_rms(rng.standard_normal((2, 4, 30)) * 0.9, band) == 0.0
     assert excess_rms(rng.standard_normal((2, 4, 30)) + 2.0, band) == pytest.approx(2.0, abs=0.3)
+    # exact: a null level of 1 and z = -+3 everywhere: sqrt(9 - 1)
+    for z in (3.0, -3.0):
+        assert excess_rms(np.full((2, 4, 3), z), _band([1.0, 2.0], [0.0, 1.0])) == pytest.approx(np.sqrt(8.0), rel=1e-12)
 
 
 def test_catch_all_absorbs_a_smooth_gap_but_not_white_noise():
@@ -152,6 +155,8 @@ def test_threshold_and_p_value_follow_the_gumbel_fit_of_the_maxima():
     loc = 3.0 - 0.5772156649015329
     assert band.threshold == pytest.approx(loc - np.log(-np.log(0.95)), rel=1e-12)
     assert _band(m, [0.0, 1.0], level=0.01).threshold == pytest.approx(loc - np.log(-np.log(0.99)), rel=1e-12)
+    default = NullBand(band.windows, band.cell_scale, band.max_null, 1.0, 1.0, 1.0)  # level not given: 0.05
+    assert default.level == 0.05 and default.threshold == pytest.approx(band.threshold, rel=1e-12)
     z = np.zeros((2, 4, 3))
     z[1, 2, 1] = loc  # the length-1 window at time 1 is the largest cell
     assert band.max_statistic(z) == pytest.approx(loc)
@@ -166,6 +171,7 @@ def test_the_gate_needs_both_a_scan_crossing_and_an_excess_misfit():
     thr = band.threshold
     z = np.zeros((2, 4, 3))
     assert band.excess_chi2(z) == pytest.approx(-24.0)  # sum 0 minus 24 cells at level 1
+    assert band.excess_chi2(np.full((2, 4, 3), -1.5)) == pytest.approx(24 * 2.25 - 24.0)  # squares: the sign does not count
     z[0, 0, 0] = thr + 0.1  # crosses the scan, excess (thr + 0.1)^2 - 24 < 2
     assert band.max_statistic(z) > thr and not band.gate(z)
     spread = np.full((2, 4, 3), 1.1)  # no cell crosses (1.1 sqrt(3) = 1.91 < thr = 2.06), excess 24 x 0.21 > 2
@@ -188,7 +194,7 @@ def test_false_alarm_rate_counts_replicates_past_both_gates():
     low = NullBand(max_null=np.array([1.0, 9.0, 9.0, 9.0]), chi2_null_sd=1.0, chi2_null=chi2, **{**base, "level": 0.9})
     assert 1.0 < low.threshold < 9.0
     assert low.false_alarm_rate() == 0.25
-    assert NullBand(max_null=np.ones(4), chi2_null_sd=1.0, chi2_null=None, **base).false_alarm_rate() != 0.0  # NaN without chi2
+    assert np.isnan(NullBand(max_null=np.ones(4), chi2_null_sd=1.0, chi2_null=None, **base).false_alarm_rate())  # NaN without chi2
 
 
 def test_from_replicates_golden_level_spread_and_inflation():
@@ -214,3 +220,101 @@ def test_from_replicates_golden_level_spread_and_inflation():
     flat = iid.copy()
     flat[:, 0, 0, :] = 0.0
     assert np.all(NullBand.from_replicates(flat, scan_windows(K)).cell_scale[0, 0] == 1.0)
+
+
+class _Germs:
+    """Stand-in germs: n x d standard normals (only ``draw`` and ``kle`` are used by the bootstrap)."""
+
+    def __init__(self, kle):
+        self.kle = kle
+
+    @classmethod
+    def draw(cls, rng, n, n_modes):
+        return cls(rng.standard_normal((n, n_modes)))
+
+
+class _Recording:
+    """A stand-in simulator: realisation i of a call is a + b G_i (theta = [a, b]) over 4 channels and 8
+    times (G_i the germs reshaped to (4, 8)), beta (row 2) set to +-1e3 (alternately) at time 3 for
+    the realisations whose running number over all calls is in ``spun``. Records every output."""
+
+    channels, spin_row = ("psi", "psi_dot", "beta", "y"), 2
+
+    def __init__(self, spun=()):
+        self.germs = _Germs(np.zeros((1, 4 * 8)))
+        self.spun, self.calls, self._count = set(spun), [], 0
+
+    def simulate(self, theta, structure, germs):
+        m = germs.kle.shape[0]
+        x = theta[0] + theta[1] * germs.kle.reshape(m, 4, 8).transpose(1, 0, 2)
+        hit = [i for i in range(m) if self._count + i in self.spun]
+        x[2, hit, 3] = 1e3 * (-1.0) ** np.arange(len(hit))
+        self._count += m
+        self.calls.append(x)
+        return x
+
+
+def _replicate_chi2(calls, n, index, spin, statistics, J):
+    """sum z^2 of each replicate from the recorded realisations, by the one-replicate functions:
+    z = (statistics - the model's) / scale (model ratio 0.5) over the replicate's realisations,
+    those with |beta| > spin at a compared time left out unless fewer than 2 would remain, then
+    minus its least-squares fit by J's columns (the linearised refit)."""
+    xs = np.concatenate(calls, axis=1)[:, :, index]
+    k = np.arange(index.size)
+    z = []
+    for r in range(xs.shape[1] // n):
+        block = xs[:, r * n:(r + 1) * n]
+        keep = np.ones(n, bool) if spin is None else ~np.any(np.abs(block[2]) > spin, axis=-1)
+        block = block[:, keep] if keep.sum() >= 2 else block
+        z.append(((moment_statistics(block, k) - statistics) / statistic_scale(block, k, model_ratio=0.5)).ravel())
+    z = np.array(z)
+    z -= (J @ np.linalg.lstsq(J, z.T, rcond=None)[0]).T
+    return np.sum(z**2, axis=1), np.mean(z**2)
+
+
+def test_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
+    """5 replicates of n = 1500 realisations: at most 4000 realisations per simulation, so whole
+    replicates 2 + 2 + 1. Without noise every replicate's z is exactly (its statistics - the
+    model's) / its own scale from its n realisations (:func:`_replicate_chi2`), with the spun ones
+    left out as in the data: replicate 0 none spun, 1 three (beta 1e3, -1e3, 1e3: |beta| counts),
+    2 all but 2 (the 2 kept), 3 all but 1 (then all are used), 4 one; without a spin threshold
+    all are used. The band's replicate chi2 are the sums of those z^2 (rel 1e-9: the same sums
+    in another order)."""
+    from uqdrive.inference.discrepancy.band import bootstrap_band
+
+    n, B, index = 1500, 5, np.array([1, 2, 3, 4, 6, 7])  # the spin time 3 compared; times 0 and 5 not
+    spun = [1500, 1501, 1502, *range(3000, 4498), *range(4500, 5999), 6007]
+    J = np.random.default_rng(8).standard_normal((2 * 4 * 6, 2))
+    base = type("Base", (), dict(theta_=np.array([0.5, 2.0]), structure_=None, jacobian_=J,
+                                 statistics_=np.stack([np.full((4, 6), 0.5), np.full((4, 6), 2.0)])))()
+    for spin in (100.0, None):
+        sim = _Recording(spun)
+        band = bootstrap_band(sim, base, n, index, np.zeros(4), spin, 0.5, np.random.default_rng(9), B, 0.05)
+        assert [x.shape[1] for x in sim.calls] == [3000, 3000, 1500]
+        chi2, mean_square = _replicate_chi2(sim.calls, n, index, spin, base.statistics_, J)
+        np.testing.assert_allclose(band.chi2_null, chi2, rtol=1e-9)
+        assert band.mean_square_null == pytest.approx(mean_square, rel=1e-9)
+        np.testing.assert_array_equal(band.windows, scan_windows(6))
+        assert band.level == 0.05
+    kept = [np.sum(~np.any(np.abs(np.concatenate(sim.calls, axis=1)[2][r * n:(r + 1) * n][:, index]) > 100.0, axis=-1)) for r in range(B)]
+    assert kept == [1500, 1497, 2, 1, 1499]  # the spins are where they were meant to be
+    # n = 2500: two replicates would exceed 4000 realisations, so one per simulation
+    sim = _Recording()
+    bootstrap_band(sim, base, 2500, index, np.zeros(4), None, 0.5, np.random.default_rng(9), 2, 0.05)
+    assert [x.shape[1] for x in sim.calls] == [2500, 2500]
+
+
+def test_bootstrap_band_adds_the_measurement_noise():
+    """A model without spread (b = 0): each channel's realisations are its noise alone, variance
+    v = 1e-4, 4, 1e-2, 0.25, so with the model's [mean, sqrt v] the z of the mean are t with n - 1
+    = 99 degrees of freedom (E z^2 = 99/97) and those of the std about standard normal (delta
+    method, its scale estimated from the same 100 draws: a little wider), so over 40 replicates x
+    48 cells mean(z^2) is 1.0 within 0.3 (1.06 to 1.13 over ten seeds; its sd ~ 0.03). The noise
+    left out, or with its sd squared, gives stds off by many of their scales."""
+    from uqdrive.inference.discrepancy.band import bootstrap_band
+
+    v = np.array([1e-4, 4.0, 1e-2, 0.25])
+    base = type("Base", (), dict(theta_=np.array([0.5, 0.0]), structure_=None, jacobian_=np.zeros((48, 0)),
+                                 statistics_=np.stack([np.full((4, 6), 0.5), np.broadcast_to(np.sqrt(v)[:, None], (4, 6))])))()
+    band = bootstrap_band(_Recording(), base, 100, np.arange(1, 7), v, None, 0.0, np.random.default_rng(10), 40, 0.05)
+    assert band.mean_square_null == pytest.approx(1.0, abs=0.3)

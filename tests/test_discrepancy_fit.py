@@ -2,6 +2,8 @@
 the pass of their centre, and the statistics taken from the simulators' time-major output, give
 the fit the numbers of one simulation per call and of the earlier copies, to the last bit."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,7 @@ from uqdrive.inference.discrepancy.finder import _Context
 from uqdrive.inference.discrepancy.fit import StructureFit
 from uqdrive.inference.discrepancy.ranking import gauss_newton_chi2
 from uqdrive.vehicle.augmented import THETA_NAMES, AugmentedSimulator
-from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+from uqdrive.vehicle.effects import EFFECTS, Effect, ModelStructure
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
@@ -291,3 +293,127 @@ def test_forward_selection_names_an_effect_the_distributions_absorbed(config):
     np.testing.assert_allclose(final.effect_values_, [2.0, 6.0], rtol=1e-3)
     np.testing.assert_allclose(final.theta_[[0, 2, 4, 5]], TRUTH[[0, 2, 4, 5]], rtol=1e-3)
     assert final.chi2_ < 1e-3
+
+
+def test_the_cache_holds_64_simulations_keyed_by_their_dynamic_part():
+    """The cache (at most 64 simulations): 64 distinct thetas are simulated once each and all stay
+    cached; a 65th empties it first and stays cached itself, so asking for it again costs
+    nothing and the first theta costs a pass again. A structure that differs only in its output
+    map reuses the simulation and applies its own gain."""
+    counted = _Counting(_Analytic())
+    f = StructureFit(counted, np.arange(12), np.zeros(4))
+    thetas = [TRUTH + [1e-3 * k, 0, 0, 0, 0, 0] for k in range(65)]
+    for th in thetas[:64]:
+        f.statistics(th, ModelStructure())
+    assert counted.passes == 64
+    first = f.statistics(thetas[0], ModelStructure())
+    gained = f.statistics(thetas[0], ModelStructure(output_gain=(1.0, 2.0, 1.0, 1.0)))
+    assert counted.passes == 64  # the 64 are all cached; the gain needs no simulation
+    np.testing.assert_array_equal(gained[:, 1], 2.0 * first[:, 1])
+    f.statistics(thetas[64], ModelStructure())
+    f.statistics(thetas[64], ModelStructure())
+    assert counted.passes == 65  # the 65th is simulated once and kept
+    f.statistics(thetas[0], ModelStructure())
+    assert counted.passes == 66  # the 65th emptied the cache: the first simulated again
+
+
+def test_two_unspun_realisations_are_enough_one_is_not():
+    """As the data's rule: the statistics of the kept realisations when at least 2 are left (here
+    exactly 2: their mean and std, ddof 1), of all of them (the spun ones too) when only 1 is."""
+    clean = _Analytic().simulate_many([TRUTH], [ModelStructure()])[0]
+    two = StructureFit(_Analytic(spun=range(38)), np.arange(12), np.zeros(4), spin_threshold=1e5).statistics(TRUTH, ModelStructure())
+    kept = clean[:, 38:]
+    np.testing.assert_allclose(two[0], kept.mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(two[1], kept.std(axis=1, ddof=1), rtol=1e-12)
+    one = StructureFit(_Analytic(spun=range(39)), np.arange(12), np.zeros(4), spin_threshold=1e5).statistics(TRUTH, ModelStructure())
+    assert one[1, 2].min() > 1e5  # beta's spread includes the 39 spun realisations at 1e6
+
+
+def test_statistics_equal_the_simulators_own_measured_channels(config):
+    """The fit simulates the structure without its output map (cached by that dynamic part) and
+    applies the map itself: the mean and std (ddof 1) of the simulator's own output with the map
+    (gains and offsets of the states and of a_y) plus the noise variance, to rounding (rtol 1e-12:
+    g mean(x) + o against mean(g x + o))."""
+    t = np.arange(101) * 0.01
+    delta = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 2.0)
+    sim = AugmentedSimulator.drawn(config, t, delta, 25.0, 16, np.random.default_rng(12), stride=4, channels=("psi_dot", "beta", "a_y"))
+    s = ModelStructure(output_gain=(1.0, 1.1, 0.9, 1.0), output_offset=(0.0, 0.01, 0.002, 0.0), a_y_gain=1.05, a_y_offset=0.2)
+    index = np.arange(1, sim.output_time.size)
+    noise = np.array([1e-6, 1e-8, 1e-3])
+    got = StructureFit(sim, index, noise).statistics(THETA, s)
+    xs = sim.simulate(THETA, s)[:, :, index]
+    want = np.stack([xs.mean(axis=1), np.sqrt(xs.var(axis=1, ddof=1) + noise[:, None])])
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+
+
+def test_a_budget_of_one_evaluation_returns_the_start():
+    """trf with max_nfev = 1 stops after the residuals at its start: the estimate is theta0 itself
+    (an interior start unchanged), a start outside the bounds clipped into them (mu mean 5 -> 3, a
+    negative std -> 0, both within 1e-8 of the range), the wind bounds sorted. So is an effect's
+    start outside its bounds (a road bank bounded to [-12, 3] deg: lo + hi < 0, so a clip at
+    lo + 1e-9 (hi + lo) or hi - 1e-9 (hi + lo) would leave it outside and trf would refuse it)."""
+    sim = _Analytic()
+    measured = _measured(sim, TRUTH)
+    start = np.array([1.2, 0.3, 1.3, 0.25, -100.0, 200.0])
+    f = StructureFit(sim, np.arange(12), np.zeros(4), max_nfev=1).fit(measured, np.full_like(measured, 1e-2), start)
+    np.testing.assert_allclose(f.theta_, start, rtol=1e-12)
+    assert f.nfev_ == 1 and not f.success_
+    f.fit(measured, np.full_like(measured, 1e-2), [5.0, -0.5, 1.3, 0.25, 200.0, -100.0])
+    assert 3.0 - 1e-8 < f.theta_[0] < 3.0 and 0.0 < f.theta_[1] < 1e-8
+    np.testing.assert_allclose(f.theta_[2:], start[2:], rtol=1e-12)
+    bank = dataclasses.replace(EFFECTS["road_bank"], bounds=((-12.0, 3.0),))
+    g = StructureFit(sim, np.arange(12), np.zeros(4), effect=bank, max_nfev=1)
+    for effect_start, inside in (([5.0], (3.0 - 1.5e-7, 3.0)), ([-20.0], (-12.0, -12.0 + 1.5e-7))):
+        g.fit(measured, np.full_like(measured, 1e-2), start, effect_start=effect_start)
+        assert inside[0] < g.effect_values_[0] < inside[1]  # within 1e-8 of the range 15
+        np.testing.assert_allclose(g.theta_, start, rtol=1e-12)
+
+
+def test_statistics_many_equal_statistics_pair_by_pair():
+    """Three (theta, structure) pairs in batches of 2 (2 + 1): each equal to :meth:`statistics` of
+    its pair alone (the stand-in's realisations do not depend on the batch: to rounding)."""
+    sim = _Analytic()
+    f = StructureFit(sim, np.arange(12), np.full(4, 1e-3))
+    thetas = [TRUTH, TRUTH * [1.1, 1, 1, 1, 1, 1], TRUTH * [1, 1, 0.9, 2, 1, 1]]
+    structures = [ModelStructure(), EFFECTS["road_bank"].augment(ModelStructure(), [2.0]), ModelStructure(output_gain=(1.0, 1.2, 1.0, 1.0))]
+    got = f.statistics_many(thetas, structures, batch=2)
+    assert got.shape == (3, 2, 4, 12)
+    for g, th, s in zip(got, thetas, structures):
+        np.testing.assert_allclose(g, f.statistics(th, s), rtol=1e-12)
+
+
+def test_nothing_to_fit_gives_the_start_and_empty_parameter_arrays():
+    """theta held (fit_theta False) and no effect: no parameter, so the estimate is the start, the
+    Jacobian has no columns, the covariance is 0 x 0 and there are no intervals."""
+    sim = _Analytic()
+    measured = _measured(sim, TRUTH)
+    f = StructureFit(sim, np.arange(12), np.zeros(4), fit_theta=False).fit(measured, np.full_like(measured, 1e-2), TRUTH * 1.1)
+    np.testing.assert_array_equal(f.theta_, TRUTH * 1.1)
+    assert f.jacobian_.shape == (96, 0) and f.parameter_cov_.shape == (0, 0) and f.effect_intervals() == {}
+    assert f.parameter_names == () and f.message_ == "nothing to fit" and f.nfev_ == 1
+    np.testing.assert_allclose(f.z_, (_measured(sim, TRUTH * 1.1) - measured) / 1e-2, rtol=1e-10)
+
+
+class _BankAndGusts(Effect):
+    """A two-parameter effect for the stand-in: lateral acceleration (m/s^2) and gust scale."""
+
+    def apply(self, s, v):
+        return dataclasses.replace(s, lateral_acceleration=float(v[0]), gust_scale=float(v[1]))
+
+
+def test_intervals_of_a_two_parameter_effect_take_their_own_variances():
+    """Each parameter's interval is estimate -+ 1.96 sqrt(inflation x its own diagonal entry of
+    (J'J)^-1): entries 6 and 7 after the six distribution parameters, 0 and 1 when theta is held."""
+    sim = _Gusty()
+    effect = _BankAndGusts("bank_and_gusts", ("a", "g"), ("m/s^2", "-"), ((-5.0, 5.0), (0.0, 20.0)), (0.5, 2.0), "", "")
+    mean, std = sim.moments(TRUTH, 0.3, gust=3.0)
+    measured = np.stack([mean, std])
+    for fit_theta, offset in ((True, 6), (False, 0)):
+        f = StructureFit(sim, np.arange(12), np.zeros(4), effect=effect, fit_theta=fit_theta, max_nfev=20)
+        f.fit(measured, np.full_like(measured, 1e-2), TRUTH)
+        cov = np.linalg.pinv(f.jacobian_.T @ f.jacobian_)
+        assert cov.shape == (offset + 2, offset + 2)
+        for i, name in enumerate(("a", "g")):
+            est, lo, hi = f.effect_intervals(2.0)[name]
+            half = 1.959963984540054 * np.sqrt(2.0 * cov[offset + i, offset + i])
+            assert (est, lo, hi) == pytest.approx((f.effect_values_[i], est - half, est + half), rel=1e-8)

@@ -151,6 +151,33 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
         {"line": "holds=extrapolates and hits / max(sets, 1) > 0.95", "mutation": "constant 1 -> 2",
          "reason": "differs only for sets = 1, where coverage 1 passes (within 0.427 of 0.95) and coverage 0 gives 0 either way"},
     ],
+    "fit": [
+        *({"line": "THETA_SCALE = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)", "mutation": m, "mutated": frag,
+           "reason": "a typical magnitude (trf's x_scale and the floor of the difference step 1e-4 max(|p|, typical)) of mu's mean, "
+                     "l_f's mean or l_f's std changed by a factor <= 2: a tuning choice; the fits reach their optima to the stated tolerances"}
+          for m, frag in (("constant 1.0 -> 2.0", "((2.0), 0.2"), ("constant 1.5 -> 1.0", "0.2, (1.0), 0.2"), ("constant 0.2 -> 0.4", "1.5, (0.4)"))),
+        *({"line": "x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))", "mutation": m,
+           "reason": "how far inside its bounds a start on (or clipped to) a bound begins, 1e-9 of the range: 2e-9 of it, or "
+                     "1e-9 / range (trf itself then moves it at least 1e-10 max(1, |bound|) inside); for the ranges of THETA_BOUNDS "
+                     "and the effects' bounds (0.1 to 6000) the start moves by < 1e-7 of the range"}
+          for m in ("`*` -> `/`", "constant 1e-09 -> 2e-09")),
+        {"line": "np.abs(x[self.simulator.spin_row]) > self.spin_threshold, axis=-1)", "mutation": "drop unary `-`",
+         "reason": "x[spin_row] is (realisations, times): axis 1 is axis -1"},
+        {"line": "h[~free] = 0.0", "mutation": "constant 0.0 -> 1.0",
+         "reason": "the steps of known parameters are never read: the neighbours and the quotients take h[free] only"},
+    ],
+    "band": [
+        {"line": "reshape(cells.shape[0], -1).max(axis=1)", "mutation": "constant 1 -> 2", "mutated": "reshape(cells.shape[0], -(2))",
+         "reason": "numpy reads any negative size as the one to infer"},
+        {"line": "per_call = max(1, 4000 // max(n, 1))", "mutation": "constant 1 -> 2", "mutated": "max(n, (2))",
+         "reason": "differs only for n = 1 realisation, whose std (ddof 1) is undefined: no band of n = 1 is ever made"},
+        {"line": "per_call = max(1, 4000 // max(n, 1))", "mutation": "constant 4000 -> 4001",
+         "reason": "4001 is prime: 4001 // n == 4000 // n for 2 <= n <= 4000, and beyond both give one replicate per simulation"},
+        {"line": "xb = xb.reshape(x.shape[0], reps, n, -1)", "mutation": "constant 1 -> 2", "mutated": "reps, n, -(2))",
+         "reason": "numpy reads any negative size as the one to infer"},
+        {"line": "np.abs(xb[sim.spin_row]) > spin", "mutation": "`>` -> `>=`",
+         "reason": "differs only when a simulated |beta| equals the spin threshold to the last bit: an exact tie of a continuous value"},
+    ],
 }
 
 IGNORE_COPY = shutil.ignore_patterns(".git", ".venv", ".snakemake", "results", ".hypothesis", ".ruff_cache", ".pytest_cache", "__pycache__", "*.pyc",
