@@ -103,3 +103,34 @@ def test_discover_cli_on_an_imu_file_while_braking(short, tmp_path, capsys):
     assert v["effect"] == "none" and v["evidence"]["channels"] == list(IMU)
     assert v["evidence"]["speed_profile"]["max"] == pytest.approx(70 / 3.6) and v["evidence"]["speed_profile"]["min"] < 0.8 * 70 / 3.6  # fell by more than 20 %
     assert [u["effect"] for u in v["untestable"]] == ["lateral_kinematics"]
+
+
+def test_the_channel_table_runs_discover_on_each_cell_without_the_posterior(config, monkeypatch):
+    """channel_detection: one discover per case, channel set and run count, on a file with exactly
+    that set's channels and run count (a speed falling for imu_speed), the emcee posterior off
+    (the table reports verdicts; the full config samples it for tyre_saturation, minutes a cell)."""
+    import uqdrive.inference.discrepancy as discrepancy
+    from uqdrive.studies.discrepancy import channel_detection
+    from uqdrive.studies.hidden_effects import HiddenEffectCase
+
+    seen = []
+
+    class Recorder:
+        def __init__(self, cfg, **kwargs):
+            seen.append(kwargs)
+
+        def fit(self, data):
+            seen[-1].update(channels=sorted(v for v in data.data_vars if v not in ("delta", "v")), runs=data.sizes["sample"],
+                            braking="v" in data)
+            self.verdict_ = {"effect": "road_bank", "untestable": []}
+            return self
+
+    monkeypatch.setattr(discrepancy, "DiscrepancyFinder", Recorder)
+    cfg = {**config, "time": {**config["time"], "t_end": 2.0}}
+    case = HiddenEffectCase("bank", "road_bank", 2.0, "step", {"amplitude_deg": 2.0}, samples=10, seed=1)
+    rows = channel_detection(cfg, [case], ["all", "imu_speed"], [10, 12])
+    assert [(r["set"], r["runs"], r["verdict"], r["correct"]) for r in rows] == [
+        ("all", 10, "road_bank", True), ("imu_speed", 10, "road_bank", True), ("all", 12, "road_bank", True), ("imu_speed", 12, "road_bank", True)]
+    assert all(s["posterior"] is False for s in seen)
+    assert [(s["channels"], s["runs"], s["braking"]) for s in seen[:2]] == [(["a_y", "beta", "psi", "psi_dot", "y"], 10, False),
+                                                                            (["a_y", "psi_dot"], 10, True)]

@@ -234,7 +234,8 @@ def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], run
     Parameters
     ----------
     config : mapping
-        Validated configuration (its ``discrepancy`` settings run every discovery).
+        Validated configuration (its ``discrepancy`` settings run every discovery, without the
+        emcee posterior: the table reports verdicts).
     cases : sequence of HiddenEffectCase
         Benchmark cases (:func:`.hidden_effects.benchmark_cases`); their seeds, manoeuvres and noise.
     sets : sequence of str
@@ -261,7 +262,7 @@ def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], run
             for case in cases:
                 data = generate(config, dataclasses.replace(case, samples=int(n), speed=BRAKING if braking else {}), channels=channels)
                 clock = time.perf_counter()
-                v = DiscrepancyFinder(config).fit(data).verdict_
+                v = DiscrepancyFinder(config, posterior=False).fit(data).verdict_  # the table reports verdicts: no posterior
                 named = {v["effect"], *v.get("ambiguous_with", [])}
                 rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": name, "runs": int(n),
                              "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",
