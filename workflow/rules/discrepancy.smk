@@ -149,7 +149,7 @@ rule discrepancy_channels:
     input:
         src("studies.discrepancy", "studies.hidden_effects", "inference.discrepancy", "plots.discrepancy"),
     output:
-        table=report(f"{DISC}/channel_sets.csv", caption="../report/discrepancy_channels.rst", category="uqdrive discrepancy workflow",
+        table=report(f"{DISC}/channel_sets.csv", caption="../report/discrepancy_channels_table.rst", category="uqdrive discrepancy workflow",
                      labels={"figure": "detection by channel set (table)", "case": "IMU, speed profile, few runs"}),
         figure=report(f"{FIG}/fig_discrepancy_channel_sets.png", caption="../report/discrepancy_channels.rst", category="uqdrive discrepancy workflow",
                       labels={"figure": "detection by channel set and run count", "case": "IMU, speed profile, few runs"}),
