@@ -278,7 +278,7 @@ def test_forward_selection_names_an_effect_the_distributions_absorbed(config):
     band = NullBand.from_replicates(np.random.default_rng(0).standard_normal((200, 2, 4, 12)), scan_windows(12), 0.01)
     f = DiscrepancyFinder(config, candidates=["road_bank", "wind_gust", "sensor_scale", "sensor_bias"], top=1, max_effects=2)
     f.measured_, f.scale_, f._n, f.band_ = measured, np.full_like(measured, 1e-2), 40, band  # z in units of a unit-normal null band
-    f.candidates_ = _testable(f.candidates, sim.channels, False)[0]
+    f.candidates_ = _testable(f.candidates, sim.channels)[0]
     f.steps_, f.unresolved_, f.fits_, f.screening_ = [], {}, {}, {}
     f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")  # the stand-in has no bootstrap
     ctx = _Context(sim, np.arange(12), np.zeros(4), None, 40, np.zeros(50), 0.01)

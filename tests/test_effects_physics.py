@@ -239,7 +239,7 @@ def test_a_chassis_model_records_a_y_beside_its_states(config):
     psi_dot, beta, a_y = x5[1, 0], x5[2, 0], x5[4, 0]
     kinematic = V * (np.gradient(beta, DT) + psi_dot) / np.cos(beta)
     assert np.abs(a_y - kinematic)[2:-2].max() < 1e-3 * np.ptp(a_y)
-    keep, untestable = testable(["tyre_relaxation", "lateral_load_transfer"], CHANNELS, speed_profile=False)
+    keep, untestable = testable(["tyre_relaxation", "lateral_load_transfer"], CHANNELS)
     assert keep == ["tyre_relaxation", "lateral_load_transfer"] and untestable == []
 
 
@@ -331,4 +331,4 @@ def test_every_chassis_candidate_is_testable_on_a_file_whose_speed_changes():
     from uqdrive.vehicle.channels import CHANNELS
 
     names = ["longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation"]
-    assert testable(names, CHANNELS, speed_profile=True) == (names, [])
+    assert testable(names, CHANNELS) == (names, [])

@@ -151,10 +151,11 @@ class ExtendedSingleTrackRHS:
             P = P + w * np.maximum(1.0 + self.p_Dz * (w - F0) / F0, 0.0)
         return P
 
-    def steady_slip(self, x, j: int):
-        """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle."""
+    def steady_slip(self, x, j: int, v=None):
+        """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle,
+        at speed ``v`` (default: the speed at half step ``j``)."""
         psi_dot, beta = x[1], x[2]
-        v = self._at(j)[0]
+        v = self._at(j)[0] if v is None else v
         delta = self.delta_half[j] - self.K_cs * v * psi_dot
         if self.saturating:
             q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
@@ -172,19 +173,18 @@ class ExtendedSingleTrackRHS:
             return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
         return peak * self.B * self.C * q
 
-    def _forces(self, x, j: int):
-        """Steady slip angles (2, n), front steer angle (n,) and axle forces (2, n) at ``x``: the
-        lagged slip angles where the tyres relax."""
-        q_steady, delta = self.steady_slip(x, j)
+    def _forces(self, x, j: int, v, v_dot):
+        """Steady slip angles (2, n), front steer angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
+        changing at ``v_dot``: the lagged slip angles where the tyres relax."""
+        q_steady, delta = self.steady_slip(x, j, v)
         q = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else q_steady
-        v, v_dot = self._at(j)[:2]
         return q_steady, delta, self.tyre_forces(q, x[1], x[2], v, v_dot)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
         an accelerometer at the centre of gravity reads, (F_f cos delta + F_r + F_w) / m, with the
         lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention)."""
-        _, delta, F = self._forces(x, j)
+        _, delta, F = self._forces(x, j, *self._at(j)[:2])
         return (self._front(F[0], delta) + F[1] + self.F_w_half[j]) / self.m
 
     def _front(self, F_f, delta):
@@ -194,8 +194,8 @@ class ExtendedSingleTrackRHS:
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
-        q, delta, F = self._forces(x, j)
         v, v_dot, inv_mv, a_v = self._at(j)
+        q, delta, F = self._forces(x, j, v, v_dot)
         cos_b = np.cos(beta) if self.saturating else 1.0
         if self.relaxed:
             out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)

@@ -14,15 +14,13 @@ from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, SensorBias, Se
 __all__ = ["EffectSet", "family_of", "resolvable", "testable"]
 
 
-def testable(candidates: Sequence[str], channels: Sequence[str], speed_profile: bool) -> tuple[list[str], list[dict]]:
-    """The candidates that data with ``channels`` (and a changing speed if ``speed_profile``) can
-    test, and {"effect", "reason"} for the others.
+def testable(candidates: Sequence[str], channels: Sequence[str]) -> tuple[list[str], list[dict]]:
+    """The candidates that data with ``channels`` can test, and {"effect", "reason"} for the others.
 
     An effect acting only on channels that are not measured changes nothing that the data show
     (``lateral_kinematics`` without y); a sensor error of an unrecorded channel is no question at
-    all and is dropped without a reason. Every candidate follows a changing speed (the chassis
-    models' longitudinal load transfer from the force that follows it); ``speed_profile`` is kept
-    for callers that pass it.
+    all and is dropped without a reason. A changing speed leaves every candidate testable (the
+    chassis models follow it, the longitudinal load transfer from the force that follows it).
     """
     keep, untestable = [], []
     for name in candidates:

@@ -166,7 +166,7 @@ class DiscrepancyFinder:
         speed = speed_profile(ds)
         v_c = float(ds.attrs["v_c"]) if speed is None else float(np.mean(speed))
         self.speed_profile_ = None if speed is None else {"min": float(speed.min()), "max": float(speed.max()), "mean": v_c}
-        self.candidates_, self.untestable_ = testable(self.candidates, self.channels_, speed is not None)
+        self.candidates_, self.untestable_ = testable(self.candidates, self.channels_)
         raw = AugmentedSimulator.drawn(self.config, t, delta, v_c, self.model_samples, rng_stream(self.seed, "discrepancy_model"),
                                        stride=self.stride_, interpolation=self.interpolation_,
                                        channels=self.channels_, speed=speed)
