@@ -15,8 +15,8 @@ import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from .effects import ModelStructure
-from .single_track import STATES, VehicleParameters, lst_matrices
-from .track_extended import chassis_max_step, compliance_gain, integrate_chassis, uses_chassis_terms
+from .single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
+from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from .uncertainty import Germs, kle_nystrom
@@ -317,14 +317,12 @@ class AugmentedSimulator:
         return self.interpolation == "previous" and s.steering_lag <= 0
 
     def _exact(self, p, wind, coeffs, delta, s: ModelStructure):
-        A, B, W = lst_matrices(p)
+        A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
         A = A.copy()
         A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
         W_gust = W.copy()
         if not self.gust_yaw_moment:
             W_gust[:, 1] = 0.0
-        if s.compliance_steer:  # delta - K a_y with a_y = v psi_dot: a feedback of psi_dot through B
-            A[:, :, 1] -= B * (compliance_gain(s.compliance_steer, p.g) * p.v_c)
         const = W * wind[:, None]
         const[:, 2] += s.lateral_acceleration / p.v_c
         held = self._held_input(s)

@@ -54,7 +54,8 @@ class ModelStructure:
     roll_share_front : float
         Front share chi_f (-) of the lateral load transfer m a_y h / t (roll-stiffness distribution).
     compliance_steer : float
-        Front steer angle change per lateral acceleration (deg/g), positive: out of the turn.
+        Front steer angle change per g of the front axle's force over its static load (deg/g;
+        at steady cornering per g of lateral acceleration), positive: out of the turn.
     relaxation_length : float
         Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
     a_y_offset, a_y_gain : float
@@ -223,7 +224,8 @@ class LateralLoadTransfer(Effect):
 
 
 class ComplianceSteer(Effect):
-    """Road-wheel angle change per lateral acceleration, K (deg/g): roll or compliance steer."""
+    """Road-wheel angle change per g of the front axle's force over its static load, K (deg/g):
+    the steering's compliance (at steady cornering K per g of lateral acceleration, as roll steer)."""
 
     def apply(self, s, v):
         return replace(s, compliance_steer=float(v[0]))
@@ -302,8 +304,9 @@ EFFECTS: dict[str, Effect] = {
         "psi_dot and beta peaks change quadratically in the lateral acceleration (none at small a_y); "
         "chi_f > l_r / L adds understeer"),
     "compliance_steer": ComplianceSteer(
-        "compliance_steer", ("K",), ("deg/g",), ((-3.0, 3.0),), (0.3,),
-        "front steer angle change -K a_y from roll steer and the steering's compliance (a_y = v psi_dot)",
+        "compliance_steer", ("K",), ("deg/g",), ((-1.0, 3.0),), (0.3,),
+        "front wheels yield to their lateral force: -K per g of F_f / F_zf,static (at steady cornering -K a_y / g, "
+        "roll steer's unit); on the linear tyre a front cornering stiffness c_f / (1 + K c_Sf C mu)",
         "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
         "beta with it; phase untouched at low frequency"),
     "tyre_relaxation": TyreRelaxation(

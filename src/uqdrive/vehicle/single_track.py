@@ -24,6 +24,7 @@ __all__ = [
     "lst_matrices_at_speed",
     "gust_input_column",
     "wind_yaw_moment",
+    "with_compliance_steer",
 ]
 
 #: State vector x = [psi, psi_dot, beta, y] of (5.3)/(5.4).
@@ -132,6 +133,37 @@ class VehicleParameters:
     def c_r(self):
         """Rear cornering stiffness F_rz B_r C mu (N/rad)."""
         return self.F_rz * self.c_Sr * self.C * _as_array(self.mu)
+
+
+def with_compliance_steer(p: VehicleParameters, K_deg_per_g) -> VehicleParameters:
+    """Parameters whose linear front tyre carries the steering's compliance.
+
+    The front wheels yield to the front axle's lateral force: delta_f = delta - kappa F_f with
+    kappa = K / F_fz (rad/N; K in rad per g, F_fz the static front load), so that at steady
+    cornering (F_f = F_fz a_y / g) they turn by -K per g of lateral acceleration. On the linear
+    tyre F_f = c_f (alpha_f - kappa F_f) solves to F_f = c_f alpha_f / (1 + kappa c_f): the
+    compliance lowers the front cornering stiffness to c_f / (1 + K c_Sf C mu) (Gillespie,
+    *Fundamentals of Vehicle Dynamics*, sec. 6 "compliance steer": an effective axle stiffness),
+    per realisation and exactly, in transients as at steady state.
+
+    Parameters
+    ----------
+    p : VehicleParameters
+        Scalar or per-realisation parameters (mu of shape () or (n,)).
+    K_deg_per_g : float
+        Compliance steer K (deg/g), positive out of the turn (understeer).
+
+    Returns
+    -------
+    VehicleParameters
+        ``p`` itself for K = 0; else ``c_Sf`` replaced by c_Sf / (1 + K c_Sf C mu) (shape of mu).
+    """
+    if not np.any(np.asarray(K_deg_per_g) != 0):
+        return p
+    # a front axle may not turn into a negative stiffness (K far below the physical range)
+    factor = 1.0 + np.deg2rad(K_deg_per_g) * p.c_Sf * p.C * _as_array(p.mu)
+    factor = np.where(np.real(factor) < 0.05, 0.05, factor)
+    return replace(p, c_Sf=p.c_Sf / factor)
 
 
 def magic_formula(slip, F_z, B, C, D, E):

@@ -38,8 +38,12 @@ single-track force with the load F_zi replaced by
 so that with p_Dz < 0 the lateral transfer lowers the axle's force by p_Dz (dF_i / F_z0,i)^2 of it
 (computed per wheel, so that a lifted wheel, dF_i > F_zi / 2, carries nothing and no peak turns
 negative: a spinning realisation stays finite).
-Compliance steer turns the front wheels by -K a_y (a_y = v psi_dot, its steady value; positive K
-understeers). Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
+Compliance steer: the front wheels yield to the front axle's lateral force, delta_f = delta -
+kappa F_f with kappa = K / F_zf,static (K in rad per g: at steady cornering -K per g of lateral
+acceleration; positive K understeers). The loop F_f = F(alpha_f - kappa F_f) is solved exactly on
+the linear tyre (F_f = c alpha_f / (1 + kappa c) at the axle's current load c) and by Newton's
+method on the Magic Formula; a relaxing tyre's force comes from its lagged slip, and the wheels
+yield to it without a loop. Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
 (Pacejka sec. 7.2), two extra states.
 """
 
@@ -53,7 +57,7 @@ from ..numerics.integrate import rk4_fixed_step_into
 from ..vehicle_spec import require
 from .single_track import VehicleParameters
 
-__all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "compliance_gain", "integrate_chassis", "uses_chassis_terms"]
+__all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "integrate_chassis", "uses_chassis_terms"]
 
 
 def uses_chassis_terms(s) -> bool:
@@ -67,11 +71,6 @@ def chassis_max_step(s, v: float, max_step: float) -> float:
     """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag)."""
     sigma = float(getattr(s, "relaxation_length", 0.0))
     return min(max_step, sigma / float(v)) if sigma > 0 else max_step
-
-
-def compliance_gain(K_deg_per_g, g: float = 9.81):
-    """Compliance steer in rad per m/s^2 from deg per g."""
-    return np.deg2rad(K_deg_per_g) / g
 
 
 class ExtendedSingleTrackRHS:
@@ -112,7 +111,8 @@ class ExtendedSingleTrackRHS:
         chi = np.asarray(s.roll_share_front, float)
         arm = np.stack(np.broadcast_arrays(chi, 1.0 - chi)) * (cg_height / track_width)
         self.lateral_arm = arm[:, None] if arm.ndim == 1 else arm  # (2, 1) or (2, n)
-        self.K_cs = compliance_gain(np.asarray(s.compliance_steer, float), p.g)
+        self.kappa = np.deg2rad(np.asarray(s.compliance_steer, float)) / p.F_fz  # rad/N, (n,)
+        self.compliant = bool(np.any(np.asarray(s.compliance_steer) != 0))
         self.sigma = np.asarray(s.relaxation_length, float)
         self.relaxed = bool(np.any(self.sigma > 0))
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
@@ -152,11 +152,11 @@ class ExtendedSingleTrackRHS:
         return P
 
     def steady_slip(self, x, j: int, v=None):
-        """Slip angles (2, n) the tyres would have without relaxation, and the front steer angle,
-        at speed ``v`` (default: the speed at half step ``j``)."""
+        """Slip angles (2, n) the tyres would have without relaxation and compliance, and the
+        commanded front steer angle, at speed ``v`` (default: the speed at half step ``j``)."""
         psi_dot, beta = x[1], x[2]
         v = self._at(j)[0] if v is None else v
-        delta = self.delta_half[j] - self.K_cs * v * psi_dot
+        delta = self.delta_half[j]
         if self.saturating:
             q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
         else:  # the LST's small angles
@@ -167,18 +167,50 @@ class ExtendedSingleTrackRHS:
     def tyre_forces(self, q, psi_dot, beta, v=None, v_dot=0.0):
         """Lateral axle forces (2, n) (N) at slip angles ``q`` (2, n) (rad), on the loads of
         :meth:`axle_loads`: Magic Formula or linear, as the structure's tyre."""
-        peak = self.axle_loads(psi_dot, beta, v, v_dot) * self.mu
+        return self._curve(self.axle_loads(psi_dot, beta, v, v_dot) * self.mu, q)
+
+    def _curve(self, peak, q, B=None):
+        """Force (N) at slip ``q`` (rad) and peak ``peak`` (N): Magic Formula or its slope at zero."""
+        B = self.B if B is None else B
         if self.saturating:
-            bx = self.B * q
+            bx = B * q
             return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
-        return peak * self.B * self.C * q
+        return peak * B * self.C * q
+
+    def _yielded_front_slip(self, q0, peak):
+        """Front slip (n,) (rad) with the wheels yielding to their own force: q = q0 - kappa F(q).
+
+        Linear tyre: q0 / (1 + kappa c), c = peak B C; Magic Formula: three Newton steps from it
+        (the loop's gain kappa dF/dq is below 1 in the fitted range, so the residual falls
+        quadratically to round-off)."""
+        B, stiff = self.B[0, 0], peak * self.B[0, 0] * self.C
+        q = q0 / np.maximum(1.0 + self.kappa * stiff, 0.05)
+        if not self.saturating:
+            return q
+        for _ in range(3):
+            bx = B * q
+            u = bx - self.E * (bx - np.arctan(bx))
+            slope = peak * np.cos(self.C * np.arctan(u)) * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
+            q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
+        return q
 
     def _forces(self, x, j: int, v, v_dot):
-        """Steady slip angles (2, n), front steer angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
-        changing at ``v_dot``: the lagged slip angles where the tyres relax."""
+        """Steady slip angles (2, n), front wheel angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
+        changing at ``v_dot``: the lagged slip angles where the tyres relax, the front wheels yielding
+        to their force where the steering is compliant."""
         q_steady, delta = self.steady_slip(x, j, v)
-        q = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else q_steady
-        return q_steady, delta, self.tyre_forces(q, x[1], x[2], v, v_dot)
+        peak = self.axle_loads(x[1], x[2], v, v_dot) * self.mu
+        if self.relaxed:  # the force of the lagged slip; the wheels yield to it, which moves the slip's target
+            F = self._curve(peak, np.where(self.sigma > 0, x[4:6], q_steady))
+            if self.compliant:
+                q_steady[0] -= self.kappa * F[0]
+                delta = delta - self.kappa * F[0]
+            return q_steady, delta, F
+        if self.compliant:
+            q_front = self._yielded_front_slip(q_steady[0], peak[0])
+            delta = delta - (q_steady[0] - q_front)
+            q_steady[0] = q_front
+        return q_steady, delta, self._curve(peak, q_steady)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force

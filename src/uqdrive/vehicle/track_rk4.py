@@ -37,8 +37,7 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from .effects import ModelStructure
-from .single_track import STATES, VehicleParameters
-from .track_extended import compliance_gain
+from .single_track import STATES, VehicleParameters, with_compliance_steer
 
 __all__ = ["SingleTrackRHS", "integrate_single_track", "speed_on_half_steps", "linear_lateral_acceleration", "LinearTrackRHS",
            "integrate_linear_ltv", "rk4_lateral_acceleration", "measured_channels"]
@@ -232,7 +231,8 @@ def linear_lateral_acceleration(p: VehicleParameters, x, delta, F_w, v, complian
     v : float or ndarray, shape (K,)
         Speed (m/s).
     compliance_steer : float
-        K (deg/g): the front wheels steer by -K a_y with a_y ~ v psi_dot (as the simulator's model).
+        K (deg/g): the front wheels yield to the front force, a softer front axle
+        (:func:`uqdrive.vehicle.single_track.with_compliance_steer`, as the simulator's model).
 
     Returns
     -------
@@ -240,9 +240,9 @@ def linear_lateral_acceleration(p: VehicleParameters, x, delta, F_w, v, complian
     """
     col = lambda a: np.asarray(a, float)[..., None] if np.ndim(a) else float(a)  # noqa: E731 (per realisation: a column)
     psi_dot, beta = x[1], x[2]
+    p = with_compliance_steer(p, compliance_steer)
     l_f, l_r, c_f, c_r, m = col(p.l_f), col(p.l_r), col(p.c_f), col(p.c_r), col(p.m)
-    d = np.asarray(delta, float) - compliance_gain(compliance_steer, p.g) * v * psi_dot
-    F_f = c_f * (d - beta - l_f * psi_dot / v)
+    F_f = c_f * (np.asarray(delta, float) - beta - l_f * psi_dot / v)
     F_r = c_r * (l_r * psi_dot / v - beta)
     return (F_f + F_r + F_w) / m
 
@@ -274,10 +274,10 @@ class LinearTrackRHS:
     """
 
     def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half):
+        p = with_compliance_steer(p, s.compliance_steer)  # the steering's compliance: a softer front axle
         self.p, self.k, self.exact = p, float(s.course_weight), bool(s.course_exact)
         self.a_lat = np.asarray(s.lateral_acceleration, float)
         self._has_lat = bool(np.any(self.a_lat))
-        self.K = compliance_gain(float(s.compliance_steer), p.g)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
         self.v_half, self.v_dot_half = np.asarray(v_half, float), np.asarray(v_dot_half, float)
         self.l_f, self.l_r, self.c_f, self.c_r = np.asarray(p.l_f, float), p.l_r, p.c_f, p.c_r
@@ -293,17 +293,16 @@ class LinearTrackRHS:
         self.M_term = None if yaw_gust else as_n(p.M_c * np.asarray(wind, float) / I_z)
         self.inv_v = [float(1.0 / v) for v in self.v_half]
         self.rate = [float(vd / v) for v, vd in zip(self.v_half, self.v_dot_half)]
-        self._t, self._u = np.empty(n), np.empty(n)
+        self._t = np.empty(n)
 
     def forces(self, x, j: int):
         """Front and rear tyre forces (N), each shape (n,), at half step ``j``."""
         v, psi_dot, beta = self.v_half[j], x[1], x[2]
-        d = self.delta_half[j] - self.K * v * psi_dot
-        return self.c_f * (d - beta - self.l_f * psi_dot / v), self.c_r * (self.l_r * psi_dot / v - beta)
+        return self.c_f * (self.delta_half[j] - beta - self.l_f * psi_dot / v), self.c_r * (self.l_r * psi_dot / v - beta)
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
-        r, b, t, u = x[1], x[2], self._t, self._u
+        r, b, t = x[1], x[2], self._t
         iv, rate, d, F_w = self.inv_v[j], self.rate[j], float(self.delta_half[j]), self.F_w_half[j]
         o1, o2, o3 = out[1], out[2], out[3]
         np.multiply(self.P, r, o1)
@@ -332,13 +331,6 @@ class LinearTrackRHS:
         o2 += t
         if self._has_lat:
             o2 += self.a_lat * iv
-        if self.K:  # the steer angle's compliance part -K v psi_dot
-            np.multiply(r, self.K / iv, u)
-            np.multiply(self.a13, u, t)
-            o1 -= t
-            np.multiply(self.S, u, t)
-            t *= iv
-            o2 -= t
         out[0] = r
         np.multiply(b, self.k, o3)
         o3 += x[0]
