@@ -16,13 +16,14 @@ THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
 
 def _fit(z, names=()):
+    """A fit stand-in whose intervals are 0.1 -+ 0.01 sqrt(inflation) (a Gauss-Newton variance times the inflation)."""
     eff = EffectSet(names) if names else None
-    flat = {p: [0.1, 0.09, 0.11] for p in eff.parameters} if eff else {}
+    flat = lambda inflation=1.0: {p: [0.1, 0.1 - 0.01 * np.sqrt(inflation), 0.1 + 0.01 * np.sqrt(inflation)] for p in eff.parameters} if eff else {}  # noqa: E731
     return SimpleNamespace(z_=z, theta_=THETA, chi2_=float(np.sum(z**2)), success_=True, structure_=ModelStructure(), effect=eff,
-                           parameter_names=("x",) * (6 + len(flat)), effect_intervals=lambda inflation=1.0: flat)
+                           parameter_names=("x",) * (6 + len(flat())), effect_intervals=flat)
 
 
-def _verdict(rest, max_effects):
+def _verdict(rest, max_effects, whole=False):
     """A baseline with a rough (not smooth: the catch-all cannot absorb it) gap of 3 band units,
     one named effect leaving ``rest`` (2, 4, K) on top of null-like noise."""
     rng = np.random.default_rng(0)
@@ -36,7 +37,8 @@ def _verdict(rest, max_effects):
                              time_=np.arange(1, K + 1) * 0.1, _criterion=lambda b: (2.0 * b.chi2_null_sd, 2.0 * b.inflation),
                              _chi2=lambda f: f.chi2_)
     ctx = SimpleNamespace(n=100)
-    return [e["effect"] for e in assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)["effects"]]
+    verdict = assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)
+    return (verdict, aug, band) if whole else [e["effect"] for e in verdict["effects"]]
 
 
 def test_unrecognised_follows_when_the_selection_ends_with_the_model_outside_its_band():
@@ -62,3 +64,23 @@ def test_a_scan_crossing_without_excess_misfit_leaves_nothing_unexplained():
     z = rng.standard_normal((2, 4, K)) + rest
     assert band.max_statistic(z) > band.threshold and not band.gate(z)  # the premise: a crossing, no excess
     assert names == ["actuator_lag"]
+
+
+def test_intervals_widen_by_the_lack_of_fit_of_a_model_that_leaves_a_rest():
+    """A named effect whose model stays outside its band (a rest of 4 band units over 10 cells)
+    reports its interval widened by sqrt(chi2 / null chi2), the Birge ratio, on top of the null's
+    inflation; a model inside its band (chi2 below its null expectation) keeps the null's interval.
+    Without the factor the half-width would be 0.01 sqrt(inflation) in both."""
+    rest = np.zeros((2, 4, K))
+    rest[0, 3, 10:20] = 4.0
+    verdict, aug, band = _verdict(rest, max_effects=3, whole=True)
+    ratio = aug.chi2_ / (band.mean_square_null * aug.z_.size)
+    assert ratio > 1.3  # the premise: a lack of fit worth a wider interval
+    est, lo, hi = verdict["effects"][0]["parameters"]["T"]
+    np.testing.assert_allclose((hi - lo) / 2, 0.01 * np.sqrt(band.inflation * ratio), rtol=1e-9)
+    assert verdict["evidence"]["lack_of_fit"] == round(ratio, 3)
+    verdict, aug, band = _verdict(np.zeros((2, 4, K)), max_effects=3, whole=True)
+    assert aug.chi2_ < band.mean_square_null * aug.z_.size  # the premise (ratio 0.995 with this seed)
+    est, lo, hi = verdict["effects"][0]["parameters"]["T"]
+    np.testing.assert_allclose((hi - lo) / 2, 0.01 * np.sqrt(band.inflation), rtol=1e-9)
+    assert verdict["evidence"]["lack_of_fit"] == 1.0

@@ -13,13 +13,38 @@ from .band import STATISTICS, excess_rms
 from .catchall import smooth_discrepancy
 from .effectset import family_of
 
-__all__ = ["distributions", "assemble_verdict", "localise", "model_document"]
+__all__ = ["distributions", "assemble_verdict", "lack_of_fit", "localise", "model_document"]
 
 
 def distributions(theta) -> dict:
     """The fitted distributions of mu, l_f and the mean wind as ``model.yaml`` / verdict entries."""
     t = [float(v) for v in theta]
     return {"mu": {"mean": t[0], "std": t[1]}, "l_f": {"mean": t[2], "std": t[3]}, "F_w_mean": {"low": t[4], "high": t[5]}}
+
+
+def lack_of_fit(chi2: float, cells: int, mean_square_null: float) -> float:
+    """The Birge ratio squared: chi2 over its null expectation, at least 1.
+
+    A model that leaves a systematic rest fits its parameters to that rest too; their
+    Gauss-Newton covariance, which takes the residuals for noise of the null's size, is scaled
+    by this ratio (the reduced chi-square scaling of weighted least squares, as scipy's
+    ``curve_fit`` with ``absolute_sigma=False``; Press et al., *Numerical Recipes*, sec. 15.6).
+    A model inside its band keeps its intervals (ratio ~1).
+
+    Parameters
+    ----------
+    chi2 : float
+        The fit's chi2 (-) on the linear models' footing (:meth:`.finder.DiscrepancyFinder._chi2`).
+    cells : int
+        Number of standardised residuals (statistics x channels x times).
+    mean_square_null : float
+        The null band's mean z^2 per cell (-).
+
+    Returns
+    -------
+    float
+    """
+    return max(1.0, float(chi2) / (mean_square_null * cells))
 
 
 def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
@@ -29,7 +54,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     named = bool(finder.steps_)
     gap1 = excess_rms(aug.z_, after_band) if named else gap0
     explains = after_band.max_statistic(aug.z_) <= after_band.threshold
-    per_effect = aug.effect.intervals(aug.effect_intervals(band.inflation)) if named else {}
+    # intervals: the null's time correlation (inflation) and the final model's lack of fit
+    misfit = lack_of_fit(finder._chi2(aug), aug.z_.size, after_band.mean_square_null) if named else 1.0
+    per_effect = aug.effect.intervals(aug.effect_intervals(band.inflation * misfit)) if named else {}
     effects = []
     for step in finder.steps_:
         name = step["name"]
@@ -54,7 +81,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     summary = {}
     for c, f in finder.fits_.items():
         summary[c] = {"chi2": round(f.chi2_, 2), "max_statistic": round(band.max_statistic(f.z_), 3), "gap_after": round(excess_rms(f.z_, band), 4),
-                      "parameters": {k.split(".", 1)[1]: [round(v, 6) for v in iv] for k, iv in f.effect_intervals(band.inflation).items() if k.startswith(c + ".")},
+                      "parameters": {k.split(".", 1)[1]: [round(v, 6) for v in iv] for k, iv in
+                                     f.effect_intervals(band.inflation * lack_of_fit(finder._chi2(f), f.z_.size, band.mean_square_null)).items()
+                                     if k.startswith(c + ".")},
                       "explains": bool(band.max_statistic(f.z_) <= band.threshold)}
     if first is not None:
         fb, fband = first["fit"], first["band"]
@@ -89,6 +118,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "chi2_null_sd": round(band.chi2_null_sd, 2),
             "tie_margin": round(margin, 2),
             "inflation": round(band.inflation, 3),
+            "lack_of_fit": round(misfit, 3),
             "interpolation": finder.interpolation_,
             "named_band": {"effects": [s["name"] for s in finder.steps_], "band": finder.steps_[-1]["band_kind"], "threshold": round(after_band.threshold, 3),
                            "mean_square_null": round(after_band.mean_square_null, 4), "replicates": int(after_band.max_null.size)} if named else {},
