@@ -17,10 +17,11 @@ from ...vehicle.augmented import AugmentedSimulator
 from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
-from .effectset import EffectSet, family_of, resolvable, testable
+from .effectset import EffectSet, family_of, testable
 from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .ranking import screen
+from .selection import backward_check, forward_selection
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
 
@@ -30,8 +31,6 @@ __all__ = ["DEFAULT_CANDIDATES", "family_of", "DiscrepancyFinder"]
 #: when it closed PROBE_SHARE of what the best linear candidate closed (its chi2 can only fall further).
 PROBE_NFEV, PROBE_SHARE = 6, 0.25
 
-#: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before).
-STEP_SHRINK = 0.75
 DEFAULT_CANDIDATES = ("tyre_saturation", "actuator_lag", "actuator_delay", "road_bank", "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale")
 
 
@@ -243,90 +242,33 @@ class DiscrepancyFinder:
         return level + (fit.chi2_ - level) * ratio2
 
     def _forward(self, ctx, base, band, start_effects, lap):
-        """Add effects while each one is justified: its joint fit lowers chi2 by more than its
-        penalty plus the null-calibrated margin, it is resolvable at the data's sampling, and it
-        explains the rest of the gap or closes at least a quarter of it (:data:`STEP_SHRINK`);
-        stop when the model explains the data (inside its own band)."""
-        cur, cur_band = base, band
-        names, values = list(start_effects), dict(start_effects)
-        explained = False
-        while not explained and len(self.steps_) < self.max_effects:
-            pool = [c for c in self.candidates_ if c not in names]
-            if not pool:
-                break
-            screening = self._screen(ctx, cur, pool)
-            # on a non-linear model: the best-ranked linear candidate, finished if its short fit pays
-            linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if cur.structure_.nonlinear else self.top]
-            tried = linear + [c for c in pool if self._nonlinear(c)]  # non-linear ones always fitted jointly
-            fits, (margin, per_param) = {}, self._criterion(cur_band)
-            for c in linear:  # each from the distributions where its screening was best
-                budget = PROBE_NFEV if cur.structure_.nonlinear else None
-                fits[c] = self._joint(ctx, screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
-                if budget and self._chi2(cur) - self._chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
-                    start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
-                    fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
-            for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-                short = self._probe(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]})
-                if self._in_reach(cur, short, [fits[k] for k in linear]):
-                    start = {k: list(v) for k, v in short.effect.split(short.effect_values_).items()}
-                    short = self._joint(ctx, short.theta_, names + [c], start)
-                fits[c] = short
-            step = len(self.steps_)
-            if step == 0:
-                self.fits_, self.screening_ = fits, screening
-            lap(f"step_{step + 1}", f" (screened {len(pool)}, fitted {', '.join(tried)})")
-            margin, per_param = self._criterion(cur_band)
-            prev_gap = excess_rms(cur.z_, cur_band)
-            chosen, best = None, min(fits, key=lambda c: self._chi2(fits[c]))
-            for c in sorted(fits, key=lambda c: self._chi2(fits[c])):
-                fc = fits[c]
-                ok, why = resolvable(c, fc.effect.split(fc.effect_values_)[c], ctx.delta, ctx.dt)
-                if not ok:
-                    self.unresolved_[c] = why
-                    if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
-                        self.unresolved_["explains_gap"] = c  # the gap is at the sampling's resolution
-                        return cur, cur_band
-                    continue
-                penalty = per_param * len(EFFECTS[c].parameters)
-                if self._chi2(cur) - self._chi2(fc) - penalty <= margin:
-                    break  # the best resolvable addition is not justified: nothing further is
-                after_band, which = self._own_band(ctx, c, fc, band, key=step + 1)
-                explains = after_band.max_statistic(fc.z_) <= after_band.threshold
-                gap = excess_rms(fc.z_, after_band)
-                if explains or gap <= STEP_SHRINK * prev_gap:
-                    chosen = c
-                break
-            if chosen is None:
-                break
-            fc = fits[chosen]
-            tie = [c for c in fits if c != chosen and self._chi2(fits[c]) - self._chi2(fc) <= margin]
-            self.steps_.append({"name": chosen, "fit": fc, "band": after_band, "band_kind": which, "explains": bool(explains),
-                                "gap_after": gap, "ambiguous": sorted({family_of(c) for c in tie} - {family_of(chosen)}),
-                                "candidates": {c: round(self._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: self._chi2(kv[1]))},
-                                "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]] for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])}})
-            names.append(chosen)
-            values = {k: list(v) for k, v in fc.effect.split(fc.effect_values_).items()}
-            cur, cur_band, explained = fc, after_band, explains
-        return cur, cur_band
+        """Forward selection (:func:`.selection.forward_selection`): the final fit and its band."""
+        return forward_selection(self, ctx, base, band, start_effects, lap)
+
+    def _fit_pool(self, ctx, cur, cur_band, pool, screening, names, values):
+        """Joint fits of one forward step: the ``top`` linear candidates by screening (one on a
+        non-linear model, finished when its short fit pays) and every non-linear one (a short
+        probe, finished when in reach). Returns {candidate: fit} and the candidates fitted."""
+        linear = sorted((c for c in pool if not self._nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if cur.structure_.nonlinear else self.top]
+        tried = linear + [c for c in pool if self._nonlinear(c)]
+        fits, (margin, per_param) = {}, self._criterion(cur_band)
+        for c in linear:  # each from the distributions where its screening was best
+            budget = PROBE_NFEV if cur.structure_.nonlinear else None
+            fits[c] = self._joint(ctx, screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
+            if budget and self._chi2(cur) - self._chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
+                start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
+                fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
+        for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
+            short = self._probe(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]})
+            if self._in_reach(cur, short, [fits[k] for k in linear]):
+                start = {k: list(v) for k, v in short.effect.split(short.effect_values_).items()}
+                short = self._joint(ctx, short.theta_, names + [c], start)
+            fits[c] = short
+        return fits, tried
 
     def _backward(self, ctx, cur, cur_band, start_effects):
-        """Check every added effect against its removal: refit without it; drop it when the
-        chi2 it saves is within its penalty plus the null-calibrated margin."""
-        for step in list(self.steps_):
-            names = list(start_effects) + [s["name"] for s in self.steps_]
-            if len(names) < 2:
-                break
-            values = {k: list(v) for k, v in cur.effect.split(cur.effect_values_).items()}
-            rest = [m for m in names if m != step["name"]]
-            fit = self._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
-            margin, per_param = self._criterion(cur_band)
-            saved = self._chi2(fit) - self._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
-            if saved <= margin:
-                self.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
-                self.steps_.remove(step)
-                cur = fit
-                cur_band, _ = self._own_band(ctx, rest[-1], fit, self.band_, key=10 + len(self.removed_))
-        return cur, cur_band
+        """Backward check (:func:`.selection.backward_check`)."""
+        return backward_check(self, ctx, cur, cur_band, start_effects)
 
     def _separating_input(self, delta, n):
         """Per candidate ambiguous with the first named one: the input that tells them apart best."""

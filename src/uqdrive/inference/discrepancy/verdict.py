@@ -123,7 +123,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "named_band": {"effects": [s["name"] for s in finder.steps_], "band": finder.steps_[-1]["band_kind"], "threshold": round(after_band.threshold, 3),
                            "mean_square_null": round(after_band.mean_square_null, 4), "replicates": int(after_band.max_null.size)} if named else {},
             "steps": [{"effect": s["name"], "chi2": round(s["fit"].chi2_, 2), "explains": s["explains"], "candidates": s["candidates"],
-                       "screening": s.get("screening", {})} for s in finder.steps_],
+                       "screening": s.get("screening", {}), **({"pair": s["pair"]} if s.get("pair") else {})} for s in finder.steps_],
             "removed": finder.removed_,
             "rejected": finder.rejected_,
             "unresolved": dict(finder.unresolved_),

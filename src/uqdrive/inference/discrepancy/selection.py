@@ -1,0 +1,154 @@
+"""Forward selection of missing effects with joint refits, a pair step where two effects only
+together close their share of the gap, and the backward check of every added effect.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...vehicle.effects import EFFECTS
+from .band import excess_rms
+from .effectset import family_of, resolvable
+
+__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check"]
+
+#: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
+#: two effects added as a pair must close it twice over (STEP_SHRINK squared).
+STEP_SHRINK = 0.75
+#: Partners tried with a justified effect that alone closes less than a quarter (the next best by chi2).
+PAIR_PARTNERS = 2
+
+
+def _values(fit) -> dict:
+    return {k: list(v) for k, v in fit.effect.split(fit.effect_values_).items()}
+
+
+def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
+    """The chi2 ``after`` saves against ``before`` beats the penalty of ``name``'s parameters plus the margin."""
+    return finder._chi2(before) - finder._chi2(after) - per_param * len(EFFECTS[name].parameters) > margin
+
+
+def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin, extra=None) -> dict:
+    tie = [c for c in fits if c != name and finder._chi2(fits[c]) - finder._chi2(fit) <= margin]
+    return {"name": name, "fit": fit, "band": band, "band_kind": which, "explains": bool(explains), "gap_after": gap,
+            "ambiguous": sorted({family_of(c) for c in tie} - {family_of(name)}),
+            "candidates": {c: round(finder._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: finder._chi2(kv[1]))},
+            "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]] for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"])
+                          if np.isfinite(v["chi2"])}, **(extra or {})}
+
+
+def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first, prev_gap, key):
+    """Two effects that only together close their share: ``first`` (justified, resolvable, but
+    closing less than a quarter alone) fitted jointly with each of the next :data:`PAIR_PARTNERS`
+    justified, resolvable candidates of this step. A pair is taken when each member is justified
+    on top of the other (chi2 saved beyond its penalty plus the margin), and together they explain
+    the rest of the gap or close it by STEP_SHRINK squared (two additions' worth).
+
+    Returns the two step records (``first``, then its partner with the pair's fit), or None."""
+    margin, per_param = finder._criterion(cur_band)
+    partners = [c for c in sorted(fits, key=lambda c: finder._chi2(fits[c])) if c != first
+                and _gain_justified(finder, cur, fits[c], c, margin, per_param)
+                and resolvable(c, _values(fits[c])[c], ctx.delta, ctx.dt)[0]][:PAIR_PARTNERS]
+    best = None
+    for c in partners:
+        start = {**values, **_values(fits[first]), c: _values(fits[c])[c]}
+        pair = finder._joint(ctx, fits[first].theta_, names + [first, c], start)
+        if not (_gain_justified(finder, fits[first], pair, c, margin, per_param) and _gain_justified(finder, fits[c], pair, first, margin, per_param)):
+            continue
+        if not resolvable(c, _values(pair)[c], ctx.delta, ctx.dt)[0] or not resolvable(first, _values(pair)[first], ctx.delta, ctx.dt)[0]:
+            continue
+        if best is None or finder._chi2(pair) < finder._chi2(best[1]):
+            best = (c, pair)
+    if best is None:
+        return None
+    partner, pair = best
+    band_1, which_1 = finder._own_band(ctx, first, fits[first], finder.band_, key=key)
+    band_2, which_2 = finder._own_band(ctx, partner, pair, finder.band_, key=key + 20)
+    explains = band_2.max_statistic(pair.z_) <= band_2.threshold
+    gap = excess_rms(pair.z_, band_2)
+    if not (explains or gap <= STEP_SHRINK**2 * prev_gap):
+        return None
+    one = _step(finder, first, fits[first], band_1, which_1, band_1.max_statistic(fits[first].z_) <= band_1.threshold,
+                excess_rms(fits[first].z_, band_1), fits, screening, margin, {"pair": partner})
+    two = _step(finder, partner, pair, band_2, which_2, explains, gap, {**fits, partner: pair}, screening, margin, {"pair": first})
+    return [one, two]
+
+
+def forward_selection(finder, ctx, base, band, start_effects, lap):
+    """Add effects while each one is justified: its joint fit lowers chi2 by more than its
+    penalty plus the null-calibrated margin, it is resolvable at the data's sampling, and it
+    explains the rest of the gap or closes at least a quarter of it (:data:`STEP_SHRINK`); when
+    the best justified addition closes less, a partner may join it (:func:`pair_step`); stop when
+    the model explains the data (inside its own band). Returns the final fit and its band."""
+    cur, cur_band = base, band
+    names, values = list(start_effects), dict(start_effects)
+    explained = False
+    while not explained and len(finder.steps_) < finder.max_effects:
+        pool = [c for c in finder.candidates_ if c not in names]
+        if not pool:
+            break
+        screening = finder._screen(ctx, cur, pool)
+        fits, tried = finder._fit_pool(ctx, cur, cur_band, pool, screening, names, values)
+        step = len(finder.steps_)
+        if step == 0:
+            finder.fits_, finder.screening_ = fits, screening
+        lap(f"step_{step + 1}", f" (screened {len(pool)}, fitted {', '.join(tried)})")
+        margin, per_param = finder._criterion(cur_band)
+        prev_gap = excess_rms(cur.z_, cur_band)
+        chosen, stalled, best = None, None, min(fits, key=lambda c: finder._chi2(fits[c]))
+        for c in sorted(fits, key=lambda c: finder._chi2(fits[c])):
+            fc = fits[c]
+            ok, why = resolvable(c, fc.effect.split(fc.effect_values_)[c], ctx.delta, ctx.dt)
+            if not ok:
+                finder.unresolved_[c] = why
+                if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
+                    finder.unresolved_["explains_gap"] = c  # the gap is at the sampling's resolution
+                    return cur, cur_band
+                continue
+            if not _gain_justified(finder, cur, fc, c, margin, per_param):
+                break  # the best resolvable addition is not justified: nothing further is
+            after_band, which = finder._own_band(ctx, c, fc, band, key=step + 1)
+            explains = after_band.max_statistic(fc.z_) <= after_band.threshold
+            gap = excess_rms(fc.z_, after_band)
+            if explains or gap <= STEP_SHRINK * prev_gap:
+                chosen = c
+            else:
+                stalled = c
+            break
+        if chosen is not None:
+            fc = fits[chosen]
+            finder.steps_.append(_step(finder, chosen, fc, after_band, which, explains, gap, fits, screening, margin))
+            names.append(chosen)
+            values = _values(fc)
+            cur, cur_band, explained = fc, after_band, explains
+            continue
+        if stalled is None or len(finder.steps_) + 2 > finder.max_effects:
+            break
+        pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, prev_gap, key=step + 1)
+        if pair is None:
+            break
+        finder.steps_.extend(pair)
+        names.extend([pair[0]["name"], pair[1]["name"]])
+        cur, cur_band, explained = pair[1]["fit"], pair[1]["band"], pair[1]["explains"]
+        values = _values(cur)
+    return cur, cur_band
+
+
+def backward_check(finder, ctx, cur, cur_band, start_effects):
+    """Check every added effect against its removal: refit without it; drop it when the
+    chi2 it saves is within its penalty plus the null-calibrated margin."""
+    for step in list(finder.steps_):
+        names = list(start_effects) + [s["name"] for s in finder.steps_]
+        if len(names) < 2:
+            break
+        values = _values(cur)
+        rest = [m for m in names if m != step["name"]]
+        fit = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
+        margin, per_param = finder._criterion(cur_band)
+        saved = finder._chi2(fit) - finder._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
+        if saved <= margin:
+            finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
+            finder.steps_.remove(step)
+            cur = fit
+            cur_band, _ = finder._own_band(ctx, rest[-1], fit, finder.band_, key=10 + len(finder.removed_))
+    return cur, cur_band

@@ -1,0 +1,98 @@
+"""Two missing effects that only together close their share of the gap: the pair step of the
+forward selection, on stand-in fits whose standardised gaps are built from orthogonal parts
+(a's, b's and an unexplained rest's share of the excess misfit chosen per case)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from uqdrive.inference.discrepancy import DiscrepancyFinder, selection
+from uqdrive.inference.discrepancy.band import NullBand, excess_rms, scan_windows
+from uqdrive.inference.discrepancy.effectset import EffectSet
+from uqdrive.vehicle.effects import ModelStructure
+
+K = 60
+THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
+A, B, C = "road_bank", "wind_gust", "sensor_bias_psi_dot"
+
+
+def _parts(rng):
+    """Three orthonormal rough patterns (2, 4, K), unit mean square each, and a null-like noise."""
+    q, _ = np.linalg.qr(rng.standard_normal((2 * 4 * K, 3)))
+    return [v.reshape(2, 4, K) * np.sqrt(v.size) for v in q.T], 0.3 * rng.standard_normal((2, 4, K))
+
+
+def _finder(config, shares, pair_joins=True, excess=16.0):
+    """A finder whose joint fits are stand-ins: each candidate removes its own part of the gap
+    (``shares``: the excess mean square of a, b and the rest), A with B together remove both
+    (unless ``pair_joins`` is False: then B adds nothing on top of A), C removes nothing."""
+    rng = np.random.default_rng(1)
+    (u, w, r), noise = _parts(rng)
+    band = NullBand.from_replicates(0.3 * rng.standard_normal((300, 2, 4, K)), scan_windows(K))
+    amp = {k: np.sqrt(excess * s) for k, s in zip("abr", shares)}
+    gap = {"a": amp["a"] * u, "b": amp["b"] * w, "r": amp["r"] * r}
+
+    def fit(names, left):
+        eff = EffectSet(names) if names else None
+        z = noise + sum(gap[k] for k in left)
+        return SimpleNamespace(z_=z, chi2_=float(np.sum(z**2)), theta_=THETA, effect=eff, effect_values_=np.ones(len(eff.parameters) if eff else 0),
+                               structure_=ModelStructure())
+
+    def joint(ctx, theta, names, values, max_nfev=None):
+        s = set(names)
+        left = {"a", "b", "r"} - ({"a"} if A in s else set()) - ({"b"} if B in s and (pair_joins or A not in s) else set())
+        calls.append(tuple(names))
+        return fit(list(names), sorted(left))
+
+    calls = []
+    f = DiscrepancyFinder(config, candidates=[A, B, C], top=3, max_effects=3)
+    f.candidates_, f.band_ = [A, B, C], band
+    f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
+    f._joint, f._chi2 = joint, lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
+    f._screen = lambda ctx, cur, pool: {c: {"chi2": 0.0, "held": 0.0, "theta": THETA, "values": [0.0], "anchor": "current"} for c in pool}
+    base = fit([], ["a", "b", "r"])
+    ctx = SimpleNamespace(delta=np.zeros(100), dt=0.01)
+    return f, base, band, ctx, calls
+
+
+@pytest.mark.parametrize("shares, named", [
+    ((0.42, 0.38, 0.2), [A, B]),     # alone a closes 1 - sqrt(0.58) = 24 %, b 21 % (< 25 %); together 1 - sqrt(0.2) = 55 % (>= 44 %)
+    ((0.25, 0.25, 0.5), []),        # together 1 - sqrt(0.5) = 29 %: not two additions' worth
+    ((0.5, 0.3, 0.2), [A, B]),       # a alone closes 29 %: named alone, then b on top of it (1 - sqrt(0.2 / 0.5) = 37 %)
+])
+def test_a_pair_is_named_when_it_closes_two_additions_worth(config, shares, named):
+    f, base, band, ctx, calls = _finder(config, shares)
+    gap0 = excess_rms(base.z_, band)
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert [s["name"] for s in f.steps_] == named
+    if named and shares[0] < 0.4375:  # the pair step: both recorded as a pair, the partner with the pair's fit
+        assert f.steps_[0]["pair"] == B and f.steps_[1]["pair"] == A
+        assert (A, B) in calls
+        assert f.steps_[1]["gap_after"] <= selection.STEP_SHRINK**2 * gap0
+
+
+def test_without_the_pair_step_two_small_halves_name_nothing(config, monkeypatch):
+    """The same gap as the first case with no partner tried: the selection stops at the first
+    effect that closes less than a quarter (the rule before pairs), and nothing is named."""
+    monkeypatch.setattr(selection, "PAIR_PARTNERS", 0)
+    f, base, band, ctx, _ = _finder(config, (0.42, 0.38, 0.2))
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert f.steps_ == []
+
+
+def test_a_partner_that_adds_nothing_on_top_is_not_named(config):
+    """Each alone closes less than 25 %, but fitted together the partner saves nothing beyond the first:
+    the pair is refused (a member must be justified on top of the other), nothing is named."""
+    f, base, band, ctx, calls = _finder(config, (0.42, 0.38, 0.2), pair_joins=False)
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert f.steps_ == [] and (A, B) in calls
+
+
+def test_a_pair_needs_room_in_the_effect_budget(config):
+    """With one effect left in the budget no pair is tried."""
+    f, base, band, ctx, calls = _finder(config, (0.42, 0.38, 0.2))
+    f.max_effects = 1
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert f.steps_ == [] and not any(len(c) == 2 for c in calls)
