@@ -1,6 +1,7 @@
-"""Two missing effects that only together close their share of the gap: the pair step of the
-forward selection, on stand-in fits whose standardised gaps are built from orthogonal parts
-(a's, b's and an unexplained rest's share of the excess misfit chosen per case)."""
+"""Two rules of the forward selection, on stand-in fits: the pair step (two missing effects that
+only together close their share of the gap; standardised gaps built from orthogonal parts, a's,
+b's and an unexplained rest's share of the excess misfit chosen per case), and the size check
+(a named effect's interval must not hold the value at which it vanishes)."""
 
 from types import SimpleNamespace
 
@@ -96,3 +97,49 @@ def test_a_pair_needs_room_in_the_effect_budget(config):
     f.max_effects = 1
     f._forward(ctx, base, band, {}, lambda *a: None)
     assert f.steps_ == [] and not any(len(c) == 2 for c in calls)
+
+
+def _sized(names, half, chi2, cells=480):
+    """A fit of ``names`` whose intervals are estimate -+ half sqrt(factor) (est: 2 deg bank, 0.1 rad/s bias)."""
+    est = {A: ("road_bank.phi", 2.0), C: ("sensor_bias_psi_dot.offset_psi_dot", 0.1)}
+    eff = EffectSet(names)
+    intervals = lambda factor=1.0: {est[n][0]: [est[n][1], est[n][1] - half[n] * np.sqrt(factor), est[n][1] + half[n] * np.sqrt(factor)]  # noqa: E731
+                                    for n in names}
+    return SimpleNamespace(effect=eff, effect_values_=np.array([est[n][1] for n in names]), theta_=THETA, chi2_=chi2,
+                           z_=np.zeros(cells), effect_intervals=intervals)
+
+
+@pytest.mark.parametrize("chi2, kept", [(480.0 * 9.0, [A]), (480.0 * 1.0, [A, C]), (480.0 * 0.5, [A, C])])
+def test_an_effect_whose_interval_holds_no_effect_is_dropped(config, chi2, kept):
+    """The bias (0.1 -+ 0.05 at the null's spread) is told from 0 while the model fits (chi2 at or
+    below its null level 480), not when the model leaves a rest nine times the null's misfit (the
+    lack of fit widens the interval threefold to -+ 0.15, which holds 0): then it is dropped, the
+    rest refitted, and the bank (2 -+ 1.5) stays. The null's inflation is 1 here."""
+    from uqdrive.inference.discrepancy.selection import size_check
+
+    f = DiscrepancyFinder(config)
+    f.band_ = SimpleNamespace(inflation=1.0, mean_square_null=1.0)
+    f.steps_, f.removed_ = [{"name": A}, {"name": C}], []
+    f._chi2 = lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
+    refits = []
+    f._joint = lambda ctx, theta, names, values, max_nfev=None: refits.append(list(names)) or _sized(names, {A: 0.5}, chi2)
+    base = SimpleNamespace(effect=None)
+    final, _ = size_check(f, None, base, _sized([A, C], {A: 0.5, C: 0.05}, chi2), f.band_, {})
+    assert [s["name"] for s in f.steps_] == kept
+    assert [r["registry_name"] for r in f.removed_] == ([C] if C not in kept else [])
+    assert refits == ([[A]] if C not in kept else [])
+    if C not in kept:
+        assert "holds 0" in f.removed_[0]["size"] and list(final.effect.names) == [A]
+
+
+def test_a_single_effect_without_a_size_leaves_the_start_model(config):
+    from uqdrive.inference.discrepancy.selection import size_check
+
+    f = DiscrepancyFinder(config)
+    f.band_ = SimpleNamespace(inflation=9.0, mean_square_null=1.0)  # the null's inflation alone: -+ 0.15 holds 0
+    f.steps_, f.removed_ = [{"name": C}], []
+    f._chi2 = lambda fit: fit.chi2_
+    base = SimpleNamespace(effect=None)
+    final, band = size_check(f, None, base, _sized([C], {C: 0.05}, 480.0), SimpleNamespace(mean_square_null=1.0), {})
+    assert final is base and band is f.band_ and f.steps_ == [] and f.removed_[0]["registry_name"] == C

@@ -15,7 +15,7 @@ import numpy as np
 
 from .single_track import STATES
 
-__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
+__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
 
 
 @dataclass(frozen=True)
@@ -314,6 +314,18 @@ EFFECTS: dict[str, Effect] = {
         "slip angles lag their steady values by the tyre's relaxation length: time constant sigma / v",
         "every channel's response delayed and its yaw-rate peak raised at high input frequencies; "
         "steady states untouched"),
+}
+
+#: The value of an effect's magnitude parameter at which the effect vanishes (the baseline's model):
+#: a named effect must have a size the data tell from it. Effects without one (the Magic Formula's
+#: curvature E: the saturating tyre differs from the linear one at every E) and shape parameters
+#: (chi_f) are not listed.
+VANISHES: dict[str, tuple[str, float]] = {
+    "actuator_lag": ("T", 0.0), "actuator_delay": ("tau", 0.0), "road_bank": ("phi", 0.0), "wind_gust": ("gust_scale", 1.0),
+    "lateral_kinematics": ("k", 0.0), "longitudinal_load_transfer": ("h", 0.0), "lateral_load_transfer": ("p_Dz", 0.0),
+    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0),
+    **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
+    **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
 }
 
 #: Families that name several registry entries at once.

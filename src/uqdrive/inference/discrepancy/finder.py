@@ -21,7 +21,7 @@ from .effectset import EffectSet, family_of, testable
 from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .ranking import screen
-from .selection import backward_check, forward_selection
+from .selection import backward_check, forward_selection, size_check
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
 
@@ -203,6 +203,7 @@ class DiscrepancyFinder:
             if len(self.steps_) > 1:
                 final, final_band = self._backward(ctx, final, final_band, start_effects)
                 lap("backward", f" ({len(self.removed_)} removed)")
+            final, final_band = size_check(self, ctx, base, final, final_band, start_effects)
             if self.steps_ and not (final_band.max_statistic(final.z_) <= final_band.threshold
                                     or excess_rms(final.z_, final_band) <= 0.5 * excess_rms(base.z_, band)):
                 # the effects together neither explain the gap nor halve it: none of them is

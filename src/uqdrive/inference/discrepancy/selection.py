@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...vehicle.effects import EFFECTS
+from ...vehicle.effects import EFFECTS, VANISHES
 from .band import excess_rms
 from .effectset import family_of, resolvable
+from .verdict import lack_of_fit
 
-__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check"]
+__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check", "indistinct", "size_check"]
 
 #: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
 #: two effects added as a pair must close it twice over (STEP_SHRINK squared).
@@ -151,4 +152,49 @@ def backward_check(finder, ctx, cur, cur_band, start_effects):
             finder.steps_.remove(step)
             cur = fit
             cur_band, _ = finder._own_band(ctx, rest[-1], fit, finder.band_, key=10 + len(finder.removed_))
+    return cur, cur_band
+
+
+def indistinct(fit, factor: float) -> dict:
+    """The effects of ``fit`` whose size the data cannot tell from none: {registry name: reason}.
+
+    An effect's magnitude parameter (:data:`uqdrive.vehicle.effects.VANISHES`) whose 95 % interval
+    holds the value at which the effect vanishes. ``factor`` scales the Gauss-Newton covariance
+    as the verdict's intervals do: the null's inflation times the model's lack of fit
+    (:func:`.verdict.lack_of_fit`), so that a model that leaves a rest, whose parameters also fit
+    that rest, needs a larger effect to name it."""
+    if fit.effect is None:
+        return {}
+    intervals = fit.effect_intervals(factor)
+    out = {}
+    for name in fit.effect.names:
+        if name not in VANISHES:
+            continue
+        param, value = VANISHES[name]
+        est, lo, hi = intervals[f"{name}.{param}"]
+        if lo <= value <= hi:
+            out[name] = f"{param} {est:.4g} [{lo:.4g}, {hi:.4g}] holds {value:g} (no effect)"
+    return out
+
+
+def size_check(finder, ctx, base, cur, cur_band, start_effects):
+    """Drop the added effects whose size the data cannot tell from none (:func:`indistinct` at
+    the final model, with the verdict's intervals), one at a time, the first added first, refitting
+    the rest after each; ``finder.removed_`` gets each with its reason. Returns the final fit
+    and band (``base`` and the baseline's band when nothing is left)."""
+    while finder.steps_:
+        factor = finder.band_.inflation * lack_of_fit(finder._chi2(cur), cur.z_.size, cur_band.mean_square_null)
+        added = [s["name"] for s in finder.steps_]
+        weak = indistinct(cur, factor)
+        step = next((s for s in finder.steps_ if s["name"] in weak), None)
+        if step is None:
+            break
+        finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "size": weak[step["name"]]})
+        finder.steps_.remove(step)
+        if not finder.steps_:
+            return base, finder.band_
+        rest = list(start_effects) + [n for n in added if n != step["name"]]
+        values = _values(cur)
+        cur = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
+        cur_band, _ = finder._own_band(ctx, rest[-1], cur, finder.band_, key=30 + len(finder.removed_))
     return cur, cur_band
