@@ -82,6 +82,9 @@ def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing(config):
     assert f._chi2(linear) == pytest.approx(720.0)
     assert f._chi2(wide) == pytest.approx(720.0)
     assert wide.chi2_ < f._chi2(wide)  # the raw chi2 would have favoured it
+    # below the null level nothing systematic is left to convert: the sampling luck is not multiplied
+    lucky = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=60.0)
+    assert f._chi2(lucky) == pytest.approx(60.0)  # scaled it would be 80 - 20 x 2.5 = 30
 
 
 def test_gate_needs_a_scan_crossing_and_an_excess_misfit():

@@ -237,10 +237,14 @@ class DiscrepancyFinder:
         A numerically integrated model runs on fewer realisations, so its z are divided by a
         wider scale (:meth:`_scale_for`): its chi2 then shrinks the systematic misfit by that
         factor squared and would favour it against every linear model. Its excess over the null
-        level is converted back: null level + excess x (scale ratio)^2."""
+        level is converted back: null level + excess x (scale ratio)^2. A chi2 below the null
+        level has no systematic part to convert: it stays as it is (scaled, the sampling luck of
+        the few realisations would count ratio^2 times and favour every non-linear candidate
+        where the gap is small; seen: chassis candidates of zero size 40 below the linear model
+        on the same physics)."""
         ratio2 = float(np.mean((self._scale_for(fit.structure_, self._n) / self.scale_) ** 2))
         level = self.band_.mean_square_null * fit.z_.size
-        return level + (fit.chi2_ - level) * ratio2
+        return level + (fit.chi2_ - level) * (ratio2 if fit.chi2_ > level else 1.0)
 
     def _forward(self, ctx, base, band, start_effects, lap):
         """Forward selection (:func:`.selection.forward_selection`): the final fit and its band."""
