@@ -178,18 +178,23 @@ def test_compliance_steer_is_a_softer_front_axle_in_transients_too(config):
     assert np.abs(x[1] - by_yaw_rate[1]).max() > 1e-2 * span
 
 
-@pytest.mark.parametrize("relaxed", [False, True])
-def test_compliant_front_wheels_carry_the_force_they_yield_to(config, relaxed):
-    """The Magic Formula's loop F_f = F(alpha_f - kappa F_f), kappa = K / F_zf: at random states
-    with lateral load transfer (and relaxing tyres, whose force comes from the lagged slip and
-    moves the slip's target by -kappa F_f), the right-hand side's front force and wheel angle
-    satisfy it to 1e-9 of the force; the wheel angle is delta - kappa F_f, and without the
-    compliance the force differs by more than 1 %."""
+@pytest.mark.parametrize("tyre, relaxed", [("magic_formula", False), ("magic_formula", True), ("linear", False)])
+def test_compliant_front_wheels_carry_the_force_they_yield_to(config, tyre, relaxed):
+    """The loop F_f = F(alpha_f - kappa F_f), kappa = K / F_zf, on the Magic Formula (Newton) and
+    on the linear tyre at the axle's current load (closed form): at random states with lateral
+    load transfer (and relaxing tyres, whose force comes from the lagged slip and moves the slip's
+    target by -kappa F_f), the right-hand side's front force and wheel angle satisfy it to 1e-9
+    of the force; the wheel angle is delta - kappa F_f, and without the compliance the force
+    differs by more than 1 %."""
     from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
     rng = np.random.default_rng(5)
     n, K = 40, 2.0
-    s = _saturating(lateral_load_transfer=[0.6, -0.3], compliance_steer=[K], **({"tyre_relaxation": [0.5]} if relaxed else {}))
+    fields = dict(lateral_load_transfer=[0.6, -0.3], compliance_steer=[K], **({"tyre_relaxation": [0.5]} if relaxed else {}))
+    s = _saturating(**fields) if tyre == "magic_formula" else ModelStructure()
+    if tyre == "linear":
+        for name, values in fields.items():
+            s = effect(name).augment(s, values)
     p = VehicleParameters.from_config(config, mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), np.zeros((3, n)), True, np.zeros(n), H, T_W)
     x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.3, n), rng.normal(0, 0.03, n), rng.normal(0, 1, n),
@@ -201,8 +206,9 @@ def test_compliant_front_wheels_carry_the_force_they_yield_to(config, relaxed):
     slip = x[4] if relaxed else q0[0] - kappa * F[0]
     np.testing.assert_allclose(F[0], rhs.tyre_forces(np.stack([slip, slip]), x[1], x[2])[0], rtol=0, atol=1e-9 * np.abs(F[0]).max())
     np.testing.assert_allclose(q[0], q0[0] - kappa * F[0], rtol=0, atol=1e-12)
-    stiff = ExtendedSingleTrackRHS(p, _saturating(lateral_load_transfer=[0.6, -0.3], **({"tyre_relaxation": [0.5]} if relaxed else {})),
-                                   0.97, np.deg2rad([2.0, 4.0, 6.0]), np.zeros((3, n)), True, np.zeros(n), H, T_W)
+    from dataclasses import replace
+
+    stiff = ExtendedSingleTrackRHS(p, replace(s, compliance_steer=0.0), 0.97, np.deg2rad([2.0, 4.0, 6.0]), np.zeros((3, n)), True, np.zeros(n), H, T_W)
     q_stiff, _, F_stiff = stiff._forces(x, 1, V, 0.0)
     changed = np.abs(q_stiff[0] - q[0]) if relaxed else np.abs(F_stiff[0] - F[0])
     assert changed.max() > 1e-2 * (np.abs(q[0]).max() if relaxed else np.abs(F[0]).max())
