@@ -91,12 +91,34 @@ def test_a_partner_that_adds_nothing_on_top_is_not_named(config):
     assert f.steps_ == [] and (A, B) in calls
 
 
-def test_a_pair_needs_room_in_the_effect_budget(config):
-    """With one effect left in the budget no pair is tried."""
+@pytest.mark.parametrize("budget, named", [(1, []), (2, [A, B])])
+def test_a_pair_needs_room_in_the_effect_budget(config, budget, named):
+    """With one effect left in the budget no pair is tried; two suffice."""
     f, base, band, ctx, calls = _finder(config, (0.42, 0.38, 0.2))
-    f.max_effects = 1
+    f.max_effects = budget
+    final, _ = f._forward(ctx, base, band, {}, lambda *a: None)
+    assert [s["name"] for s in f.steps_] == named and any(len(c) == 2 for c in calls) == bool(named)
+    assert final is (f.steps_[-1]["fit"] if named else base)
+
+
+@pytest.mark.parametrize("pair_delay, named", [(0.004, []), (0.05, [A, "actuator_delay"])])
+def test_a_pair_whose_fitted_size_is_unresolvable_is_refused(config, pair_delay, named):
+    """The pair closes the gap, but in the pair's fit the partner's size falls below what the
+    sampling resolves (a 4 ms dead time on a 10 ms grid): not named; at 50 ms it is."""
+    f, base, band, ctx, calls = _finder(config, (0.42, 0.38, 0.2))
+    f.candidates_ = [A, "actuator_delay"]
+    joint = f._joint
+
+    def delay_as_b(ctx_, theta, names, values, max_nfev=None):
+        fit = joint(ctx_, theta, [B if n == "actuator_delay" else n for n in names], values)
+        fit.effect = EffectSet(list(names))
+        fit.effect_values_ = np.array([pair_delay if n == "actuator_delay" and len(names) == 2 else (0.05 if n == "actuator_delay" else 1.0)
+                                       for n in names])
+        return fit
+
+    f._joint = delay_as_b
     f._forward(ctx, base, band, {}, lambda *a: None)
-    assert f.steps_ == [] and not any(len(c) == 2 for c in calls)
+    assert [s["name"] for s in f.steps_] == named and (A, B) in calls  # the pair was fitted (the delay standing in for b)
 
 
 def _sized(names, half, chi2, cells=480):
@@ -143,3 +165,76 @@ def test_a_single_effect_without_a_size_leaves_the_start_model(config):
     base = SimpleNamespace(effect=None)
     final, band = size_check(f, None, base, _sized([C], {C: 0.05}, 480.0), SimpleNamespace(mean_square_null=1.0), {})
     assert final is base and band is f.band_ and f.steps_ == [] and f.removed_[0]["registry_name"] == C
+
+
+def _chi2_fit(names, chi2, values=None):
+    eff = EffectSet(names) if names else None
+    vals = np.asarray(values if values is not None else np.ones(len(eff.parameters) if eff else 0), float)
+    return SimpleNamespace(effect=eff, effect_values_=vals, theta_=THETA, chi2_=chi2, z_=np.zeros(480))
+
+
+def _backward_finder(config, chi2_without):
+    from uqdrive.inference.discrepancy.selection import backward_check
+
+    f = DiscrepancyFinder(config)
+    f.band_ = SimpleNamespace(inflation=1.0, mean_square_null=1.0)
+    band = SimpleNamespace(chi2_null_sd=5.0, inflation=1.0, mean_square_null=1.0)  # margin 10, penalty 2 per parameter
+    f.steps_, f.removed_ = [{"name": A}, {"name": C}], []
+    f._chi2 = lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
+    f._joint = lambda ctx, theta, names, values, max_nfev=None: _chi2_fit(list(names), chi2_without[tuple(names)])
+    return f, band, backward_check
+
+
+@pytest.mark.parametrize("without_c, dropped", [(105.0, [C]), (113.0, [])])
+def test_the_backward_check_drops_an_effect_the_others_make_redundant(config, without_c, dropped):
+    """Two effects at chi2 100; without the bias the refit costs 5 (< penalty 2 + margin 10: dropped)
+    or 13 (> 12: kept); without the bank it costs 400 (kept). The saving is the refit's chi2 minus
+    the full model's, not the other way round."""
+    f, band, backward_check = _backward_finder(config, {(C,): 500.0, (A,): without_c})
+    final, _ = backward_check(f, None, _chi2_fit([A, C], 100.0), band, {})
+    assert [s["name"] for s in f.steps_] == [n for n in (A, C) if n not in dropped]
+    assert [r["registry_name"] for r in f.removed_] == dropped
+    if dropped:
+        assert list(final.effect.names) == [A] and f.removed_[0]["chi2_saved"] == pytest.approx(without_c - 100.0 - 2.0)
+
+
+def test_the_backward_check_keeps_a_single_effect(config):
+    f, band, backward_check = _backward_finder(config, {})
+    f.steps_ = [{"name": A}]
+    fit = _chi2_fit([A], 100.0)
+    assert backward_check(f, None, fit, band, {})[0] is fit and f.removed_ == []
+
+
+@pytest.mark.parametrize("other, ambiguous", [(100.0 + 9.0, ["wind_gust"]), (100.0 + 11.0, [])])
+def test_a_step_lists_candidates_within_the_margin_as_ambiguous(config, other, ambiguous):
+    """The tie: another candidate's joint fit within the margin (10) of the named one's chi2."""
+    f = DiscrepancyFinder(config)
+    f._chi2 = lambda fit: fit.chi2_
+    fits = {A: _chi2_fit([A], 100.0), B: _chi2_fit([B], other), C: _chi2_fit([C], 400.0)}
+    step = selection._step(f, A, fits[A], None, "own", False, 0.5, fits, {A: {"chi2": 1.0, "held": 2.0, "anchor": "current"},
+                                                                    B: {"chi2": np.inf, "held": 3.0, "anchor": "start"}}, 10.0)
+    assert step["ambiguous"] == ambiguous
+    assert list(step["candidates"]) == [A, B, C] and list(step["screening"]) == [A]  # an unranked (infinite) screening is left out
+
+
+def test_an_unresolvable_size_that_explains_the_gap_ends_the_search(config):
+    """The best fit is a dead time below one sample (4 ms on a 10 ms grid) that halves the gap:
+    the gap is at the sampling's resolution, nothing is named and the reason is kept."""
+    f, base, band, ctx, calls = _finder(config, (0.42, 0.38, 0.2))
+    f.candidates_ = ["actuator_delay", B]
+    joint = f._joint
+
+    def with_delay(ctx_, theta, names, values, max_nfev=None):
+        if "actuator_delay" in names:
+            fit = joint(ctx_, theta, [A, B], values)  # removes both parts: the gap more than halved
+            fit.effect, fit.effect_values_ = EffectSet(["actuator_delay"]), np.array([0.004])
+            fit.chi2_ = float(np.sum(fit.z_**2))
+            return fit
+        return joint(ctx_, theta, names, values)
+
+    f._joint = with_delay
+    final, final_band = f._forward(ctx, base, band, {}, lambda *a: None)
+    assert final is base and final_band is band
+    assert f.steps_ == [] and f.unresolved_.get("explains_gap") == "actuator_delay"
+    assert "below one sample" in f.unresolved_["actuator_delay"]

@@ -47,7 +47,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: by its file name instead).
 MODULES = {"gp": "wheelslip/gp.py", "galerkin": "numerics/galerkin.py", "identify": "inference/identify.py", "slqr": "control/slqr.py",
            "statistics": "vehicle/statistics.py", "scorecard": "studies/scorecard.py", "fit": "inference/discrepancy/fit.py",
-           "effectset": "inference/discrepancy/effectset.py", "band": "inference/discrepancy/band.py"}
+           "effectset": "inference/discrepancy/effectset.py", "band": "inference/discrepancy/band.py",
+           "selection": "inference/discrepancy/selection.py"}
 
 #: Test files never run for a mutant (the end-to-end Snakemake DAG).
 EXCLUDED_TESTS = ("test_workflow.py",)
@@ -177,6 +178,13 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
          "reason": "numpy reads any negative size as the one to infer"},
         {"line": "np.abs(xb[sim.spin_row]) > spin", "mutation": "`>` -> `>=`",
          "reason": "differs only when a simulated |beta| equals the spin threshold to the last bit: an exact tie of a continuous value"},
+    ],
+    "selection": [
+        *({"line": line, "mutation": "`+` -> `-`", "reason": "the key of a bootstrap's random stream: another key draws another, equally valid null band"}
+          for line in ("after_band, which = finder._own_band(ctx, c, fc, band, key=step + 1)",
+                       "pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, prev_gap, key=step + 1)")),
+        {"line": "excess_rms(fc.z_, band) <= 0.5 * prev_gap", "mutation": "`<=` -> `<`",
+         "reason": "differs on an exact tie of two continuous gaps only"},
     ],
 }
 
