@@ -238,3 +238,19 @@ def test_an_unresolvable_size_that_explains_the_gap_ends_the_search(config):
     assert final is base and final_band is band
     assert f.steps_ == [] and f.unresolved_.get("explains_gap") == "actuator_delay"
     assert "below one sample" in f.unresolved_["actuator_delay"]
+
+
+def test_the_effect_nearest_to_none_is_dropped_first(config):
+    """Both intervals hold no effect: the bank 2 -+ 2.5 (0.8 half-widths from 0), the bias 0.1 -+ 0.2
+    (0.5): the bias goes first, and refitted alone the bank (2 -+ 0.5) has a size and stays. Dropping
+    the first added first would have lost the bank."""
+    from uqdrive.inference.discrepancy.selection import size_check
+
+    f = DiscrepancyFinder(config)
+    f.band_ = SimpleNamespace(inflation=1.0, mean_square_null=1.0)
+    f.steps_, f.removed_ = [{"name": A}, {"name": C}], []
+    f._chi2 = lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
+    f._joint = lambda ctx, theta, names, values, max_nfev=None: _sized(list(names), {A: 0.5, C: 0.05}, 480.0)
+    final, _ = size_check(f, None, SimpleNamespace(effect=None), _sized([A, C], {A: 2.5, C: 0.2}, 480.0), f.band_, {})
+    assert [s["name"] for s in f.steps_] == [A] and [r["registry_name"] for r in f.removed_] == [C]

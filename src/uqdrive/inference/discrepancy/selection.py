@@ -156,7 +156,8 @@ def backward_check(finder, ctx, cur, cur_band, start_effects):
 
 
 def indistinct(fit, factor: float) -> dict:
-    """The effects of ``fit`` whose size the data cannot tell from none: {registry name: reason}.
+    """The effects of ``fit`` whose size the data cannot tell from none: {registry name: (distance
+    from no effect in 95 % half-widths, reason)}.
 
     An effect's magnitude parameter (:data:`uqdrive.vehicle.effects.VANISHES`) whose 95 % interval
     holds the value at which the effect vanishes. ``factor`` scales the Gauss-Newton covariance
@@ -173,23 +174,24 @@ def indistinct(fit, factor: float) -> dict:
         param, value = VANISHES[name]
         est, lo, hi = intervals[f"{name}.{param}"]
         if lo <= value <= hi:
-            out[name] = f"{param} {est:.4g} [{lo:.4g}, {hi:.4g}] holds {value:g} (no effect)"
+            out[name] = (abs(est - value) / max(0.5 * (hi - lo), 1e-300), f"{param} {est:.4g} [{lo:.4g}, {hi:.4g}] holds {value:g} (no effect)")
     return out
 
 
 def size_check(finder, ctx, base, cur, cur_band, start_effects):
     """Drop the added effects whose size the data cannot tell from none (:func:`indistinct` at
-    the final model, with the verdict's intervals), one at a time, the first added first, refitting
+    the final model, with the verdict's intervals), one at a time, the one nearest to no effect
+    first (in half-widths of its interval, as backward elimination drops the smallest t), refitting
     the rest after each; ``finder.removed_`` gets each with its reason. Returns the final fit
     and band (``base`` and the baseline's band when nothing is left)."""
     while finder.steps_:
         factor = finder.band_.inflation * lack_of_fit(finder._chi2(cur), cur.z_.size, cur_band.mean_square_null)
         added = [s["name"] for s in finder.steps_]
-        weak = indistinct(cur, factor)
-        step = next((s for s in finder.steps_ if s["name"] in weak), None)
-        if step is None:
+        weak = {k: v for k, v in indistinct(cur, factor).items() if k in added}
+        if not weak:
             break
-        finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "size": weak[step["name"]]})
+        step = next(s for s in finder.steps_ if s["name"] == min(weak, key=lambda k: weak[k][0]))
+        finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "size": weak[step["name"]][1]})
         finder.steps_.remove(step)
         if not finder.steps_:
             return base, finder.band_
