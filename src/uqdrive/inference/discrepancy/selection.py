@@ -9,7 +9,6 @@ import numpy as np
 from ...vehicle.effects import EFFECTS, VANISHES
 from .band import excess_rms
 from .effectset import family_of, resolvable
-from .verdict import lack_of_fit
 
 __all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check", "indistinct", "size_check"]
 
@@ -160,10 +159,8 @@ def indistinct(fit, factor: float) -> dict:
     from no effect in 95 % half-widths, reason)}.
 
     An effect's magnitude parameter (:data:`uqdrive.vehicle.effects.VANISHES`) whose 95 % interval
-    holds the value at which the effect vanishes. ``factor`` scales the Gauss-Newton covariance
-    as the verdict's intervals do: the null's inflation times the model's lack of fit
-    (:func:`.verdict.lack_of_fit`), so that a model that leaves a rest, whose parameters also fit
-    that rest, needs a larger effect to name it."""
+    holds the value at which the effect vanishes. ``factor`` scales the Gauss-Newton covariance:
+    the null's inflation (the sampling noise, as the chi2 test measures it)."""
     if fit.effect is None:
         return {}
     intervals = fit.effect_intervals(factor)
@@ -179,13 +176,15 @@ def indistinct(fit, factor: float) -> dict:
 
 
 def size_check(finder, ctx, base, cur, cur_band, start_effects):
-    """Drop the added effects whose size the data cannot tell from none (:func:`indistinct` at
-    the final model, with the verdict's intervals), one at a time, the one nearest to no effect
+    """Drop the added effects whose size the sampling cannot tell from none (:func:`indistinct` at
+    the final model, with the null's inflation), one at a time, the one nearest to no effect
     first (in half-widths of its interval, as backward elimination drops the smallest t), refitting
     the rest after each; ``finder.removed_`` gets each with its reason. Returns the final fit
     and band (``base`` and the baseline's band when nothing is left)."""
     while finder.steps_:
-        factor = finder.band_.inflation * lack_of_fit(finder._chi2(cur), cur.z_.size, cur_band.mean_square_null)
+        # the sampling's interval, not the verdict's (widened by the lack of fit): a model far from
+        # the data (a four-wheel car) would otherwise lose effects whose removal costs thousands
+        factor = finder.band_.inflation
         added = [s["name"] for s in finder.steps_]
         weak = {k: v for k, v in indistinct(cur, factor).items() if k in added}
         if not weak:
