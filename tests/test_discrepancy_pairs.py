@@ -241,10 +241,11 @@ def test_an_unresolvable_size_that_explains_the_gap_ends_the_search(config):
     assert "below one sample" in f.unresolved_["actuator_delay"]
 
 
-def test_the_effect_nearest_to_none_is_dropped_first(config):
+def test_of_two_effects_without_a_size_the_one_the_data_need_least_goes_first(config):
     """Both intervals hold no effect: the bank 2 -+ 2.5 (0.8 half-widths from 0), the bias 0.1 -+ 0.2
-    (0.5): the bias goes first, and refitted alone the bank (2 -+ 0.5) has a size and stays. Dropping
-    the first added first would have lost the bank."""
+    (0.5). Refitted without the bank chi2 rises to 490, without the bias to 4800: the bank goes,
+    and the bias refitted alone (0.1 -+ 0.05) has a size and stays. By the half-widths (the
+    nearest to none first) the bias would have gone and the bank stayed."""
     from uqdrive.inference.discrepancy.selection import size_check
 
     f = DiscrepancyFinder(config)
@@ -252,6 +253,7 @@ def test_the_effect_nearest_to_none_is_dropped_first(config):
     f.steps_, f.removed_ = [{"name": A}, {"name": C}], []
     f._chi2 = lambda fit: fit.chi2_
     f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
-    f._joint = lambda ctx, theta, names, values, max_nfev=None: _sized(list(names), {A: 0.5, C: 0.05}, 480.0)
+    f._joint = lambda ctx, theta, names, values, max_nfev=None: _sized(list(names), {A: 0.5, C: 0.05}, 490.0 if list(names) == [C] else 4800.0)
     final, _ = size_check(f, None, SimpleNamespace(effect=None), _sized([A, C], {A: 2.5, C: 0.2}, 480.0), f.band_, {})
-    assert [s["name"] for s in f.steps_] == [A] and [r["registry_name"] for r in f.removed_] == [C]
+    assert [s["name"] for s in f.steps_] == [C] and [r["registry_name"] for r in f.removed_] == [A]
+    assert list(final.effect.names) == [C] and final.chi2_ == 490.0

@@ -177,25 +177,31 @@ def indistinct(fit, factor: float) -> dict:
 
 def size_check(finder, ctx, base, cur, cur_band, start_effects):
     """Drop the added effects whose size the sampling cannot tell from none (:func:`indistinct` at
-    the final model, with the null's inflation), one at a time, the one nearest to no effect
-    first (in half-widths of its interval, as backward elimination drops the smallest t), refitting
-    the rest after each; ``finder.removed_`` gets each with its reason. Returns the final fit
-    and band (``base`` and the baseline's band when nothing is left)."""
+    the final model, with the null's inflation), one at a time: of those, the one whose removal
+    costs the least chi2 (refitting the rest without it; correlated effects widen each other's
+    intervals, so their half-widths do not say which one the data need), until every named
+    effect has a size; ``finder.removed_`` gets each with its reason. Returns the final fit and
+    band (``base`` and the baseline's band when nothing is left)."""
     while finder.steps_:
         # the sampling's interval, not the verdict's (widened by the lack of fit): a model far from
         # the data (a four-wheel car) would otherwise lose effects whose removal costs thousands
-        factor = finder.band_.inflation
         added = [s["name"] for s in finder.steps_]
-        weak = {k: v for k, v in indistinct(cur, factor).items() if k in added}
+        weak = {k: v for k, v in indistinct(cur, finder.band_.inflation).items() if k in added}
         if not weak:
             break
-        step = next(s for s in finder.steps_ if s["name"] == min(weak, key=lambda k: weak[k][0]))
-        finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "size": weak[step["name"]][1]})
-        finder.steps_.remove(step)
+        if len(added) == 1:
+            name, refits = added[0], {added[0]: base}
+        else:
+            values = _values(cur)
+            refits = {}
+            for name in weak:
+                rest = list(start_effects) + [n for n in added if n != name]
+                refits[name] = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
+            name = min(weak, key=lambda k: finder._chi2(refits[k]))
+        finder.removed_.append({"effect": family_of(name), "registry_name": name, "size": weak[name][1]})
+        finder.steps_ = [s for s in finder.steps_ if s["name"] != name]
         if not finder.steps_:
             return base, finder.band_
-        rest = list(start_effects) + [n for n in added if n != step["name"]]
-        values = _values(cur)
-        cur = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
-        cur_band, _ = finder._own_band(ctx, rest[-1], cur, finder.band_, key=30 + len(finder.removed_))
+        cur = refits[name]
+        cur_band, _ = finder._own_band(ctx, ([s["name"] for s in finder.steps_])[-1], cur, finder.band_, key=30 + len(finder.removed_))
     return cur, cur_band
