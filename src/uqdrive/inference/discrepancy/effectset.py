@@ -11,7 +11,7 @@ import numpy as np
 from ...vehicle.augmented import actual_steering, reconstruction_error
 from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, SensorBias, SensorScale, acts_on
 
-__all__ = ["EffectSet", "family_of", "resolvable", "testable"]
+__all__ = ["EffectSet", "family_of", "fitted_values", "resolvable", "testable"]
 
 
 def testable(candidates: Sequence[str], channels: Sequence[str]) -> tuple[list[str], list[dict]]:
@@ -38,6 +38,12 @@ def testable(candidates: Sequence[str], channels: Sequence[str]) -> tuple[list[s
 def family_of(name: str) -> str:
     """Verdict name of a registry entry: ``sensor_bias_y`` -> ``sensor_bias``."""
     return next((fam for fam, members in FAMILIES.items() if name in members), name)
+
+
+def fitted_values(fit) -> dict[str, list[float]]:
+    """{effect: its fitted parameter values} of a fit whose ``effect`` is an :class:`EffectSet`
+    (the start of a refit with these effects, or with some of them)."""
+    return {k: list(v) for k, v in fit.effect.split(fit.effect_values_).items()}
 
 
 class EffectSet:

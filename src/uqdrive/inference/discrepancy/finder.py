@@ -17,7 +17,7 @@ from ...vehicle.augmented import AugmentedSimulator
 from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
-from .effectset import EffectSet, family_of, testable
+from .effectset import EffectSet, family_of, fitted_values, testable
 from .fit import StructureFit, known_theta
 from .posterior import AugmentedPosterior
 from .ranking import screen
@@ -261,13 +261,11 @@ class DiscrepancyFinder:
             budget = PROBE_NFEV if cur.structure_.nonlinear else None
             fits[c] = self._joint(ctx, screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
             if budget and self._chi2(cur) - self._chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
-                start = {k: list(v) for k, v in fits[c].effect.split(fits[c].effect_values_).items()}
-                fits[c] = self._joint(ctx, fits[c].theta_, names + [c], start)
+                fits[c] = self._joint(ctx, fits[c].theta_, names + [c], fitted_values(fits[c]))
         for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
             short = self._probe(ctx, cur.theta_, names + [c], {**values, c: screening[c]["values"]})
             if self._in_reach(cur, short, [fits[k] for k in linear]):
-                start = {k: list(v) for k, v in short.effect.split(short.effect_values_).items()}
-                short = self._joint(ctx, short.theta_, names + [c], start)
+                short = self._joint(ctx, short.theta_, names + [c], fitted_values(short))
             fits[c] = short
         return fits, tried
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from ...vehicle.effects import EFFECTS, VANISHES
 from .band import excess_rms
-from .effectset import family_of, resolvable
+from .effectset import family_of, fitted_values, resolvable
 
 __all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check", "indistinct", "size_check"]
 
@@ -19,8 +19,11 @@ STEP_SHRINK = 0.75
 PAIR_PARTNERS = 2
 
 
-def _values(fit) -> dict:
-    return {k: list(v) for k, v in fit.effect.split(fit.effect_values_).items()}
+def _refit_without(finder, ctx, cur, start_effects, added, name):
+    """``cur`` refitted jointly without the added effect ``name`` (the others from their values in ``cur``)."""
+    values = fitted_values(cur)
+    rest = list(start_effects) + [n for n in added if n != name]
+    return finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
 
 
 def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
@@ -37,32 +40,33 @@ def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin
                           if np.isfinite(v["chi2"])}, **(extra or {})}
 
 
-def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first, prev_gap, key):
+def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first, first_band, prev_gap, key):
     """Two effects that only together close their share: ``first`` (justified, resolvable, but
     closing less than a quarter alone) fitted jointly with each of the next :data:`PAIR_PARTNERS`
     justified, resolvable candidates of this step. A pair is taken when each member is justified
     on top of the other (chi2 saved beyond its penalty plus the margin), and together they explain
     the rest of the gap or close it by STEP_SHRINK squared (two additions' worth).
 
+    ``first_band``: (band, kind) of ``first``'s own fit, as the forward step computed it.
     Returns the two step records (``first``, then its partner with the pair's fit), or None."""
     margin, per_param = finder._criterion(cur_band)
     partners = [c for c in sorted(fits, key=lambda c: finder._chi2(fits[c])) if c != first
                 and _gain_justified(finder, cur, fits[c], c, margin, per_param)
-                and resolvable(c, _values(fits[c])[c], ctx.delta, ctx.dt)[0]][:PAIR_PARTNERS]
+                and resolvable(c, fitted_values(fits[c])[c], ctx.delta, ctx.dt)[0]][:PAIR_PARTNERS]
     best = None
     for c in partners:
-        start = {**values, **_values(fits[first]), c: _values(fits[c])[c]}
+        start = {**values, **fitted_values(fits[first]), c: fitted_values(fits[c])[c]}
         pair = finder._joint(ctx, fits[first].theta_, names + [first, c], start)
         if not (_gain_justified(finder, fits[first], pair, c, margin, per_param) and _gain_justified(finder, fits[c], pair, first, margin, per_param)):
             continue
-        if not resolvable(c, _values(pair)[c], ctx.delta, ctx.dt)[0] or not resolvable(first, _values(pair)[first], ctx.delta, ctx.dt)[0]:
+        if not resolvable(c, fitted_values(pair)[c], ctx.delta, ctx.dt)[0] or not resolvable(first, fitted_values(pair)[first], ctx.delta, ctx.dt)[0]:
             continue
         if best is None or finder._chi2(pair) < finder._chi2(best[1]):
             best = (c, pair)
     if best is None:
         return None
     partner, pair = best
-    band_1, which_1 = finder._own_band(ctx, first, fits[first], finder.band_, key=key)
+    band_1, which_1 = first_band
     band_2, which_2 = finder._own_band(ctx, partner, pair, finder.band_, key=key + 20)
     explains = band_2.max_statistic(pair.z_) <= band_2.threshold
     gap = excess_rms(pair.z_, band_2)
@@ -98,7 +102,7 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
         chosen, stalled, best = None, None, min(fits, key=lambda c: finder._chi2(fits[c]))
         for c in sorted(fits, key=lambda c: finder._chi2(fits[c])):
             fc = fits[c]
-            ok, why = resolvable(c, fc.effect.split(fc.effect_values_)[c], ctx.delta, ctx.dt)
+            ok, why = resolvable(c, fitted_values(fc)[c], ctx.delta, ctx.dt)
             if not ok:
                 finder.unresolved_[c] = why
                 if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
@@ -119,18 +123,18 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
             fc = fits[chosen]
             finder.steps_.append(_step(finder, chosen, fc, after_band, which, explains, gap, fits, screening, margin))
             names.append(chosen)
-            values = _values(fc)
+            values = fitted_values(fc)
             cur, cur_band, explained = fc, after_band, explains
             continue
         if stalled is None or len(finder.steps_) + 2 > finder.max_effects:
             break
-        pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, prev_gap, key=step + 1)
+        pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, (after_band, which), prev_gap, key=step + 1)
         if pair is None:
             break
         finder.steps_.extend(pair)
         names.extend([pair[0]["name"], pair[1]["name"]])
         cur, cur_band, explained = pair[1]["fit"], pair[1]["band"], pair[1]["explains"]
-        values = _values(cur)
+        values = fitted_values(cur)
     return cur, cur_band
 
 
@@ -138,25 +142,22 @@ def backward_check(finder, ctx, cur, cur_band, start_effects):
     """Check every added effect against its removal: refit without it; drop it when the
     chi2 it saves is within its penalty plus the null-calibrated margin."""
     for step in list(finder.steps_):
-        names = list(start_effects) + [s["name"] for s in finder.steps_]
-        if len(names) < 2:
+        added = [s["name"] for s in finder.steps_]
+        if len(start_effects) + len(added) < 2:
             break
-        values = _values(cur)
-        rest = [m for m in names if m != step["name"]]
-        fit = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
+        fit = _refit_without(finder, ctx, cur, start_effects, added, step["name"])
         margin, per_param = finder._criterion(cur_band)
         saved = finder._chi2(fit) - finder._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
         if saved <= margin:
             finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
             finder.steps_.remove(step)
             cur = fit
-            cur_band, _ = finder._own_band(ctx, rest[-1], fit, finder.band_, key=10 + len(finder.removed_))
+            cur_band, _ = finder._own_band(ctx, step["name"], fit, finder.band_, key=10 + len(finder.removed_))
     return cur, cur_band
 
 
 def indistinct(fit, factor: float) -> dict:
-    """The effects of ``fit`` whose size the data cannot tell from none: {registry name: (distance
-    from no effect in 95 % half-widths, reason)}.
+    """The effects of ``fit`` whose size the data cannot tell from none: {registry name: reason}.
 
     An effect's magnitude parameter (:data:`uqdrive.vehicle.effects.VANISHES`) whose 95 % interval
     holds the value at which the effect vanishes. ``factor`` scales the Gauss-Newton covariance:
@@ -171,7 +172,7 @@ def indistinct(fit, factor: float) -> dict:
         param, value = VANISHES[name]
         est, lo, hi = intervals[f"{name}.{param}"]
         if lo <= value <= hi:
-            out[name] = (abs(est - value) / max(0.5 * (hi - lo), 1e-300), f"{param} {est:.4g} [{lo:.4g}, {hi:.4g}] holds {value:g} (no effect)")
+            out[name] = f"{param} {est:.4g} [{lo:.4g}, {hi:.4g}] holds {value:g} (no effect)"
     return out
 
 
@@ -192,16 +193,12 @@ def size_check(finder, ctx, base, cur, cur_band, start_effects):
         if len(added) == 1:
             name, refits = added[0], {added[0]: base}
         else:
-            values = _values(cur)
-            refits = {}
-            for name in weak:
-                rest = list(start_effects) + [n for n in added if n != name]
-                refits[name] = finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
+            refits = {k: _refit_without(finder, ctx, cur, start_effects, added, k) for k in weak}
             name = min(weak, key=lambda k: finder._chi2(refits[k]))
-        finder.removed_.append({"effect": family_of(name), "registry_name": name, "size": weak[name][1]})
+        finder.removed_.append({"effect": family_of(name), "registry_name": name, "size": weak[name]})
         finder.steps_ = [s for s in finder.steps_ if s["name"] != name]
         if not finder.steps_:
             return base, finder.band_
         cur = refits[name]
-        cur_band, _ = finder._own_band(ctx, ([s["name"] for s in finder.steps_])[-1], cur, finder.band_, key=30 + len(finder.removed_))
+        cur_band, _ = finder._own_band(ctx, name, cur, finder.band_, key=30 + len(finder.removed_))
     return cur, cur_band
