@@ -52,7 +52,7 @@ class ModelStructure:
         Tyre load sensitivity p_Dz (-) of the peak mu F_z (1 + p_Dz dfz); 0: forces proportional
         to the load (then the lateral load transfer has no effect).
     roll_share_front : float
-        Front share chi_f (-) of the lateral load transfer m a_y h / t (roll-stiffness distribution).
+        Front share chi_f (-) of the lateral load transfer h T / t, T the tyres' lateral force (roll-stiffness distribution).
     compliance_steer : float
         Front steer angle change per g of the front axle's force over its static load (deg/g;
         at steady cornering per g of lateral acceleration), positive: out of the turn.
@@ -299,7 +299,8 @@ EFFECTS: dict[str, Effect] = {
         "nothing in straight driving; stronger with a saturating tyre"),
     "lateral_load_transfer": LateralLoadTransfer(
         "lateral_load_transfer", ("chi_f", "p_Dz"), ("-", "-"), ((0.0, 1.0), (-1.0, 0.0)), (0.55, -0.1),
-        "load moved from the inner to the outer wheels, m a_y h / t split chi_f : 1 - chi_f front : rear, "
+        "load moved from the inner to the outer wheels by the roll moment of the tyres' lateral force T, h T / t "
+        "split chi_f : 1 - chi_f front : rear, "
         "with a load-sensitive tyre peak mu F_z (1 + p_Dz dfz): the axle's force falls by p_Dz (dF / F_z0)^2",
         "psi_dot and beta peaks change quadratically in the lateral acceleration (none at small a_y); "
         "chi_f > l_r / L adds understeer"),

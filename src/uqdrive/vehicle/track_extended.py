@@ -6,15 +6,18 @@ augmented simulator.
 Only structures that use one of these terms come here; the thesis' structures keep
 :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit.
 
-The body's accelerations follow from the states without an algebraic loop when taken at their
-steady-state values (beta' = 0). With v_x = v cos(beta), v_y = v sin(beta) (Rajamani, *Vehicle
-Dynamics and Control*, eq. (2.27): a_x = v_x' - psi_dot v_y, a_y = v_y' + psi_dot v_x):
+The loads follow the force the tyres carry, as a real car's do: the roll moment of their lateral
+force T = F_f cos(delta) + F_r about the centre of gravity moves h T / t across the track, and the
+body's acceleration along x (Rajamani, *Vehicle Dynamics and Control*, eq. (2.27): with v_x =
+v cos(beta), v_y = v sin(beta), a_x = v_x' - psi_dot v_y, a_y = v_y' + psi_dot v_x)
 
-    a_x = v' cos(beta) - v psi_dot sin(beta),   a_y = v' sin(beta) + v psi_dot cos(beta),
+    a_x = v' cos(beta) - tan(beta) (a_y - v' sin(beta)),   a_y = (T + F_w) / m + a_lat,
 
-at held speed (v' = 0) the net force along the body's x axis is -tan(beta) times the lateral one;
-along a speed profile v(t) the drive or brake force that follows it adds v' cos(beta) (braking in
-a turn: the front axle loaded by m |v'| h / L). The speed change acts along the velocity as in
+moves load along the wheelbase: at held speed (v' = 0) the drive force that holds it is -tan(beta)
+times the lateral one; along a speed profile v(t) the drive or brake force that follows it adds
+v' cos(beta) (braking in a turn: the front axle loaded by m |v'| h / L). T depends on the loads it
+makes; the loop is solved by Newton's method from the steady guess m v psi_dot cos(beta) (whose
+error is the transient m v beta_dot). The speed change acts along the velocity as in
 :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
 The kinematics are the baseline's, so that a chassis effect adds its own term and nothing else:
@@ -27,7 +30,7 @@ their trigonometry either way.
 Axle loads (Gillespie, *Fundamentals of Vehicle Dynamics*, eq. (2-4) and ch. 6)::
 
     F_zf = m (g l_r - a_x h_x) / L,   F_zr = m (g l_f + a_x h_x) / L
-    dF_i = chi_i m a_y h / t           (lateral transfer per wheel, chi_f + chi_r = 1)
+    dF_i = chi_i h T / t               (lateral transfer per wheel, chi_f + chi_r = 1)
 
 Per wheel the peak is mu F_z (1 + p_Dz dfz), dfz = (F_z - F_z0) / F_z0 (Pacejka (4.E13)), with F_z0
 the static wheel load; an axle's two wheels (loads F_zi / 2 -+ dF_i, same slip) then carry the
@@ -57,7 +60,12 @@ from ..numerics.integrate import rk4_fixed_step_into
 from ..vehicle_spec import require
 from .single_track import VehicleParameters
 
-__all__ = ["ExtendedSingleTrackRHS", "chassis_max_step", "integrate_chassis", "uses_chassis_terms"]
+#: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
+#: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
+#: within 1.2e-5 of its range of the converged loop (three: 1e-8; none, the steady loads: 2e-2).
+LOAD_NEWTON_STEPS = 2
+
+__all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "integrate_chassis", "uses_chassis_terms"]
 
 
 def uses_chassis_terms(s) -> bool:
@@ -115,6 +123,7 @@ class ExtendedSingleTrackRHS:
         self.compliant = bool(np.any(np.asarray(s.compliance_steer) != 0))
         self.sigma = np.asarray(s.relaxation_length, float)
         self.relaxed = bool(np.any(self.sigma > 0))
+        self.loaded = bool(np.any(self.h_x != 0) or np.any(self.p_Dz != 0))
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
         self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
@@ -135,21 +144,34 @@ class ExtendedSingleTrackRHS:
         """4, or 6 with the two lagged slip angles."""
         return 6 if self.relaxed else 4
 
-    def axle_loads(self, psi_dot, beta, v=None, v_dot=0.0):
-        """Effective axle loads P (2, n) (N) of the tyre forces, from the steady accelerations at
-        speed ``v`` (default the held speed) changing at ``v_dot`` (m/s^2)."""
-        a = (self.v if v is None else v) * psi_dot
-        sin_b, cos_b = np.sin(beta), np.cos(beta)
-        a_x, a_y = v_dot * cos_b - a * sin_b, v_dot * sin_b + a * cos_b
+    def axle_loads(self, tyres, beta, v_dot=0.0, F_w=0.0, slope=False):
+        """Effective axle loads P (2, n) (N) while the tyres carry the lateral force ``tyres`` (n,) (N).
+
+        The roll moment of the tyres' forces about the centre of gravity moves chi_i h tyres / t to
+        each axle's outer wheel; the body's acceleration along x, a_x = v' cos(beta) - tan(beta)
+        (a_y - v' sin(beta)) with a_y = (tyres + F_w) / m + a_lat, moves m a_x h_x / L from the
+        front to the rear axle (the drive or brake force that holds the speed or follows ``v_dot``).
+        With ``slope``, also dP / d tyres (2, n), for the loop in :meth:`_forces`.
+        """
+        tan_b = np.tan(beta)
+        a_y = (tyres + F_w) / self.m + self.a_lat
+        a_x = v_dot * np.cos(beta) - tan_b * (a_y - v_dot * np.sin(beta))
         shift = self.m * a_x * self.h_x / self.L
-        F_z = np.maximum(self.static + np.stack([-shift, shift]), 0.0)  # an axle cannot pull the road
-        dF = self.lateral_arm * (self.m * a_y)
+        raw = self.static + np.stack([-shift, shift])
+        F_z = np.maximum(raw, 0.0)  # an axle cannot pull the road
+        dF = self.lateral_arm * tyres
         F0 = 0.5 * self.static
+        P, dP = 0.0, 0.0
         # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
-        P = 0.0
-        for w in (np.maximum(0.5 * F_z - dF, 0.0), np.maximum(0.5 * F_z + dF, 0.0)):
-            P = P + w * np.maximum(1.0 + self.p_Dz * (w - F0) / F0, 0.0)
-        return P
+        for sign in (-1.0, 1.0):
+            w = np.maximum(0.5 * F_z + sign * dF, 0.0)
+            gain = 1.0 + self.p_Dz * (w - F0) / F0
+            P = P + w * np.maximum(gain, 0.0)
+            if slope:
+                d_shift = -tan_b * self.h_x / self.L  # d shift / d tyres
+                d_w = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0) + sign * self.lateral_arm
+                dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, 0.0)
+        return (P, dP) if slope else P
 
     def steady_slip(self, x, j: int, v=None):
         """Slip angles (2, n) the tyres would have without relaxation and compliance, and the
@@ -164,10 +186,11 @@ class ExtendedSingleTrackRHS:
         q[0] += delta
         return q, delta
 
-    def tyre_forces(self, q, psi_dot, beta, v=None, v_dot=0.0):
+    def tyre_forces(self, q, tyres, beta, v_dot=0.0, F_w=0.0):
         """Lateral axle forces (2, n) (N) at slip angles ``q`` (2, n) (rad), on the loads of
-        :meth:`axle_loads`: Magic Formula or linear, as the structure's tyre."""
-        return self._curve(self.axle_loads(psi_dot, beta, v, v_dot) * self.mu, q)
+        :meth:`axle_loads` while the tyres carry ``tyres`` (n,) (N): Magic Formula or linear, as the
+        structure's tyre."""
+        return self._curve(self.axle_loads(tyres, beta, v_dot, F_w) * self.mu, q)
 
     def _curve(self, peak, q, B=None):
         """Force (N) at slip ``q`` (rad) and peak ``peak`` (N): Magic Formula or its slope at zero."""
@@ -194,23 +217,52 @@ class ExtendedSingleTrackRHS:
             q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
         return q
 
+    def _at_loads(self, P, q_steady, delta, lagged):
+        """Slip angles (2, n), front wheel angle (n,) and axle forces (2, n) on the effective loads
+        ``P`` (2, n): the force of the ``lagged`` slip angles where the tyres relax (the wheels
+        yield to it, which moves the slip's target), the front wheels yielding to their force
+        where the steering is compliant."""
+        peak = P * self.mu
+        q = q_steady.copy()
+        if lagged is not None:
+            F = self._curve(peak, lagged)
+            if self.compliant:
+                q[0] -= self.kappa * F[0]
+                delta = delta - self.kappa * F[0]
+            return q, delta, F
+        if self.compliant:
+            q_front = self._yielded_front_slip(q[0], peak[0])
+            delta = delta - (q[0] - q_front)
+            q[0] = q_front
+        return q, delta, self._curve(peak, q)
+
     def _forces(self, x, j: int, v, v_dot):
         """Steady slip angles (2, n), front wheel angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
-        changing at ``v_dot``: the lagged slip angles where the tyres relax, the front wheels yielding
-        to their force where the steering is compliant."""
+        changing at ``v_dot``.
+
+        With load transfer the loads depend on the tyres' own lateral force T, which depends on the
+        loads: T = F_f(P(T)) cos(delta) + F_r(P(T)) is solved by Newton's method from the steady
+        T = m (v psi_dot cos(beta) + v' sin(beta) - a_lat) - F_w (``LOAD_NEWTON_STEPS`` steps; the
+        slope neglects the compliant wheels' own loop beyond its linear part, which slows the
+        convergence, not its limit)."""
         q_steady, delta = self.steady_slip(x, j, v)
-        peak = self.axle_loads(x[1], x[2], v, v_dot) * self.mu
-        if self.relaxed:  # the force of the lagged slip; the wheels yield to it, which moves the slip's target
-            F = self._curve(peak, np.where(self.sigma > 0, x[4:6], q_steady))
-            if self.compliant:
-                q_steady[0] -= self.kappa * F[0]
-                delta = delta - self.kappa * F[0]
-            return q_steady, delta, F
-        if self.compliant:
-            q_front = self._yielded_front_slip(q_steady[0], peak[0])
-            delta = delta - (q_steady[0] - q_front)
-            q_steady[0] = q_front
-        return q_steady, delta, self._curve(peak, q_steady)
+        lagged = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else None
+        if not self.loaded:
+            return self._at_loads(self.static, q_steady, delta, lagged)
+        psi_dot, beta = x[1], x[2]
+        F_w = self.F_w_half[j]
+        T = self.m * (v * psi_dot * np.cos(beta) + v_dot * np.sin(beta) - self.a_lat) - F_w
+        floor = 1e-3 * self.static
+        for _ in range(LOAD_NEWTON_STEPS):
+            P, dP = self.axle_loads(T, beta, v_dot, F_w, slope=True)
+            _, d, F = self._at_loads(P, q_steady, delta, lagged)
+            dF = F / np.maximum(P, floor)
+            if self.compliant and lagged is None:
+                dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0, 0] * self.C
+            front = np.cos(d) if self.saturating else 1.0
+            gain = front * dF[0] * dP[0] + dF[1] * dP[1]
+            T = T + (front * F[0] + F[1] - T) / np.maximum(1.0 - gain, 0.05)
+        return self._at_loads(self.axle_loads(T, beta, v_dot, F_w), q_steady, delta, lagged)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
