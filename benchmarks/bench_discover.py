@@ -10,7 +10,7 @@ no beta, no y); the model is the linear single-track model along the measured sp
 `--samples` sets the run count (default 1000).
 
 `--chassis`: the config gains the car's cg_height 0.55 m and track_width 1.6 m and the candidates
-longitudinal_load_transfer, lateral_load_transfer, compliance_steer and tyre_relaxation, which
+longitudinal_load_transfer, lateral_load_transfer, compliance_steer, tyre_relaxation and roll_steer, which
 puts the benchmark's chassis cases in reach of `--case` (e.g. `--chassis --case
 compliance_steer_05`). `--quick`: the reduced discover settings of the combined benchmark at 300
 runs (docs/discovery.md: 400 model and 150 non-linear realisations, 100 replicates, 80 compared
@@ -35,7 +35,7 @@ from uqdrive.vehicle.channels import CHANNELS
 
 BUDGET = 180.0
 CHASSIS_CAR = {"cg_height": 0.55, "track_width": 1.6}  # m, a 1.8 t saloon's (as benchmarks/bench_four_wheel.py)
-CHASSIS = ("longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation")
+CHASSIS = ("longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation", "roll_steer")
 QUICK = {"model_samples": 400, "nonlinear_samples": 150, "bootstrap": 100, "max_times": 80}
 #: Cases with a changing speed: (case, measured channels).
 SPEED_CASES = {

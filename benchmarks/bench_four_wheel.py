@@ -30,7 +30,7 @@ from uqdrive.vehicle.four_wheel import FourWheelCar
 
 CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m, a 1.8 t saloon's (the four-wheel car's defaults)
 CANDIDATES = ("tyre_saturation,actuator_lag,actuator_delay,road_bank,wind_gust,lateral_kinematics,sensor_bias,sensor_scale,"
-              "longitudinal_load_transfer,lateral_load_transfer,compliance_steer,tyre_relaxation")
+              "longitudinal_load_transfer,lateral_load_transfer,compliance_steer,tyre_relaxation,roll_steer")
 
 
 #: Reduced discover settings (``--quick``): the combined benchmark's at 300 runs in docs/discovery.md.

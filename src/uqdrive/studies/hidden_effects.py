@@ -24,6 +24,7 @@ longitudinal_load_transfer  cg height h (m) of the load the body's a_x moves: F_
 lateral_load_transfer       each wheel's load sensitivity p_Dz (-); transfer h m a_y / t, 0.55 of it front
 compliance_steer            K (deg/g): front steer -K per g of the front force over its static mass share
 tyre_relaxation             relaxation length sigma (m) of both axles' slip angles
+roll_steer                  K (deg/g): front steer -K per g through the body's roll (a 2.4 Hz roll mode)
 ==========================  ========================================================================
 
 The chassis effects (:data:`CHASSIS_EFFECTS`; :mod:`.hidden.chassis`) give each tyre the slope
@@ -62,16 +63,14 @@ if TYPE_CHECKING:
 __all__ = ["CHASSIS_EFFECTS", "EFFECTS", "MAGNITUDE_UNITS", "HiddenEffectCase", "benchmark_cases", "case_label", "draw_realisations", "generate", "measure",
            "simulate_states", "simulate_channels", "wind_kle"]
 
-EFFECTS = (
-    "none", "tyre_saturation", "actuator_lag", "actuator_delay", "road_bank",
-    "wind_gust", "lateral_kinematics", "sensor_bias", "sensor_scale", *CHASSIS_EFFECTS,
-)
+EFFECTS = ("none", "tyre_saturation", "actuator_lag", "actuator_delay", "road_bank", "wind_gust", "lateral_kinematics", "sensor_bias",
+           "sensor_scale", *CHASSIS_EFFECTS)
 AMPLITUDE_EFFECTS = ("tyre_saturation", "lateral_kinematics")  # magnitude = steering amplitude (deg)
 #: Unit of each effect's magnitude (the table of the module docstring); sensor effects: the channel's.
 MAGNITUDE_UNITS = {"none": "-", "tyre_saturation": "deg", "actuator_lag": "s", "actuator_delay": "s", "road_bank": "deg",
                    "wind_gust": "x sigma", "lateral_kinematics": "deg", "sensor_bias": "channel unit", "sensor_scale": "gain",
                    "longitudinal_load_transfer": "m", "lateral_load_transfer": "-", "compliance_steer": "deg/g",
-                   "tyre_relaxation": "m"}
+                   "tyre_relaxation": "m", "roll_steer": "deg/g"}
 SENSOR_EFFECTS = ("sensor_bias", "sensor_scale")
 PARAMETERS = ("mu", "m_load", "l_f", "F_w_mean")
 MAX_STEP = 0.005  # s, largest internal RK4 step
@@ -180,8 +179,8 @@ class HiddenEffectCase:
             raise ValueError(f"{self.name}: {self.effect} needs a magnitude > 0 (m)")
         if self.effect == "lateral_load_transfer" and not -1.0 <= self.magnitude < 0.0:
             raise ValueError(f"{self.name}: lateral_load_transfer's magnitude is the load sensitivity p_Dz, in [-1, 0)")
-        if self.effect == "compliance_steer" and self.magnitude == 0:
-            raise ValueError(f"{self.name}: compliance_steer needs a magnitude other than 0 (deg/g)")
+        if self.effect in ("compliance_steer", "roll_steer") and self.magnitude == 0:
+            raise ValueError(f"{self.name}: {self.effect} needs a magnitude other than 0 (deg/g)")
         if self.samples < 1 or self.noise < 0:
             raise ValueError(f"{self.name}: samples >= 1 and noise >= 0 required")
 
@@ -382,7 +381,7 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     """The benchmark: six ``none`` cases (different seeds, manoeuvres, shifted distributions),
     every other effect but the chassis ones at two magnitudes off the thesis slalom, six combined
     cases, three ``none`` cases with a held pulse or step at 300 realisations or fewer, the chassis
-    cases (at held speed, and braking in a turn) whose chassis effects are all in
+    cases (at held speed, braking in a turn, the roll steer) whose chassis effects are all in
     ``discrepancy.candidates``, and "thesis_nlst", the
     thesis' own NLST reality (tyre_saturation, slalom 5 deg / 4 s, config distributions, root seed).
     Seeds: root + 101 + the position in the tables' order, included or not (new cases go last).
@@ -409,7 +408,8 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
     chassis = [HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise)
                for i, (name, effect, size, manoeuvre, params, channel, shift, noise) in enumerate(tables["chassis"])]
     start += len(tables["chassis"])
-    for i, (name, effects, manoeuvre, params, *speed, shift, noise) in enumerate(tables["chassis_combined"] + tables["chassis_speed"]):
+    for i, (name, effects, manoeuvre, params, *speed, shift, noise) in enumerate(tables["chassis_combined"] + tables["chassis_speed"]
+                                                                                 + tables["chassis_roll"]):
         (effect, size, channel), extra = effects[0], effects[1:]  # a chassis_speed row holds the speed profile before the shift
         chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra, speed=(speed or [()])[0]))
     candidates = set(config["discrepancy"]["candidates"])

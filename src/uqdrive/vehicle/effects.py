@@ -58,6 +58,11 @@ class ModelStructure:
         at steady cornering per g of lateral acceleration), positive: out of the turn.
     relaxation_length : float
         Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
+    roll_steer : float
+        Front steer angle change per g of the tyres' lateral force over the mass (deg/g) through
+        the body's roll, positive: out of the turn; 0: none.
+    roll_time : float
+        Time constant (s) of the roll (and so the roll steer) following the lateral force.
     a_y_offset, a_y_gain : float
         Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
         bias and scale error (the states' are in ``output_offset``, ``output_gain``).
@@ -79,6 +84,8 @@ class ModelStructure:
     roll_share_front: float = 0.5
     compliance_steer: float = 0.0
     relaxation_length: float = 0.0
+    roll_steer: float = 0.0
+    roll_time: float = 0.1
     a_y_offset: float = 0.0
     a_y_gain: float = 1.0
 
@@ -92,8 +99,10 @@ class ModelStructure:
     @property
     def nonlinear(self) -> bool:
         """True when the model needs numerical integration (no exact discretisation): a
-        Magic-Formula tyre, load transfer or tyre relaxation (compliance steer alone is linear)."""
-        return self.tyre != "linear" or self.pitch_height != 0 or self.load_sensitivity != 0 or self.relaxation_length > 0
+        Magic-Formula tyre, load transfer, tyre relaxation or roll steer (compliance steer alone
+        is linear: a softer front axle)."""
+        return (self.tyre != "linear" or self.pitch_height != 0 or self.load_sensitivity != 0 or self.relaxation_length > 0
+                or self.roll_steer != 0)
 
 
 @dataclass(frozen=True)
@@ -231,6 +240,14 @@ class ComplianceSteer(Effect):
         return replace(s, compliance_steer=float(v[0]))
 
 
+class RollSteer(Effect):
+    """Roll steer: the front wheels turn by -K (deg/g) per g of the tyres' lateral force over the
+    mass, lagged by the body's roll with the time constant tau (s)."""
+
+    def apply(self, s, v):
+        return replace(s, roll_steer=float(v[0]), roll_time=float(v[1]))
+
+
 class TyreRelaxation(Effect):
     """Tyre relaxation: the slip angles follow their steady values with the lag sigma / v of the
     relaxation length sigma (m)."""
@@ -294,7 +311,8 @@ EFFECTS: dict[str, Effect] = {
     "longitudinal_load_transfer": LongitudinalLoadTransfer(
         "longitudinal_load_transfer", ("h",), ("m",), ((0.0, 1.5),), (0.55,),
         "load moved between the axles by the longitudinal force that holds the speed in a turn: "
-        "F_zf = m (g l_r - a_x h) / L with a_x = -v psi_dot sin(beta); h the centre-of-gravity height",
+        "F_zf = m (g l_r - a_x h) / L with a_x = -tan(beta) a_y (and v' cos(beta) along a speed profile); "
+        "h the centre-of-gravity height",
         "grows with psi_dot * beta: the yaw-rate gain and beta change where the side slip is large, "
         "nothing in straight driving; stronger with a saturating tyre"),
     "lateral_load_transfer": LateralLoadTransfer(
@@ -310,6 +328,12 @@ EFFECTS: dict[str, Effect] = {
         "roll steer's unit); on the linear tyre a front cornering stiffness c_f / (1 + K c_Sf C mu)",
         "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
         "beta with it; phase untouched at low frequency"),
+    "roll_steer": RollSteer(
+        "roll_steer", ("K", "tau"), ("deg/g", "s"), ((-1.0, 3.0), (0.02, 0.5)), (0.3, 0.1),
+        "front wheels steered by the body's roll: -K per g of the tyres' lateral force over the mass, the roll "
+        "following it with the time constant tau (a roll mode's 2 zeta / omega)",
+        "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
+        "its phase lagging with tau: more yaw overshoot and a later peak at higher input frequencies"),
     "tyre_relaxation": TyreRelaxation(
         "tyre_relaxation", ("sigma",), ("m",), ((0.05, 2.0),), (0.5,),
         "slip angles lag their steady values by the tyre's relaxation length: time constant sigma / v",
@@ -324,7 +348,7 @@ EFFECTS: dict[str, Effect] = {
 VANISHES: dict[str, tuple[str, float]] = {
     "actuator_lag": ("T", 0.0), "actuator_delay": ("tau", 0.0), "road_bank": ("phi", 0.0), "wind_gust": ("gust_scale", 1.0),
     "lateral_kinematics": ("k", 0.0), "longitudinal_load_transfer": ("h", 0.0), "lateral_load_transfer": ("p_Dz", 0.0),
-    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0),
+    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0), "roll_steer": ("K", 0.0),
     **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
     **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
 }

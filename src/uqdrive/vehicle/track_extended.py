@@ -70,15 +70,20 @@ __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "i
 
 def uses_chassis_terms(s) -> bool:
     """True when structure ``s`` needs this right-hand side in a numerical integration (load
-    transfer, relaxation, or compliance steer)."""
+    transfer, relaxation, compliance or roll steer)."""
     return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
-                or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0))
+                or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0)
+                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0))
 
 
 def chassis_max_step(s, v: float, max_step: float) -> float:
-    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag)."""
-    sigma = float(getattr(s, "relaxation_length", 0.0))
-    return min(max_step, sigma / float(v)) if sigma > 0 else max_step
+    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag), or the
+    roll steer's time constant."""
+    sigma = float(np.max(getattr(s, "relaxation_length", 0.0)))
+    step = min(max_step, sigma / float(v)) if sigma > 0 else max_step
+    if np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0):
+        step = min(step, float(np.min(s.roll_time)))
+    return step
 
 
 class ExtendedSingleTrackRHS:
@@ -123,6 +128,10 @@ class ExtendedSingleTrackRHS:
         self.compliant = bool(np.any(np.asarray(s.compliance_steer) != 0))
         self.sigma = np.asarray(s.relaxation_length, float)
         self.relaxed = bool(np.any(self.sigma > 0))
+        self.rolling = bool(np.any(np.asarray(s.roll_steer) != 0))
+        self.roll_gain = np.deg2rad(np.asarray(s.roll_steer, float)) / (p.m * p.g)  # rad per N of the tyres' force
+        self.roll_time = np.asarray(s.roll_time, float)
+        self.i_roll = 6 if self.relaxed else 4
         self.loaded = bool(np.any(self.h_x != 0) or np.any(self.p_Dz != 0))
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
         self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
@@ -141,8 +150,8 @@ class ExtendedSingleTrackRHS:
 
     @property
     def n_states(self) -> int:
-        """4, or 6 with the two lagged slip angles."""
-        return 6 if self.relaxed else 4
+        """4, plus the two lagged slip angles, plus the roll steer angle."""
+        return 4 + 2 * self.relaxed + self.rolling
 
     def axle_loads(self, tyres, beta, v_dot=0.0, F_w=0.0, slope=False):
         """Effective axle loads P (2, n) (N) while the tyres carry the lateral force ``tyres`` (n,) (N).
@@ -246,6 +255,9 @@ class ExtendedSingleTrackRHS:
         slope neglects the compliant wheels' own loop beyond its linear part, which slows the
         convergence, not its limit)."""
         q_steady, delta = self.steady_slip(x, j, v)
+        if self.rolling:  # the roll steer angle, a state: no loop
+            q_steady[0] -= x[self.i_roll]
+            delta = delta - x[self.i_roll]
         lagged = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else None
         if not self.loaded:
             return self._at_loads(self.static, q_steady, delta, lagged)
@@ -285,6 +297,8 @@ class ExtendedSingleTrackRHS:
             out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
         F_w = self.F_w_half[j]
         fc = self._front(F[0], delta)
+        if self.rolling:  # the roll, and the steer it makes, follow the tyres' lateral force
+            out[self.i_roll] = (self.roll_gain * (fc + F[1]) - x[self.i_roll]) / self.roll_time
         M_w = F_w * self.M_c if self.M_w is None else self.M_w
         out[0] = psi_dot
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z

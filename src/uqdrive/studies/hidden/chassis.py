@@ -9,7 +9,9 @@ Written apart from the candidates of :mod:`uqdrive.vehicle.effects` (simulated b
   loop between loads and forces is solved by fixed-point iteration;
 - compliance steer is driven by the front axle's lateral force (a steering system yields to the
   force on its tyres), scaled so that at steady cornering it is K per g of lateral acceleration;
-- relaxation lags each axle's slip angle with the wheel's own rolling speed.
+- relaxation lags each axle's slip angle with the wheel's own rolling speed;
+- roll steer turns the front wheels with the body's roll angle, a second-order mode driven by the
+  roll moment of the tyres' forces (not a first-order lag of the lateral acceleration).
 
 Each wheel's tyre (Pacejka, *Tyre and Vehicle Dynamics*, 3rd ed., eq. (4.E13)) has the peak
 D_w = mu F_zw (1 + p_Dz (F_zw - F_z0) / F_z0), F_z0 its static load, and the stiffness and shape
@@ -22,12 +24,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FIXED_POINT_ITERATIONS", "ROLL_SHARE_FRONT", "axle_peak", "compliance_per_force", "longitudinal_acceleration",
-           "relaxation_rate", "wheel_load_transfer"]
+__all__ = ["FIXED_POINT_ITERATIONS", "ROLL_DAMPING", "ROLL_INERTIA", "ROLL_SHARE_FRONT", "ROLL_STIFFNESS", "axle_peak",
+           "compliance_per_force", "longitudinal_acceleration", "relaxation_rate", "roll_acceleration", "roll_per_g",
+           "wheel_load_transfer"]
 
 #: Front axle's share chi_f of the lateral load transfer (-) in the reality's lateral_load_transfer
 #: (a roll-stiffness distribution of a saloon with the stiffer front anti-roll bar).
 ROLL_SHARE_FRONT = 0.55
+#: The body's roll mode in the reality's roll_steer: stiffness (N m/rad), damping (N m s/rad) and
+#: inertia (kg m^2) of a 1.8 t saloon (about 2.4 Hz, damping ratio 0.6; the roll lags the lateral
+#: force by 2 zeta / omega ~ 80 ms).
+ROLL_STIFFNESS, ROLL_DAMPING, ROLL_INERTIA = 140e3, 10.5e3, 550.0
 #: Fixed-point iterations of the loads-forces loop: each contracts the error by the loop gain
 #: (below 0.4 for |p_Dz| <= 0.5 and lateral accelerations below 0.9 g; 0.4^6 = 4e-3 of the correction).
 FIXED_POINT_ITERATIONS = 6
@@ -150,3 +157,43 @@ def relaxation_rate(alpha, alpha_steady, u, sigma):
     ndarray, shape (n,)
     """
     return (alpha_steady - alpha) * u / sigma
+
+
+def roll_per_g(m, h, g):
+    """Steady roll angle (rad) per g of lateral acceleration: m h g / (K_phi - m g h) (Gillespie,
+    ch. 8: the roll springs against the roll moment, the centre of gravity's shift adding to it).
+
+    Parameters
+    ----------
+    m : ndarray, shape (n,) or float
+        Mass (kg).
+    h, g : float
+        Centre-of-gravity height above the roll axis (m, roll centres on the ground) and gravity (m/s^2).
+
+    Returns
+    -------
+    ndarray, shape (n,) or float
+    """
+    return m * h * g / (ROLL_STIFFNESS - m * g * h)
+
+
+def roll_acceleration(phi, phi_dot, F_tyres, m, h, g):
+    """Roll acceleration (rad/s^2) of the body: I_x phi'' = h F_tyres + m g h phi - K_phi phi - c_phi phi'
+    (roll about the ground; positive phi: rolled out of a turn to positive y).
+
+    Parameters
+    ----------
+    phi, phi_dot : ndarray, shape (n,)
+        Roll angle (rad) and rate (rad/s).
+    F_tyres : ndarray, shape (n,)
+        Sum of the tyres' lateral forces (N).
+    m : ndarray, shape (n,)
+        Mass (kg).
+    h, g : float
+        Centre-of-gravity height (m), gravity (m/s^2).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    return (h * F_tyres + (m * g * h - ROLL_STIFFNESS) * phi - ROLL_DAMPING * phi_dot) / ROLL_INERTIA

@@ -21,20 +21,23 @@ from .chassis import (
     compliance_per_force,
     longitudinal_acceleration,
     relaxation_rate,
+    roll_acceleration,
+    roll_per_g,
     wheel_load_transfer,
 )
 
 __all__ = ["CHASSIS_EFFECTS", "case_speed", "speed_of_case", "reality_rhs", "rk4_left_limit", "state_size"]
 
 #: Effects of the chassis (:mod:`.chassis`): loads moved by the body's accelerations, the steering's
-#: compliance, the tyres' relaxation.
-CHASSIS_EFFECTS = ("longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation")
+#: compliance, the tyres' relaxation, the roll steer.
+CHASSIS_EFFECTS = ("longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation", "roll_steer")
 
 
 def state_size(case) -> int:
     """Number of states of the reality: psi, psi_dot, beta, y, then the actual steering angle
-    (actuator_lag), then the front and rear lagged slip angles (tyre_relaxation)."""
-    return 4 + (case.size("actuator_lag") > 0) + 2 * (case.size("tyre_relaxation") > 0)
+    (actuator_lag), then the front and rear lagged slip angles (tyre_relaxation), then the roll
+    angle and rate (roll_steer)."""
+    return 4 + (case.size("actuator_lag") > 0) + 2 * (case.size("tyre_relaxation") > 0) + 2 * (case.size("roll_steer") != 0)
 
 
 def speed_of_case(config: Mapping[str, Any], case, t_half):
@@ -128,6 +131,12 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
         h_y, track = require(config, "cg_height", purpose), require(config, "track_width", purpose)
     K_F = compliance_per_force(K, m, l_r, L, g)
     i_slip = 4 + (lag > 0)  # first lagged slip angle (tyre_relaxation)
+    i_roll = i_slip + 2 * (sigma > 0)  # roll angle and rate (roll_steer)
+    roll_steer = case.size("roll_steer")
+    if roll_steer != 0:
+        h_roll = require(config, "cg_height", "the hidden effect roll_steer")
+        # the steer per roll angle (rad/rad) that gives roll_steer deg per g at the nominal mass
+        e_f = np.deg2rad(roll_steer) / roll_per_g(veh["m_base"], h_roll, g)
     loop = FIXED_POINT_ITERATIONS if (h_x != 0 or p_Dz != 0 or K != 0) else 0
 
     def chassis_forces(x, j, d_act, F_w, vj, v_dot):
@@ -146,6 +155,8 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
                 return D * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
             return B * C * D * alpha
 
+        if roll_steer != 0:
+            d_act = d_act - e_f * x[i_roll]
         Fz_f, Fz_r, dF_f, dF_r, d = F_fz, F_rz, 0.0, 0.0, d_act
         for k in range(loop + 1):
             a_f, a_r = (x[i_slip], x[i_slip + 1]) if sigma > 0 else slips(d)
@@ -215,6 +226,9 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
             out[4] = (u - x[4]) / lag
         if rates is not None:
             out[i_slip], out[i_slip + 1] = rates
+        if roll_steer != 0:
+            out[i_roll] = x[i_roll + 1]
+            out[i_roll + 1] = roll_acceleration(x[i_roll], x[i_roll + 1], F_f + F_r, m, h_roll, g)
         return out
 
     rhs.a_y = a_y
