@@ -61,8 +61,8 @@ class ModelStructure:
     roll_steer : float
         Front steer angle change per g of the tyres' lateral force over the mass (deg/g) through
         the body's roll, positive: out of the turn; 0: none.
-    roll_time : float
-        Time constant (s) of the roll (and so the roll steer) following the lateral force.
+    roll_frequency, roll_damping : float
+        Natural frequency (Hz) and damping ratio (-) of the roll mode the roll steer follows.
     a_y_offset, a_y_gain : float
         Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
         bias and scale error (the states' are in ``output_offset``, ``output_gain``).
@@ -85,7 +85,8 @@ class ModelStructure:
     compliance_steer: float = 0.0
     relaxation_length: float = 0.0
     roll_steer: float = 0.0
-    roll_time: float = 0.1
+    roll_frequency: float = 2.0
+    roll_damping: float = 0.6
     a_y_offset: float = 0.0
     a_y_gain: float = 1.0
 
@@ -242,10 +243,10 @@ class ComplianceSteer(Effect):
 
 class RollSteer(Effect):
     """Roll steer: the front wheels turn by -K (deg/g) per g of the tyres' lateral force over the
-    mass, lagged by the body's roll with the time constant tau (s)."""
+    mass, through the body's roll, a second-order mode of frequency f (Hz) and damping ratio zeta."""
 
     def apply(self, s, v):
-        return replace(s, roll_steer=float(v[0]), roll_time=float(v[1]))
+        return replace(s, roll_steer=float(v[0]), roll_frequency=float(v[1]), roll_damping=float(v[2]))
 
 
 class TyreRelaxation(Effect):
@@ -329,11 +330,11 @@ EFFECTS: dict[str, Effect] = {
         "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
         "beta with it; phase untouched at low frequency"),
     "roll_steer": RollSteer(
-        "roll_steer", ("K", "tau"), ("deg/g", "s"), ((-1.0, 3.0), (0.02, 0.5)), (0.3, 0.1),
-        "front wheels steered by the body's roll: -K per g of the tyres' lateral force over the mass, the roll "
-        "following it with the time constant tau (a roll mode's 2 zeta / omega)",
-        "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift), "
-        "its phase lagging with tau: more yaw overshoot and a later peak at higher input frequencies"),
+        "roll_steer", ("K", "f", "zeta"), ("deg/g", "Hz", "-"), ((-1.0, 3.0), (0.5, 6.0), (0.1, 1.5)), (0.3, 2.0, 0.6),
+        "front wheels steered by the body's roll: -K per g of the tyres' lateral force over the mass at steady "
+        "cornering, the roll a second-order mode (frequency f, damping ratio zeta) driven by that force",
+        "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift); "
+        "the steer lags a_y by the roll mode: yaw overshoot and a later peak after a sharp input"),
     "tyre_relaxation": TyreRelaxation(
         "tyre_relaxation", ("sigma",), ("m",), ((0.05, 2.0),), (0.5,),
         "slip angles lag their steady values by the tyre's relaxation length: time constant sigma / v",

@@ -46,7 +46,10 @@ kappa F_f with kappa = K / F_zf,static (K in rad per g: at steady cornering -K p
 acceleration; positive K understeers). The loop F_f = F(alpha_f - kappa F_f) is solved exactly on
 the linear tyre (F_f = c alpha_f / (1 + kappa c) at the axle's current load c) and by Newton's
 method on the Magic Formula; a relaxing tyre's force comes from its lagged slip, and the wheels
-yield to it without a loop. Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
+yield to it without a loop. Roll steer turns the front wheels by -eps, the steer following the
+tyres' force through the body's roll mode: eps'' = omega^2 (kappa_r T - eps) - 2 zeta omega eps',
+kappa_r = K / (m g) (K in rad per g; a roll angle phi'' = omega^2 (h T / (K_phi - m g h) - phi) -
+2 zeta omega phi' times the steer per roll angle), two extra states. Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
 (Pacejka sec. 7.2), two extra states.
 """
 
@@ -77,12 +80,12 @@ def uses_chassis_terms(s) -> bool:
 
 
 def chassis_max_step(s, v: float, max_step: float) -> float:
-    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag), or the
-    roll steer's time constant."""
+    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag), or
+    1 / omega of the roll mode."""
     sigma = float(np.max(getattr(s, "relaxation_length", 0.0)))
     step = min(max_step, sigma / float(v)) if sigma > 0 else max_step
     if np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0):
-        step = min(step, float(np.min(s.roll_time)))
+        step = min(step, 1.0 / (2 * np.pi * float(np.max(s.roll_frequency))))
     return step
 
 
@@ -130,7 +133,8 @@ class ExtendedSingleTrackRHS:
         self.relaxed = bool(np.any(self.sigma > 0))
         self.rolling = bool(np.any(np.asarray(s.roll_steer) != 0))
         self.roll_gain = np.deg2rad(np.asarray(s.roll_steer, float)) / (p.m * p.g)  # rad per N of the tyres' force
-        self.roll_time = np.asarray(s.roll_time, float)
+        self.roll_omega = 2 * np.pi * np.asarray(s.roll_frequency, float)
+        self.roll_zeta = np.asarray(s.roll_damping, float)
         self.i_roll = 6 if self.relaxed else 4
         self.loaded = bool(np.any(self.h_x != 0) or np.any(self.p_Dz != 0))
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
@@ -150,8 +154,8 @@ class ExtendedSingleTrackRHS:
 
     @property
     def n_states(self) -> int:
-        """4, plus the two lagged slip angles, plus the roll steer angle."""
-        return 4 + 2 * self.relaxed + self.rolling
+        """4, plus the two lagged slip angles, plus the roll steer angle and its rate."""
+        return 4 + 2 * self.relaxed + 2 * self.rolling
 
     def axle_loads(self, tyres, beta, v_dot=0.0, F_w=0.0, slope=False):
         """Effective axle loads P (2, n) (N) while the tyres carry the lateral force ``tyres`` (n,) (N).
@@ -297,8 +301,10 @@ class ExtendedSingleTrackRHS:
             out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
         F_w = self.F_w_half[j]
         fc = self._front(F[0], delta)
-        if self.rolling:  # the roll, and the steer it makes, follow the tyres' lateral force
-            out[self.i_roll] = (self.roll_gain * (fc + F[1]) - x[self.i_roll]) / self.roll_time
+        if self.rolling:  # the roll mode, and the steer it makes, driven by the tyres' lateral force
+            w, eps, rate = self.roll_omega, x[self.i_roll], x[self.i_roll + 1]
+            out[self.i_roll] = rate
+            out[self.i_roll + 1] = w * w * (self.roll_gain * (fc + F[1]) - eps) - 2.0 * self.roll_zeta * w * rate
         M_w = F_w * self.M_c if self.M_w is None else self.M_w
         out[0] = psi_dot
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
