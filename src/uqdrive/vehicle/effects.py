@@ -59,8 +59,8 @@ class ModelStructure:
     relaxation_length : float
         Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
     roll_steer : float
-        Front steer angle change per g of the tyres' lateral force over the mass (deg/g) through
-        the body's roll, positive: out of the turn; 0: none.
+        Front steer angle change per g of the tyres' lateral force over the base mass m_base
+        (deg/g) through the body's roll, positive: out of the turn; 0: none.
     roll_frequency, roll_damping : float
         Natural frequency (Hz) and damping ratio (-) of the roll mode the roll steer follows.
     a_y_offset, a_y_gain : float
@@ -331,7 +331,7 @@ EFFECTS: dict[str, Effect] = {
         "beta with it; phase untouched at low frequency"),
     "roll_steer": RollSteer(
         "roll_steer", ("K", "f", "zeta"), ("deg/g", "Hz", "-"), ((-1.0, 3.0), (0.5, 6.0), (0.1, 1.5)), (0.3, 2.0, 0.6),
-        "front wheels steered by the body's roll: -K per g of the tyres' lateral force over the mass at steady "
+        "front wheels steered by the body's roll: -K per g of the tyres' lateral force over the base mass at steady "
         "cornering, the roll a second-order mode (frequency f, damping ratio zeta) driven by that force",
         "yaw-rate gain changed by the same fraction at every amplitude (an understeer-gradient shift); "
         "the steer lags a_y by the roll mode: yaw overshoot and a later peak after a sharp input"),

@@ -48,7 +48,7 @@ the linear tyre (F_f = c alpha_f / (1 + kappa c) at the axle's current load c) a
 method on the Magic Formula; a relaxing tyre's force comes from its lagged slip, and the wheels
 yield to it without a loop. Roll steer turns the front wheels by -eps, the steer following the
 tyres' force through the body's roll mode: eps'' = omega^2 (kappa_r T - eps) - 2 zeta omega eps',
-kappa_r = K / (m g) (K in rad per g; a roll angle phi'' = omega^2 (h T / (K_phi - m g h) - phi) -
+kappa_r = K / (m_base g) (K in rad per g at the base mass; a roll angle phi'' = omega^2 (h T / (K_phi - m g h) - phi) -
 2 zeta omega phi' times the steer per roll angle), two extra states. Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
 (Pacejka sec. 7.2), two extra states.
 """
@@ -132,7 +132,9 @@ class ExtendedSingleTrackRHS:
         self.sigma = np.asarray(s.relaxation_length, float)
         self.relaxed = bool(np.any(self.sigma > 0))
         self.rolling = bool(np.any(np.asarray(s.roll_steer) != 0))
-        self.roll_gain = np.deg2rad(np.asarray(s.roll_steer, float)) / (p.m * p.g)  # rad per N of the tyres' force
+        # rad per N of the tyres' force: the roll is the roll moment h T over the roll stiffness, a
+        # constant of the car per newton, K per g at the base mass (not per g of each realisation's)
+        self.roll_gain = np.deg2rad(np.asarray(s.roll_steer, float)) / (p.m_base * p.g)
         self.roll_omega = 2 * np.pi * np.asarray(s.roll_frequency, float)
         self.roll_zeta = np.asarray(s.roll_damping, float)
         self.i_roll = 6 if self.relaxed else 4
