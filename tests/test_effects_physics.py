@@ -38,6 +38,22 @@ def _saturating(**fields):
     return s
 
 
+def _foh_response(A, b, u):
+    """States (n, T) of x' = A x + b u from rest with u (T,) linear between the DT samples (Van
+    Loan: the input u0 + (u1 - u0) tau / DT, integrated exactly by the matrix exponential)."""
+    from scipy.linalg import expm
+
+    n = len(A)
+    M = np.zeros((n + 2, n + 2))
+    M[:n, :n], M[:n, n], M[n, n + 1] = A, b, 1.0 / DT
+    E = expm(M * DT)
+    out, z = [np.zeros(n)], np.zeros(n)
+    for j in range(u.size - 1):
+        z = E[:n, :n] @ z + E[:n, n] * u[j] + E[:n, n + 1] * (u[j + 1] - u[j])
+        out.append(z)
+    return np.array(out).T
+
+
 def _equilibrium_residual(config, r, beta, delta, loads, v=V):
     """Yaw-moment and lateral-force balance of (5.3) at the steady state (r, beta) with axle
     loads ``loads(p, r, beta)`` (effective peak loads, N), relative to the front force."""
@@ -144,8 +160,6 @@ def test_compliance_steer_is_a_softer_front_axle_in_transients_too(config):
     matrix exponential (first-order hold), on a 0.5 Hz slalom: equal to 1e-9 of the yaw rate's
     range. A wheel angle driven by v psi_dot (the steady a_y) instead, the same at steady state,
     misses it in the transient by more than 1 % of that range."""
-    from scipy.linalg import expm
-
     K, d = 1.0, np.deg2rad(2.0)
     sim, t = _simulator(config, lambda t: d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0), t_end=5.0)
     x = sim.simulate(THETA, effect("compliance_steer").augment(ModelStructure(), [K]))[:, 0]
@@ -162,15 +176,7 @@ def test_compliance_steer_is_a_softer_front_axle_in_transients_too(config):
         A[2, 2] = -(c_f + p.c_r) / (p.m * V)
         b = np.array([0.0, p.l_f * c_f / p.I_z, c_f / (p.m * V), 0.0])
         A[:, 1] -= b * feedback  # delta - feedback psi_dot
-        u = d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0)
-        M = np.zeros((6, 6))
-        M[:4, :4], M[:4, 4], M[4, 5] = A, b, 1.0 / DT  # Van Loan: input u0 + (u1 - u0) tau / DT
-        E = expm(M * DT)
-        out, z = [np.zeros(4)], np.zeros(4)
-        for j in range(t.size - 1):
-            z = E[:4, :4] @ z + E[:4, 4] * u[j] + E[:4, 5] * (u[j + 1] - u[j])
-            out.append(z)
-        return np.array(out).T
+        return _foh_response(A, b, d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0))
 
     span = np.ptp(x[1])
     soft = response(p.c_f / (1.0 + k * p.c_Sf * p.C * THETA[0]))
@@ -229,8 +235,6 @@ def test_roll_steer_turns_the_wheels_by_minus_K_a_y_after_the_roll(config):
     (matrix exponential, the input linear between samples) to 1e-5 of the yaw rate's range (RK4:
     2e-6); with another damping ratio (1.2 for 0.6), a four times faster mode or the compliance
     steer's instant yielding it misses by more than 1 % (2.4, 2.2, 3.5 %)."""
-    from scipy.linalg import expm
-
     from dataclasses import replace
 
     K, f, zeta = 1.0, 1.5, 0.6
@@ -261,15 +265,7 @@ def test_roll_steer_turns_the_wheels_by_minus_K_a_y_after_the_roll(config):
         A[5, 4] -= w * w
         A[5, 5] -= 2 * zeta * w
         b = np.array([0.0, p.l_f * p.c_f / p.I_z, p.c_f / (p.m * V), 0.0, 0.0, w * w * k * p.c_f])
-        u = d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0)
-        M = np.zeros((8, 8))
-        M[:6, :6], M[:6, 6], M[6, 7] = A, b, 1.0 / DT
-        E = expm(M * DT)
-        out, z = [np.zeros(6)], np.zeros(6)
-        for j in range(t.size - 1):
-            z = E[:6, :6] @ z + E[:6, 6] * u[j] + E[:6, 7] * (u[j + 1] - u[j])
-            out.append(z)
-        return np.array(out).T
+        return _foh_response(A, b, d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0))
 
     span = np.ptp(x[1])
     assert np.abs(x[1] - response(f, zeta)[1]).max() < 1e-5 * span
