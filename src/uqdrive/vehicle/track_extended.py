@@ -177,14 +177,16 @@ class ExtendedSingleTrackRHS:
         dF = self.lateral_arm * tyres
         F0 = 0.5 * self.static
         P, dP = 0.0, 0.0
+        if slope:  # d (F_z / 2) / d tyres, from d shift / d tyres = -tan(beta) h_x / L
+            d_shift = -tan_b * self.h_x / self.L
+            d_half_load = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0)
         # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
         for sign in (-1.0, 1.0):
             w = np.maximum(0.5 * F_z + sign * dF, 0.0)
             gain = 1.0 + self.p_Dz * (w - F0) / F0
             P = P + w * np.maximum(gain, 0.0)
             if slope:
-                d_shift = -tan_b * self.h_x / self.L  # d shift / d tyres
-                d_w = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0) + sign * self.lateral_arm
+                d_w = d_half_load + sign * self.lateral_arm
                 dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, 0.0)
         return (P, dP) if slope else P
 
