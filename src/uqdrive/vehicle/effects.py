@@ -243,7 +243,7 @@ class ComplianceSteer(Effect):
 
 class RollSteer(Effect):
     """Roll steer: the front wheels turn by -K (deg/g) per g of the tyres' lateral force over the
-    mass, through the body's roll, a second-order mode of frequency f (Hz) and damping ratio zeta."""
+    base mass, through the body's roll, a second-order mode of frequency f (Hz) and damping ratio zeta."""
 
     def apply(self, s, v):
         return replace(s, roll_steer=float(v[0]), roll_frequency=float(v[1]), roll_damping=float(v[2]))
