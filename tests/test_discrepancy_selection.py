@@ -70,21 +70,43 @@ def test_combined_outcomes_and_their_confusion_table():
 
 def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing(config):
     """A model on fewer realisations is judged with a wider scale; its excess chi2 is scaled back
-    by the squared ratio, so a non-linear fit that changes nothing is no better than the linear."""
+    by the squared ratio, so a non-linear fit that changes nothing is no better than the linear.
+    The ratio is the one of the scale the fit was judged with: a non-linear candidate fitted to
+    zero size has a linear structure, and its chi2 on the wide scale is not the linear one's. The
+    excess counts from the non-linear footing's own null level, and a comparison across the
+    footings has that footing's margin."""
     f = DiscrepancyFinder(config, model_samples=1000, nonlinear_samples=250)
     f.scale_, f._n = np.ones((2, 4, 10)), 1000
     f.band_ = SimpleNamespace(mean_square_null=1.0)
     z = np.zeros((2, 4, 10))  # 80 cells: the null level is 80
     ratio = (1 + 1000 / 250) / (1 + 1000 / 1000)  # scale ratio squared (_scale_for)
+    wide_scale = f._scale_for(True, 1000)
+    assert np.mean((wide_scale / f.scale_) ** 2) == pytest.approx(ratio, rel=1e-12)
     # the same systematic misfit (640) plus each model's own sampling (80 in its own units)
-    linear = SimpleNamespace(structure_=ModelStructure(), z_=z, chi2_=80.0 + 640.0)
-    wide = SimpleNamespace(structure_=EFFECTS["tyre_saturation"].augment(ModelStructure(), [0.5]), z_=z, chi2_=80.0 + 640.0 / ratio)
+    linear = SimpleNamespace(structure_=ModelStructure(), z_=z, chi2_=80.0 + 640.0, scale_=f.scale_)
+    wide = SimpleNamespace(structure_=EFFECTS["tyre_saturation"].augment(ModelStructure(), [0.5]), z_=z, chi2_=80.0 + 640.0 / ratio, scale_=wide_scale)
     assert f._chi2(linear) == pytest.approx(720.0)
     assert f._chi2(wide) == pytest.approx(720.0)
     assert wide.chi2_ < f._chi2(wide)  # the raw chi2 would have favoured it
+    # a load transfer fitted to h = 0: its structure is the linear model's, its z on the wide scale
+    zero = SimpleNamespace(structure_=EFFECTS["longitudinal_load_transfer"].augment(ModelStructure(), [0.0]), z_=z, chi2_=wide.chi2_, scale_=wide_scale)
+    assert not zero.structure_.nonlinear
+    assert f._chi2(zero) == pytest.approx(720.0)  # by its structure it would score 336 and beat the linear model
     # below the null level nothing systematic is left to convert: the sampling luck is not multiplied
-    lucky = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=60.0)
+    lucky = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=60.0, scale_=wide_scale)
     assert f._chi2(lucky) == pytest.approx(60.0)  # scaled it would be 80 - 20 x 2.5 = 30
+    # with the non-linear footing's own band (its few raw realisations' luck: level 1.5 per cell)
+    # the excess is counted from that level: a fit at it is at the linear null level
+    f.footing_band_ = SimpleNamespace(mean_square_null=1.5, chi2_null_sd=30.0)
+    f.band_ = SimpleNamespace(mean_square_null=1.0, chi2_null_sd=10.0)
+    at_level = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=120.0, scale_=wide_scale)
+    assert f._chi2(at_level) == pytest.approx(80.0)
+    assert f._chi2(SimpleNamespace(**{**vars(at_level), "chi2_": 120.0 + 256.0})) == pytest.approx(80.0 + 256.0 * ratio)
+    assert f._chi2(linear) == pytest.approx(720.0)  # a linear fit keeps its chi2
+    # a comparison across the footings: the margin is the wide footing's chi2 spread, converted
+    assert f._margin(20.0, linear, wide) == pytest.approx(2.0 * ratio * 30.0)
+    assert f._margin(20.0, wide, zero) == 20.0 and f._margin(20.0, linear, linear) == 20.0
+    assert f._margin(500.0, linear, wide) == 500.0
 
 
 def test_gate_needs_a_scan_crossing_and_an_excess_misfit():
@@ -173,7 +195,7 @@ def test_a_non_linear_probe_is_finished_when_in_reach(config):
     f = DiscrepancyFinder(config)
     f.scale_, f._n = np.ones((2, 4, 10)), 1000
     f.band_ = SimpleNamespace(mean_square_null=1.0)
-    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2)  # noqa: E731
+    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, scale_=f.scale_)  # noqa: E731
     cur, best_linear = fit(1000.0), fit(200.0)  # the linear candidate closes 800
     assert f._in_reach(cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
     assert not f._in_reach(cur, fit(810.0), [best_linear])  # 190 < 200
@@ -214,7 +236,7 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     def joint(ctx, theta, names, values, max_nfev=None):
         starts.append((list(theta), max_nfev))
         chi2 = 50.0 if list(theta) == list(prior) else 900.0  # only the prior's start reaches the good basin
-        return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta)
+        return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta, scale_=f.scale_)
 
     f._joint = joint
     lowered = [0.84] + list(prior[1:])
@@ -223,6 +245,6 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     assert starts == [(lowered, 6), (list(prior), 6)]  # both starts, each with the probe's budget
     starts.clear()
     joint_lowered_wins = lambda ctx, theta, names, values, max_nfev=None: SimpleNamespace(  # noqa: E731
-        structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta)
+        structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta, scale_=f.scale_)
     f._joint = joint_lowered_wins
     assert list(f._probe(None, lowered, ["tyre_saturation"], {}).theta_) == lowered

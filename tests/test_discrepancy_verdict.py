@@ -35,7 +35,7 @@ def _verdict(rest, max_effects, whole=False):
                              screening_={}, max_effects=max_effects, config={"montecarlo": {"spin_policy": "exclude"}}, spun_=np.array([], int),
                              samples_used_=100, noise_variance_=np.ones(4), channels_=("psi", "psi_dot", "beta", "y"), untestable_=[], speed_profile_=None, model_samples=400, interpolation_="linear", level=0.01,
                              time_=np.arange(1, K + 1) * 0.1, _criterion=lambda b: (2.0 * b.chi2_null_sd, 2.0 * b.inflation),
-                             _chi2=lambda f: f.chi2_)
+                             _chi2=lambda f: f.chi2_, _footing=lambda f: 1.0, _band_of=lambda f: band, band_=band)
     ctx = SimpleNamespace(n=100)
     verdict = assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)
     return (verdict, aug, band) if whole else [e["effect"] for e in verdict["effects"]]

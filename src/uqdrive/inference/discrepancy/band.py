@@ -284,13 +284,21 @@ def excess_rms(z, band: NullBand) -> float:
     return float(np.sqrt(max(float(np.mean(np.asarray(z) ** 2)) - band.mean_square_null, 0.0)))
 
 
-def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float) -> "NullBand":
+def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float,
+                   model_statistics=None, jacobian=None) -> "NullBand":
     """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric bootstrap.
 
     ``bootstrap`` replicates of n realisations of base's model (fresh germs from ``rng``) with
     the measurement noise (variance ``noise`` (C,), one per measured channel of ``sim``) added,
     their statistics standardised by their own scale (model error ratio ``ratio``), realisations
     beyond ``spin`` (|beta|, rad; None where beta is not measured) left out as in the data, each replicate refitted to first order (:func:`refit_projection`).
+
+    ``model_statistics``: None compares every replicate with ``base.statistics_`` (a model whose
+    own sampling error is negligible: moment-matched germs of a linear model). A callable
+    ``model_statistics(rng)`` -> (2, C, K) gives the model's statistics on fresh germs for each
+    replicate instead, so that the band holds the model's own sampling (a model evaluated on a
+    few raw germs); ``jacobian`` (default ``base.jacobian_``) then is d z / d parameters on the
+    scale of that comparison.
     """
     per_call = max(1, 4000 // max(n, 1))
     z = []
@@ -310,6 +318,7 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
             stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
         for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
             stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
-        z.extend((stats - base.statistics_) / scale)
-    z = refit_projection(np.array(z), base.jacobian_)
+        model = base.statistics_ if model_statistics is None else np.array([model_statistics(rng) for _ in range(reps)])
+        z.extend((stats - model) / scale)
+    z = refit_projection(np.array(z), base.jacobian_ if jacobian is None else jacobian)
     return NullBand.from_replicates(z, scan_windows(index.size), level)

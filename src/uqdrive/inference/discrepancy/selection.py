@@ -10,7 +10,7 @@ from ...vehicle.effects import EFFECTS, VANISHES
 from .band import excess_rms
 from .effectset import family_of, fitted_values, resolvable
 
-__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "forward_selection", "backward_check", "indistinct", "size_check"]
+__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "admissible", "forward_selection", "backward_check", "indistinct", "size_check"]
 
 #: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
 #: two effects added as a pair must close it twice over (STEP_SHRINK squared).
@@ -26,9 +26,23 @@ def _refit_without(finder, ctx, cur, start_effects, added, name):
     return finder._joint(ctx, cur.theta_, rest, {k: values[k] for k in rest})
 
 
+def admissible(finder, ctx, name, fit) -> tuple[bool, str]:
+    """Whether ``name``'s fitted size in ``fit`` can be named, and why not: resolvable at the
+    data's sampling (:func:`.effectset.resolvable`) and told from none at the sampling's interval
+    (:func:`indistinct` with the null's inflation, as :func:`size_check` judges the final model).
+    An addition of no size is the model it was added to: its chi2 gain is sampling luck (a
+    non-linear candidate at zero size runs on its own few realisations)."""
+    ok, why = resolvable(name, fitted_values(fit)[name], ctx.delta, ctx.dt)
+    if not ok:
+        return False, why
+    weak = indistinct(fit, finder._band_of(fit).inflation).get(name)
+    return weak is None, weak or ""
+
+
 def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
-    """The chi2 ``after`` saves against ``before`` beats the penalty of ``name``'s parameters plus the margin."""
-    return finder._chi2(before) - finder._chi2(after) - per_param * len(EFFECTS[name].parameters) > margin
+    """The chi2 ``after`` saves against ``before`` beats the penalty of ``name``'s parameters plus the
+    margin (widened where the two fits stand on different footings, :meth:`.finder.DiscrepancyFinder._margin`)."""
+    return finder._chi2(before) - finder._chi2(after) - per_param * len(EFFECTS[name].parameters) > finder._margin(margin, before, after)
 
 
 def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin, extra=None) -> dict:
@@ -52,14 +66,14 @@ def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first,
     margin, per_param = finder._criterion(cur_band)
     partners = [c for c in sorted(fits, key=lambda c: finder._chi2(fits[c])) if c != first
                 and _gain_justified(finder, cur, fits[c], c, margin, per_param)
-                and resolvable(c, fitted_values(fits[c])[c], ctx.delta, ctx.dt)[0]][:PAIR_PARTNERS]
+                and admissible(finder, ctx, c, fits[c])[0]][:PAIR_PARTNERS]
     best = None
     for c in partners:
         start = {**values, **fitted_values(fits[first]), c: fitted_values(fits[c])[c]}
         pair = finder._joint(ctx, fits[first].theta_, names + [first, c], start)
         if not (_gain_justified(finder, fits[first], pair, c, margin, per_param) and _gain_justified(finder, fits[c], pair, first, margin, per_param)):
             continue
-        if not resolvable(c, fitted_values(pair)[c], ctx.delta, ctx.dt)[0] or not resolvable(first, fitted_values(pair)[first], ctx.delta, ctx.dt)[0]:
+        if not (admissible(finder, ctx, c, pair)[0] and admissible(finder, ctx, first, pair)[0]):
             continue
         if best is None or finder._chi2(pair) < finder._chi2(best[1]):
             best = (c, pair)
@@ -80,7 +94,8 @@ def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first,
 
 def forward_selection(finder, ctx, base, band, start_effects, lap):
     """Add effects while each one is justified: its joint fit lowers chi2 by more than its
-    penalty plus the null-calibrated margin, it is resolvable at the data's sampling, and it
+    penalty plus the null-calibrated margin, its size is resolvable and told from none
+    (:func:`admissible`), and it
     explains the rest of the gap or closes at least a quarter of it (:data:`STEP_SHRINK`); when
     the best justified addition closes less, a partner may join it (:func:`pair_step`); stop when
     the model explains the data (inside its own band). Returns the final fit and its band."""
@@ -108,6 +123,10 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
                 if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
                     finder.unresolved_["explains_gap"] = c  # the gap is at the sampling's resolution
                     return cur, cur_band
+                continue
+            ok, why = admissible(finder, ctx, c, fc)
+            if not ok:  # no size the sampling tells from none (the resolution was checked above)
+                finder.unresolved_[c] = why
                 continue
             if not _gain_justified(finder, cur, fc, c, margin, per_param):
                 break  # the best resolvable addition is not justified: nothing further is
@@ -148,7 +167,7 @@ def backward_check(finder, ctx, cur, cur_band, start_effects):
         fit = _refit_without(finder, ctx, cur, start_effects, added, step["name"])
         margin, per_param = finder._criterion(cur_band)
         saved = finder._chi2(fit) - finder._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
-        if saved <= margin:
+        if saved <= finder._margin(margin, fit, cur):
             finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
             finder.steps_.remove(step)
             cur = fit
@@ -187,7 +206,7 @@ def size_check(finder, ctx, base, cur, cur_band, start_effects):
         # the sampling's interval, not the verdict's (widened by the lack of fit): a model far from
         # the data (a four-wheel car) would otherwise lose effects whose removal costs thousands
         added = [s["name"] for s in finder.steps_]
-        weak = {k: v for k, v in indistinct(cur, finder.band_.inflation).items() if k in added}
+        weak = {k: v for k, v in indistinct(cur, finder._band_of(cur).inflation).items() if k in added}
         if not weak:
             break
         if len(added) == 1:

@@ -55,7 +55,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     gap1 = excess_rms(aug.z_, after_band) if named else gap0
     explains = after_band.max_statistic(aug.z_) <= after_band.threshold
     # intervals: the null's time correlation (inflation) and the final model's lack of fit
-    misfit = lack_of_fit(finder._chi2(aug), aug.z_.size, after_band.mean_square_null) if named else 1.0
+    # (chi2 on the linear models' footing: its null level is the linear one's)
+    level_band = after_band if finder._footing(aug) == 1.0 else finder.band_
+    misfit = lack_of_fit(finder._chi2(aug), aug.z_.size, level_band.mean_square_null) if named else 1.0
     per_effect = aug.effect.intervals(aug.effect_intervals(band.inflation * misfit)) if named else {}
     effects = []
     for step in finder.steps_:
@@ -80,11 +82,13 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     first = finder.steps_[0] if named else None
     summary = {}
     for c, f in finder.fits_.items():
-        summary[c] = {"chi2": round(f.chi2_, 2), "max_statistic": round(band.max_statistic(f.z_), 3), "gap_after": round(excess_rms(f.z_, band), 4),
+        own = finder._band_of(f)  # a non-linear fit's z are judged on its footing's band
+        summary[c] = {"chi2": round(f.chi2_, 2), "chi2_linear_footing": round(finder._chi2(f), 2),
+                      "max_statistic": round(own.max_statistic(f.z_), 3), "gap_after": round(excess_rms(f.z_, own), 4),
                       "parameters": {k.split(".", 1)[1]: [round(v, 6) for v in iv] for k, iv in
-                                     f.effect_intervals(band.inflation * lack_of_fit(finder._chi2(f), f.z_.size, band.mean_square_null)).items()
+                                     f.effect_intervals(own.inflation * lack_of_fit(finder._chi2(f), f.z_.size, band.mean_square_null)).items()
                                      if k.startswith(c + ".")},
-                      "explains": bool(band.max_statistic(f.z_) <= band.threshold)}
+                      "explains": bool(own.max_statistic(f.z_) <= own.threshold)}
     if first is not None:
         fb, fband = first["fit"], first["band"]
         summary[first["name"]].update(max_statistic=round(fband.max_statistic(fb.z_), 3), gap_after=round(excess_rms(fb.z_, fband), 4),
@@ -119,6 +123,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "tie_margin": round(margin, 2),
             "inflation": round(band.inflation, 3),
             "lack_of_fit": round(misfit, 3),
+            "nonlinear_footing_band": {"mean_square_null": round(finder.footing_band_.mean_square_null, 4), "threshold": round(finder.footing_band_.threshold, 3),
+                                       "chi2_null_sd": round(finder.footing_band_.chi2_null_sd, 2), "inflation": round(finder.footing_band_.inflation, 3),
+                                       "samples": finder.nonlinear_samples} if getattr(finder, "footing_band_", None) is not None else {},
             "interpolation": finder.interpolation_,
             "named_band": {"effects": [s["name"] for s in finder.steps_], "band": finder.steps_[-1]["band_kind"], "threshold": round(after_band.threshold, 3),
                            "mean_square_null": round(after_band.mean_square_null, 4), "replicates": int(after_band.max_null.size)} if named else {},
