@@ -34,7 +34,8 @@ def lack_of_fit(chi2: float, cells: int, mean_square_null: float) -> float:
     Parameters
     ----------
     chi2 : float
-        The fit's chi2 (-) on the linear models' footing (:meth:`.finder.DiscrepancyFinder._chi2`).
+        The fit's own chi2 (-), on the footing its covariance is in (a non-linear model's on
+        its wide scale, with that footing's null band: :meth:`.finder.DiscrepancyFinder._band_of`).
     cells : int
         Number of standardised residuals (statistics x channels x times).
     mean_square_null : float
@@ -55,9 +56,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     gap1 = excess_rms(aug.z_, after_band) if named else gap0
     explains = after_band.max_statistic(aug.z_) <= after_band.threshold
     # intervals: the null's time correlation (inflation) and the final model's lack of fit
-    # (chi2 on the linear models' footing: its null level is the linear one's)
-    level_band = after_band if finder._footing(aug) == 1.0 else finder.band_
-    misfit = lack_of_fit(finder._chi2(aug), aug.z_.size, level_band.mean_square_null) if named else 1.0
+    # (on the fit's own footing: its chi2 over its own band's null level, the footing its
+    # Gauss-Newton covariance is in)
+    misfit = lack_of_fit(aug.chi2_, aug.z_.size, after_band.mean_square_null) if named else 1.0
     per_effect = aug.effect.intervals(aug.effect_intervals(band.inflation * misfit)) if named else {}
     effects = []
     for step in finder.steps_:
@@ -86,7 +87,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
         summary[c] = {"chi2": round(f.chi2_, 2), "chi2_linear_footing": round(finder._chi2(f), 2),
                       "max_statistic": round(own.max_statistic(f.z_), 3), "gap_after": round(excess_rms(f.z_, own), 4),
                       "parameters": {k.split(".", 1)[1]: [round(v, 6) for v in iv] for k, iv in
-                                     f.effect_intervals(own.inflation * lack_of_fit(finder._chi2(f), f.z_.size, band.mean_square_null)).items()
+                                     f.effect_intervals(own.inflation * lack_of_fit(f.chi2_, f.z_.size, own.mean_square_null)).items()
                                      if k.startswith(c + ".")},
                       "explains": bool(own.max_statistic(f.z_) <= own.threshold)}
     if first is not None:
