@@ -256,22 +256,20 @@ class DiscrepancyFinder:
         own = self._band_of(fit).mean_square_null * fit.z_.size
         return level + (fit.chi2_ - own) * (ratio2 if fit.chi2_ > own else 1.0)
 
+    def _footing(self, fit) -> float:
+        """Mean squared ratio of the scale ``fit`` was judged with to the linear models' (1: a linear model's footing)."""
+        return float(np.mean((np.asarray(fit.scale_, float) / self.scale_) ** 2))
+
     def _band_of(self, fit):
         """The null band a fit's z are judged by: the baseline's, or the non-linear footing's."""
         return self.band_ if self._footing(fit) == 1.0 else (getattr(self, "footing_band_", None) or self.band_)
 
     def _margin(self, margin: float, *fits) -> float:
-        """The tie margin of a comparison of ``fits``: where a fit on the non-linear footing meets
-        one on the linear footing, the non-linear footing's chi2 spread, converted (its few raw
-        realisations' luck does not cancel against moment-matched germs)."""
-        ratios = [self._footing(f) for f in fits]
-        if max(ratios) == min(ratios):
-            return margin
-        return max(margin, 2.0 * max(ratios) * self._band_of(fits[int(np.argmax(ratios))]).chi2_null_sd)
-
-    def _footing(self, fit) -> float:
-        """Mean squared ratio of the scale ``fit`` was judged with to the linear models' (1: a linear model's footing)."""
-        return float(np.mean((np.asarray(fit.scale_, float) / self.scale_) ** 2))
+        """The tie margin of a comparison of ``fits`` in chi2 on the linear footing: a fit on the
+        non-linear footing brings that footing's chi2 spread, converted by its squared scale
+        ratio (its few raw realisations' luck, which moment-matched germs do not share)."""
+        wide = [f for f in fits if self._footing(f) > 1.0]
+        return max([margin] + [2.0 * self._footing(f) * self._band_of(f).chi2_null_sd for f in wide])
 
     def _forward(self, ctx, base, band, start_effects, lap):
         """Forward selection (:func:`.selection.forward_selection`): the final fit and its band."""
