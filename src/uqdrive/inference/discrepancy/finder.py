@@ -396,10 +396,11 @@ class DiscrepancyFinder:
     # -- verdict ------------------------------------------------------------------------------
     def _own_band(self, ctx, name, fit, band, key: int = 1):
         """The null band of a model with named effects: its own bootstrap (a stronger gust or a
-        sensor gain changes the spread the band normalises by); a non-linear model keeps the
-        baseline's (its bootstrap, B x n realisations by RK4, would cost minutes)."""
+        sensor gain changes the spread the band normalises by); a non-linear model takes the
+        non-linear footing's (the baseline's model on fresh raw germs, :meth:`_footing_band`:
+        its own bootstrap, B x n realisations by RK4, would cost minutes)."""
         if self._footing(fit) > 1:
-            return self._band_of(fit), "baseline"
+            return self._band_of(fit), "nonlinear_footing"
         return self._null_band(ctx, fit, key=key), "own"
 
     def _decide(self, base, band, stat0, significant, ctx):
