@@ -93,6 +93,15 @@ def test_an_addition_whose_size_holds_none_is_not_named(config, half_a, named):
     assert (A in f.unresolved_) == (half_a > 1) and ("holds 0" in f.unresolved_.get(A, "holds 0"))
 
 
+def test_the_selection_stops_when_the_model_explains_the_data(config):
+    """a is the whole gap: with it added the model is inside its band, and no further candidate
+    is fitted on top of it (the budget of three effects is not spent on a model that explains)."""
+    f, base, band, ctx, calls = _finder(config, (1.0, 0.0, 0.0))
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert [s["name"] for s in f.steps_] == [A] and f.steps_[0]["explains"]
+    assert all(len(c) == 1 for c in calls)
+
+
 def test_without_the_pair_step_two_small_halves_name_nothing(config, monkeypatch):
     """The same gap as the first case with no partner tried: the selection stops at the first
     effect that closes less than a quarter (the rule before pairs), and nothing is named."""
@@ -221,6 +230,20 @@ def test_the_backward_check_drops_an_effect_the_others_make_redundant(config, wi
     assert [r["registry_name"] for r in f.removed_] == dropped
     if dropped:
         assert list(final.effect.names) == [A] and f.removed_[0]["chi2_saved"] == pytest.approx(without_c - 100.0 - 2.0)
+
+
+@pytest.mark.parametrize("without, dropped", [(113.0, ["lateral_load_transfer"]), (115.0, [])])
+def test_the_backward_check_charges_the_penalty_per_parameter(config, without, dropped):
+    """The lateral load transfer has two parameters (chi_f, p_Dz): its penalty is 4, so a refit
+    without it costing 13 saves 9 (< margin 10: dropped) where a one-parameter effect's 11 would
+    have kept it; 15 saves 11 (kept)."""
+    L = "lateral_load_transfer"
+    f, band, backward_check = _backward_finder(config, {(L,): 500.0, (A,): without})
+    f.steps_ = [{"name": A}, {"name": L}]
+    backward_check(f, None, _chi2_fit([A, L], 100.0), band, {})
+    assert [r["registry_name"] for r in f.removed_] == dropped
+    if dropped:
+        assert f.removed_[0]["chi2_saved"] == pytest.approx(without - 100.0 - 4.0)
 
 
 def test_the_backward_check_keeps_a_single_effect(config):
