@@ -29,13 +29,17 @@ def _refit_without(finder, ctx, cur, start_effects, added, name):
 def admissible(finder, ctx, name, fit) -> tuple[bool, str]:
     """Whether ``name``'s fitted size in ``fit`` can be named, and why not: resolvable at the
     data's sampling (:func:`.effectset.resolvable`) and told from none at the sampling's interval
-    (:func:`indistinct` with the null's inflation, as :func:`size_check` judges the final model).
+    (:func:`indistinct` with the null's inflation, as :func:`size_check` judges the final model:
+    the baseline band's, the data's own noise; the non-linear footing's wider inflation holds the
+    luck of the model's few realisations, which the chi2 comparison already judges, and on
+    lateral_load_transfer_p030 widened the load sensitivity's interval to hold 0 where the fit
+    lowered chi2 by three converted footing spreads).
     An addition of no size is the model it was added to: its chi2 gain is sampling luck (a
     non-linear candidate at zero size runs on its own few realisations)."""
     ok, why = resolvable(name, fitted_values(fit)[name], ctx.delta, ctx.dt)
     if not ok:
         return False, why
-    weak = indistinct(fit, finder._band_of(fit).inflation).get(name)
+    weak = indistinct(fit, finder.band_.inflation).get(name)
     return weak is None, weak or ""
 
 
@@ -206,7 +210,7 @@ def size_check(finder, ctx, base, cur, cur_band, start_effects):
         # the sampling's interval, not the verdict's (widened by the lack of fit): a model far from
         # the data (a four-wheel car) would otherwise lose effects whose removal costs thousands
         added = [s["name"] for s in finder.steps_]
-        weak = {k: v for k, v in indistinct(cur, finder._band_of(cur).inflation).items() if k in added}
+        weak = {k: v for k, v in indistinct(cur, finder.band_.inflation).items() if k in added}
         if not weak:
             break
         if len(added) == 1:
