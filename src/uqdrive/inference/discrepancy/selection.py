@@ -4,19 +4,23 @@ together close their share of the gap, and the backward check of every added eff
 
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 
 from ...vehicle.effects import EFFECTS, VANISHES
 from .band import excess_rms
 from .effectset import family_of, fitted_values, resolvable
 
-__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "admissible", "forward_selection", "backward_check", "indistinct", "size_check"]
+__all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "PAIR_POOL", "admissible", "dynamic_pairs", "forward_selection", "backward_check", "indistinct", "size_check"]
 
 #: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
 #: two effects added as a pair must close it twice over (STEP_SHRINK squared).
 STEP_SHRINK = 0.75
 #: Partners tried with a justified effect that alone closes less than a quarter (the next best by chi2).
 PAIR_PARTNERS = 2
+#: Non-linear candidates whose pairs are probed when a step stalls without a partner (:func:`dynamic_pairs`), and the probes' budget.
+PAIR_POOL, PAIR_PROBE_NFEV = 4, 6
 
 
 def _refit_without(finder, ctx, cur, start_effects, added, name):
@@ -58,6 +62,27 @@ def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin
                           if np.isfinite(v["chi2"])}, **(extra or {})}
 
 
+def _pair_holds(finder, ctx, fits, a, b, pair, margin, per_param) -> bool:
+    """Each member of the pair ``a``, ``b`` (joint fit ``pair``) saves more than its penalty plus the margin on top of the other, and has a size."""
+    return (_gain_justified(finder, fits[a], pair, b, margin, per_param) and _gain_justified(finder, fits[b], pair, a, margin, per_param)
+            and admissible(finder, ctx, a, pair)[0] and admissible(finder, ctx, b, pair)[0])
+
+
+def _pair_steps(finder, ctx, fits, screening, first, first_band, partner, pair, prev_gap, key, margin):
+    """The two step records of a pair that holds (``first`` with its own fit, then ``partner`` with the
+    pair's), or None when together they neither explain the rest nor close it by STEP_SHRINK squared."""
+    band_2, which_2 = finder._own_band(ctx, partner, pair, finder.band_, key=key + 20)
+    explains = band_2.max_statistic(pair.z_) <= band_2.threshold
+    gap = excess_rms(pair.z_, band_2)
+    if not (explains or gap <= STEP_SHRINK**2 * prev_gap):
+        return None
+    band_1, which_1 = first_band
+    one = _step(finder, first, fits[first], band_1, which_1, band_1.max_statistic(fits[first].z_) <= band_1.threshold,
+                excess_rms(fits[first].z_, band_1), fits, screening, margin, {"pair": partner})
+    two = _step(finder, partner, pair, band_2, which_2, explains, gap, {**fits, partner: pair}, screening, margin, {"pair": first})
+    return [one, two]
+
+
 def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first, first_band, prev_gap, key):
     """Two effects that only together close their share: ``first`` (justified, resolvable, but
     closing less than a quarter alone) fitted jointly with each of the next :data:`PAIR_PARTNERS`
@@ -75,25 +100,32 @@ def pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, first,
     for c in partners:
         start = {**values, **fitted_values(fits[first]), c: fitted_values(fits[c])[c]}
         pair = finder._joint(ctx, fits[first].theta_, names + [first, c], start)
-        if not (_gain_justified(finder, fits[first], pair, c, margin, per_param) and _gain_justified(finder, fits[c], pair, first, margin, per_param)):
-            continue
-        if not (admissible(finder, ctx, c, pair)[0] and admissible(finder, ctx, first, pair)[0]):
-            continue
-        if best is None or finder._chi2(pair) < finder._chi2(best[1]):
+        if _pair_holds(finder, ctx, fits, first, c, pair, margin, per_param) and (best is None or finder._chi2(pair) < finder._chi2(best[1])):
             best = (c, pair)
     if best is None:
         return None
-    partner, pair = best
-    band_1, which_1 = first_band
-    band_2, which_2 = finder._own_band(ctx, partner, pair, finder.band_, key=key + 20)
-    explains = band_2.max_statistic(pair.z_) <= band_2.threshold
-    gap = excess_rms(pair.z_, band_2)
-    if not (explains or gap <= STEP_SHRINK**2 * prev_gap):
+    return _pair_steps(finder, ctx, fits, screening, first, first_band, best[0], best[1], prev_gap, key, margin)
+
+
+def dynamic_pairs(finder, ctx, cur, cur_band, names, values, fits, screening, prev_gap, key):
+    """Two dynamic effects that act against each other (a roll mode's lead and the tyres' lag on a
+    chirp): alone, each bends its parameters to cancel the other and has no size; together they
+    explain. When the step stalls and :func:`pair_step` finds no partner for its best addition,
+    the pairs of the :data:`PAIR_POOL` non-linear candidates best by their own joint fits get a
+    short joint fit (:data:`PAIR_PROBE_NFEV` evaluations) from the registry's start values, not
+    from their bent single fits; the best is finished and taken under :func:`pair_step`'s rules.
+    Returns the two step records (the member with the better own fit first), or None."""
+    margin, per_param = finder._criterion(cur_band)
+    pool = sorted((c for c in fits if finder._nonlinear(c)), key=lambda c: finder._chi2(fits[c]))[:PAIR_POOL]
+    probes = {(a, b): finder._joint(ctx, cur.theta_, names + [a, b], {**values, a: list(EFFECTS[a].start), b: list(EFFECTS[b].start)},
+                                    max_nfev=PAIR_PROBE_NFEV) for a, b in combinations(pool, 2)}
+    if not probes:
         return None
-    one = _step(finder, first, fits[first], band_1, which_1, band_1.max_statistic(fits[first].z_) <= band_1.threshold,
-                excess_rms(fits[first].z_, band_1), fits, screening, margin, {"pair": partner})
-    two = _step(finder, partner, pair, band_2, which_2, explains, gap, {**fits, partner: pair}, screening, margin, {"pair": first})
-    return [one, two]
+    a, b = min(probes, key=lambda k: finder._chi2(probes[k]))
+    pair = finder._joint(ctx, probes[a, b].theta_, names + [a, b], fitted_values(probes[a, b]))
+    if not _pair_holds(finder, ctx, fits, a, b, pair, margin, per_param):
+        return None
+    return _pair_steps(finder, ctx, fits, screening, a, finder._own_band(ctx, a, fits[a], finder.band_, key=key), b, pair, prev_gap, key, margin)
 
 
 def forward_selection(finder, ctx, base, band, start_effects, lap):
@@ -101,8 +133,9 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
     penalty plus the null-calibrated margin, its size is resolvable and told from none
     (:func:`admissible`), and it
     explains the rest of the gap or closes at least a quarter of it (:data:`STEP_SHRINK`); when
-    the best justified addition closes less, a partner may join it (:func:`pair_step`); stop when
-    the model explains the data (inside its own band). Returns the final fit and its band."""
+    the best justified addition closes less, a partner may join it (:func:`pair_step`) or, with
+    none, two non-linear candidates may be added together (:func:`dynamic_pairs`); stop when the
+    model explains the data (inside its own band). Returns the final fit and its band."""
     cur, cur_band = base, band
     names, values = list(start_effects), dict(start_effects)
     explained = False
@@ -152,6 +185,8 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
         if stalled is None or len(finder.steps_) + 2 > finder.max_effects:
             break
         pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, (after_band, which), prev_gap, key=step + 1)
+        if pair is None:
+            pair = dynamic_pairs(finder, ctx, cur, cur_band, names, values, fits, screening, prev_gap, key=step + 1)
         if pair is None:
             break
         finder.steps_.extend(pair)
