@@ -304,3 +304,57 @@ def test_of_two_effects_without_a_size_the_one_the_data_need_least_goes_first(co
     final, _ = size_check(f, None, SimpleNamespace(effect=None), _sized([A, C], {A: 2.5, C: 0.2}, 480.0), f.band_, {})
     assert [s["name"] for s in f.steps_] == [C] and [r["registry_name"] for r in f.removed_] == [A]
     assert list(final.effect.names) == [C] and final.chi2_ == 490.0
+
+
+def _cancelling_finder(config, together):
+    """Stand-in fits of one gap: the compliance steer (linear) closes 1 - sqrt(0.75) = 13 % alone,
+    the roll steer 5 %, the relaxation nothing (each alone bends to cancel the other), and the two
+    non-linear ones together ``together`` of its excess mean square; every size told from none."""
+    from uqdrive.vehicle.effects import EFFECTS
+
+    rng = np.random.default_rng(3)
+    (u, _, _), noise = _parts(rng)
+    band = NullBand.from_replicates(0.3 * rng.standard_normal((300, 2, 4, K)), scan_windows(K))
+    gap, one = 4.0 * u, np.ones_like(noise)
+    R, S, CS = "roll_steer", "tyre_relaxation", "compliance_steer"
+
+    def joint(ctx, theta, names, values, max_nfev=None):
+        s = set(names)
+        left = 1.0 - together if {R, S} <= s else 0.75 if CS in s else 0.9 if R in s else 1.0
+        calls.append((tuple(names), max_nfev, {k: list(values[k]) for k in names if k in values}))
+        z = noise + np.sqrt(left) * gap
+        eff = EffectSet(list(names))
+        return SimpleNamespace(z_=z, chi2_=float(np.sum(z**2)), theta_=THETA, effect=eff, effect_values_=np.full(len(eff.parameters), 2.0),
+                               structure_=ModelStructure(), scale_=one,
+                               effect_intervals=lambda factor=1.0: {p: [2.0, 1.9, 2.1] for p in eff.parameters})
+
+    calls = []
+    f = DiscrepancyFinder(config, candidates=[CS, R, S], top=3, max_effects=3)
+    f.candidates_, f.band_, f.scale_ = [CS, R, S], band, one
+    f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
+    f._joint, f._chi2 = joint, lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
+    f._screen = lambda ctx, cur, pool: {c: {"chi2": 0.0, "held": 0.0, "theta": THETA, "values": [0.0], "anchor": "current"} for c in pool}
+    f._probe = lambda ctx, theta, names, values: joint(ctx, theta, names, values, max_nfev=6)
+    base = SimpleNamespace(z_=noise + gap, chi2_=float(np.sum((noise + gap) ** 2)), theta_=THETA, effect=None, effect_values_=np.zeros(0),
+                           structure_=ModelStructure(), scale_=one)
+    return f, base, band, SimpleNamespace(delta=np.zeros(100), dt=0.01), calls, EFFECTS
+
+
+@pytest.mark.parametrize("together, pool, named", [(1.0, 4, ["roll_steer", "tyre_relaxation"]), (1.0, 0, []), (0.3, 4, [])])
+def test_two_dynamic_effects_that_cancel_alone_are_added_together(config, monkeypatch, together, pool, named):
+    """The compliance steer is the best addition but closes 13 % (less than a quarter) and has no
+    partner (the lags alone save nothing on top of the baseline). The two non-linear candidates'
+    pair, probed from the registry's starts (not from their bent single fits), then finished,
+    explains the gap: both are named, the one with the better own fit first. Without the probes
+    (pool 0) nothing is named; a pair that closes 1 - sqrt(0.7) = 16 % is not two additions' worth."""
+    monkeypatch.setattr(selection, "PAIR_POOL", pool)
+    f, base, band, ctx, calls, EFFECTS = _cancelling_finder(config, together)
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert [s["name"] for s in f.steps_] == named
+    probes = [c for c in calls if set(c[0]) == {"roll_steer", "tyre_relaxation"} and c[1] == selection.PAIR_PROBE_NFEV]
+    assert len(probes) == (1 if pool else 0)
+    if probes:  # from the registry's start values
+        assert probes[0][2] == {k: list(EFFECTS[k].start) for k in ("roll_steer", "tyre_relaxation")}
+    if named:
+        assert f.steps_[0]["pair"] == "tyre_relaxation" and f.steps_[1]["pair"] == "roll_steer" and f.steps_[1]["explains"]
