@@ -25,6 +25,18 @@ def _parts(rng):
     return [v.reshape(2, 4, K) * np.sqrt(v.size) for v in q.T], 0.3 * rng.standard_normal((2, 4, K))
 
 
+def _stand_in_finder(config, candidates, band, scale, joint):
+    """A finder over ``candidates`` whose joint fits are ``joint``, chi2 the fits' own, every band
+    ``band`` (no bootstrap), every candidate screened alike, on the linear footing (``scale``)."""
+    f = DiscrepancyFinder(config, candidates=candidates, top=3, max_effects=3)
+    f.candidates_, f.band_, f.scale_ = list(candidates), band, scale
+    f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
+    f._joint, f._chi2 = joint, lambda fit: fit.chi2_
+    f._own_band = lambda ctx, name, fit, band_, key=1: (band, "own")
+    f._screen = lambda ctx, cur, pool: {c: {"chi2": 0.0, "held": 0.0, "theta": THETA, "values": [0.0], "anchor": "current"} for c in pool}
+    return f
+
+
 def _finder(config, shares, pair_joins=True, excess=16.0, half=None):
     """A finder whose joint fits are stand-ins: each candidate removes its own part of the gap
     (``shares``: the excess mean square of a, b and the rest), A with B together remove both
@@ -52,12 +64,7 @@ def _finder(config, shares, pair_joins=True, excess=16.0, half=None):
         return fit(list(names), sorted(left))
 
     calls, one = [], np.ones_like(noise)
-    f = DiscrepancyFinder(config, candidates=[A, B, C], top=3, max_effects=3)
-    f.candidates_, f.band_, f.scale_ = [A, B, C], band, one
-    f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
-    f._joint, f._chi2 = joint, lambda fit: fit.chi2_
-    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
-    f._screen = lambda ctx, cur, pool: {c: {"chi2": 0.0, "held": 0.0, "theta": THETA, "values": [0.0], "anchor": "current"} for c in pool}
+    f = _stand_in_finder(config, [A, B, C], band, one, joint)
     base = fit([], ["a", "b", "r"])
     ctx = SimpleNamespace(delta=np.zeros(100), dt=0.01)
     return f, base, band, ctx, calls
@@ -329,12 +336,7 @@ def _cancelling_finder(config, together):
                                effect_intervals=lambda factor=1.0: {p: [2.0, 1.9, 2.1] for p in eff.parameters})
 
     calls = []
-    f = DiscrepancyFinder(config, candidates=[CS, R, S], top=3, max_effects=3)
-    f.candidates_, f.band_, f.scale_ = [CS, R, S], band, one
-    f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
-    f._joint, f._chi2 = joint, lambda fit: fit.chi2_
-    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")
-    f._screen = lambda ctx, cur, pool: {c: {"chi2": 0.0, "held": 0.0, "theta": THETA, "values": [0.0], "anchor": "current"} for c in pool}
+    f = _stand_in_finder(config, [CS, R, S], band, one, joint)
     f._probe = lambda ctx, theta, names, values: joint(ctx, theta, names, values, max_nfev=6)
     base = SimpleNamespace(z_=noise + gap, chi2_=float(np.sum((noise + gap) ** 2)), theta_=THETA, effect=None, effect_values_=np.zeros(0),
                            structure_=ModelStructure(), scale_=one)
