@@ -388,7 +388,7 @@ class DiscrepancyFinder:
         eff = EffectSet(names, {k: values[k] for k in names if k in values})
         # the footing follows the names, not the start values: a non-linear effect that starts
         # at zero size (refitted after its fit went there) may grow during the fit
-        nonlinear = eff.augment(ModelStructure(), eff.start).nonlinear or any(self._nonlinear(k) for k in names)
+        nonlinear = any(self._nonlinear(k) for k in names)
         budget = max_nfev or (25 if nonlinear else 60)
         f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=known_theta(self.config))
         return f.fit(self.measured_, self._scale_for(nonlinear, ctx.n), theta_start)

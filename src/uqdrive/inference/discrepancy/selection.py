@@ -43,8 +43,13 @@ def admissible(finder, ctx, name, fit) -> tuple[bool, str]:
     ok, why = resolvable(name, fitted_values(fit)[name], ctx.delta, ctx.dt)
     if not ok:
         return False, why
-    weak = indistinct(fit, finder.band_.inflation).get(name)
+    weak = _no_size(finder, name, fit)
     return weak is None, weak or ""
+
+
+def _no_size(finder, name, fit) -> str | None:
+    """Why ``name``'s size in ``fit`` is not told from none at the data's noise (:func:`indistinct`), or None."""
+    return indistinct(fit, finder.band_.inflation).get(name)
 
 
 def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
@@ -161,9 +166,9 @@ def forward_selection(finder, ctx, base, band, start_effects, lap):
                     finder.unresolved_["explains_gap"] = c  # the gap is at the sampling's resolution
                     return cur, cur_band
                 continue
-            ok, why = admissible(finder, ctx, c, fc)
-            if not ok:  # no size the sampling tells from none (the resolution was checked above)
-                finder.unresolved_[c] = why
+            weak = _no_size(finder, c, fc)
+            if weak:  # no size the sampling tells from none (the resolution was checked above)
+                finder.unresolved_[c] = weak
                 continue
             if not _gain_justified(finder, cur, fc, c, margin, per_param):
                 break  # the best resolvable addition is not justified: nothing further is
