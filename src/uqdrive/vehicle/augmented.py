@@ -26,6 +26,9 @@ __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_in
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
+#: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
+_CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
+                   "roll_frequency", "roll_damping")
 
 
 #: How a sampled input is reconstructed between its samples (the data schema's ``delta``
@@ -265,18 +268,12 @@ class AugmentedSimulator:
         thetas = [np.asarray(th, float) for th in thetas]
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
-        if (not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1
-                or any(uses_chassis_terms(s) for s in structures)):
+        if not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1:
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        if any(uses_chassis_terms(s) for s in structures):
+            return self._chassis_many(thetas, structures)
         n = self.germs.n
-        parts = [self.parameters(th) for th in thetas]
-        p = replace(parts[0][0], mu=np.concatenate([q[0].mu for q in parts]), l_f=np.concatenate([q[0].l_f for q in parts]),
-                    m_load=np.concatenate([np.broadcast_to(q[0].m_load, (n,)) for q in parts]))
-        wind = np.concatenate([q[1] for q in parts])
-        coeffs = np.concatenate([q[2] * s.gust_scale for q, s in zip(parts, structures)])
-        per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
-        batch = replace(first, tyre_curvature=per("tyre_curvature", self.config["tyre"]["E"]),
-                        lateral_acceleration=per("lateral_acceleration", 0.0), course_weight=per("course_weight", 0.0))
+        p, wind, coeffs, batch = self._batch(thetas, structures)
         delta = actual_steering(self.delta, self.dt, first.steering_lag, first.steering_delay, self.interpolation)
         groups = None if groups is None else [g * n for g in groups]
         if self.speed is not None or self.channels != STATES:
@@ -291,6 +288,67 @@ class AugmentedSimulator:
             offset = np.asarray(s.output_offset, float)[:, None, None]
             out.append(x[:, i * n:(i + 1) * n] * gain + offset)
         return out
+
+    def _batch(self, thetas, structures, chassis: bool = False):
+        """Parameters, mean wind, gust coefficients and one structure (its per-pair fields as
+        arrays of n per pair) of the pairs' realisations side by side."""
+        n = self.germs.n
+        parts = [self.parameters(th) for th in thetas]
+        p = replace(parts[0][0], mu=np.concatenate([q[0].mu for q in parts]), l_f=np.concatenate([q[0].l_f for q in parts]),
+                    m_load=np.concatenate([np.broadcast_to(q[0].m_load, (n,)) for q in parts]))
+        wind = np.concatenate([q[1] for q in parts])
+        coeffs = np.concatenate([q[2] * s.gust_scale for q, s in zip(parts, structures)])
+        per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
+        fields = {"tyre_curvature": self.config["tyre"]["E"], "lateral_acceleration": 0.0, "course_weight": 0.0}
+        if chassis:
+            fields.update({f: 0.0 for f in _CHASSIS_FIELDS})
+        return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
+
+    def _chassis_many(self, thetas, structures) -> list:
+        """:meth:`simulate_many` of non-linear pairs some of which have chassis terms: the pairs of
+        the same kind (the same terms switched on, the same RK4 step) integrated in one pass, each
+        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`, bit
+        for bit (the right-hand side is element-wise); the others one by one."""
+        out = [None] * len(thetas)
+        kinds: dict = {}
+        for i, s in enumerate(structures):
+            key = self._chassis_kind(s)
+            kinds.setdefault(key, []).append(i)
+        for key, members in kinds.items():
+            if key is None or len(members) == 1:
+                for i in members:
+                    out[i] = self.simulate(thetas[i], structures[i])
+                continue
+            th, st = [thetas[i] for i in members], [structures[i] for i in members]
+            p, wind, coeffs, batch = self._batch(th, st, chassis=True)
+            delta = actual_steering(self.delta, self.dt, batch.steering_lag, batch.steering_delay, self.interpolation)
+            n, groups = self.germs.n, [self.germs.n] * len(members)
+            if self.speed is not None or self.channels != STATES:
+                x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
+                a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
+                sims = [measured_channels(x[:, k * n:(k + 1) * n], None if a_y is None else a_y[k * n:(k + 1) * n], s, self.channels)
+                        for k, s in enumerate(st)]
+            else:
+                x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
+                sims = [x[:, k * n:(k + 1) * n] * np.asarray(s.output_gain, float)[:, None, None] + np.asarray(s.output_offset, float)[:, None, None]
+                        for k, s in enumerate(st)]
+            for i, x_i in zip(members, sims):
+                out[i] = x_i
+        return out
+
+    def _chassis_kind(self, s: ModelStructure):
+        """What must be equal for pairs to share an RK4 pass of the chassis right-hand side: the
+        tyre, the kinematics, which terms are on, the step; None: not a chassis structure."""
+        if not uses_chassis_terms(s):
+            return None
+        on = tuple(bool(getattr(s, f) != 0) for f in ("pitch_height", "load_sensitivity", "compliance_steer", "relaxation_length", "roll_steer"))
+        return (s.tyre, bool(s.course_exact), on, self._substeps(s))
+
+    def _substeps(self, s: ModelStructure) -> int:
+        """RK4 steps per sample of the grid: the step at most ``_RK4_MAX_STEP``, and short enough
+        for the fastest slip lag and the roll mode of the chassis terms."""
+        v_max = self.base.v_c if self.speed is None else max(float(self.base.v_c), float(np.max(self.speed)))
+        return max(1, int(np.ceil(self.dt / chassis_max_step(s, v_max, _RK4_MAX_STEP) - 1e-9)))
 
     def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
@@ -352,8 +410,7 @@ class AugmentedSimulator:
         right-hand side and the half-step index of every returned time (for a_y); along a
         speed profile a linear structure is integrated here too (:class:`LinearTrackRHS`).
         """
-        v_max = p.v_c if self.speed is None else max(float(p.v_c), float(np.max(self.speed)))  # the fastest slip lag
-        sub = max(1, int(np.ceil(self.dt / chassis_max_step(s, v_max, _RK4_MAX_STEP) - 1e-9)))
+        sub = self._substeps(s)
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)

@@ -102,8 +102,8 @@ class ModelStructure:
         """True when the model needs numerical integration (no exact discretisation): a
         Magic-Formula tyre, load transfer, tyre relaxation or roll steer (compliance steer alone
         is linear: a softer front axle)."""
-        return (self.tyre != "linear" or self.pitch_height != 0 or self.load_sensitivity != 0 or self.relaxation_length > 0
-                or self.roll_steer != 0)
+        return bool(self.tyre != "linear" or np.any(np.asarray(self.pitch_height) != 0) or np.any(np.asarray(self.load_sensitivity) != 0)
+                    or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0))
 
 
 @dataclass(frozen=True)
