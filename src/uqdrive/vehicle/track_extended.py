@@ -138,7 +138,9 @@ class ExtendedSingleTrackRHS:
         self.roll_omega = 2 * np.pi * np.asarray(s.roll_frequency, float)
         self.roll_zeta = np.asarray(s.roll_damping, float)
         self.i_roll = 6 if self.relaxed else 4
-        self.loaded = bool(np.any(self.h_x != 0) or np.any(self.p_Dz != 0))
+        self.pitching = bool(np.any(self.h_x != 0))
+        self.transferring = bool(np.any(self.p_Dz != 0) or np.any(self.lateral_arm != 0))
+        self.loaded = self.pitching or bool(np.any(self.p_Dz != 0))
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
         self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
@@ -168,18 +170,45 @@ class ExtendedSingleTrackRHS:
         front to the rear axle (the drive or brake force that holds the speed or follows ``v_dot``).
         With ``slope``, also dP / d tyres (2, n), for the loop in :meth:`_forces`.
         """
-        tan_b = np.tan(beta)
-        a_y = (tyres + F_w) / self.m + self.a_lat
-        a_x = v_dot * np.cos(beta) - tan_b * (a_y - v_dot * np.sin(beta))
-        shift = self.m * a_x * self.h_x / self.L
-        raw = self.static + np.stack([-shift, shift])
-        F_z = np.maximum(raw, 0.0)  # an axle cannot pull the road
+        return self._loads(tyres, self._trig(beta), v_dot, F_w, slope)
+
+    def _trig(self, beta):
+        """tan, cos and sin of beta where the longitudinal transfer needs them (None without it)."""
+        if not self.pitching:
+            return None
+        return np.tan(beta), np.cos(beta), np.sin(beta)
+
+    def _loads(self, tyres, trig, v_dot, F_w, slope):
+        """:meth:`axle_loads` with beta's ``trig`` (:meth:`_trig`) computed once per state.
+
+        Without a longitudinal transfer the axles keep their static loads; without a lateral one
+        each axle's two wheels carry half its load at its peak per unit load (P = F_z, dP its
+        shift's slope): the same numbers as the general per-wheel sum, without its work."""
+        if trig is None:
+            raw = F_z = self.static
+            d_shift = 0.0
+        else:
+            tan_b, cos_b, sin_b = trig
+            a_y = (tyres + F_w) / self.m + self.a_lat
+            if np.ndim(v_dot) == 0 and v_dot == 0.0:  # held speed: the same numbers, fewer operations
+                a_x = -(tan_b * a_y)
+            else:
+                a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
+            shift = self.m * a_x * self.h_x / self.L
+            raw = self.static + np.stack([-shift, shift])
+            F_z = np.maximum(raw, 0.0)  # an axle cannot pull the road
+            d_shift = -tan_b * self.h_x / self.L if slope else 0.0  # d shift / d tyres
+        if not self.transferring:
+            if not slope:
+                return F_z
+            if trig is None:
+                return F_z, 0.0
+            return F_z, np.where(raw > 0, np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0)
         dF = self.lateral_arm * tyres
         F0 = 0.5 * self.static
         P, dP = 0.0, 0.0
-        if slope:  # d (F_z / 2) / d tyres, from d shift / d tyres = -tan(beta) h_x / L
-            d_shift = -tan_b * self.h_x / self.L
-            d_half_load = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0)
+        if slope:  # d (F_z / 2) / d tyres
+            d_half_load = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0) if trig is not None else 0.0
         # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
         for sign in (-1.0, 1.0):
             w = np.maximum(0.5 * F_z + sign * dF, 0.0)
@@ -273,8 +302,9 @@ class ExtendedSingleTrackRHS:
         F_w = self.F_w_half[j]
         T = self.m * (v * psi_dot * np.cos(beta) + v_dot * np.sin(beta) - self.a_lat) - F_w
         floor = 1e-3 * self.static
+        trig = self._trig(beta)
         for _ in range(LOAD_NEWTON_STEPS):
-            P, dP = self.axle_loads(T, beta, v_dot, F_w, slope=True)
+            P, dP = self._loads(T, trig, v_dot, F_w, True)
             _, d, F = self._at_loads(P, q_steady, delta, lagged)
             dF = F / np.maximum(P, floor)
             if self.compliant and lagged is None:
@@ -282,7 +312,7 @@ class ExtendedSingleTrackRHS:
             front = np.cos(d) if self.saturating else 1.0
             gain = front * dF[0] * dP[0] + dF[1] * dP[1]
             T = T + (front * F[0] + F[1] - T) / np.maximum(1.0 - gain, 0.05)
-        return self._at_loads(self.axle_loads(T, beta, v_dot, F_w), q_steady, delta, lagged)
+        return self._at_loads(self._loads(T, trig, v_dot, F_w, False), q_steady, delta, lagged)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
