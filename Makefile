@@ -76,6 +76,7 @@ bench: $(PYTHON)
 	$(PYTHON) benchmarks/bench_identify.py
 	$(PYTHON) benchmarks/bench_discover.py
 	$(PYTHON) benchmarks/bench_posterior.py
+	$(PYTHON) benchmarks/bench_chassis.py
 
 clean:
 	rm -rf results .snakemake
