@@ -1,5 +1,6 @@
 """Numerical core: pure functions on arrays (integration, linear recursions, matrix
-exponentials and their derivatives, orthogonal polynomials, PCE, Galerkin projection, metrics).
+exponentials and their derivatives, orthogonal polynomials, PCE, Galerkin projection, metrics,
+sampled inputs).
 """
 
 from typing import TYPE_CHECKING
