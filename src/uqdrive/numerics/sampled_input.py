@@ -14,6 +14,8 @@ INTERPOLATIONS = ("linear", "previous")
 
 
 def checked_interpolation(interpolation: str) -> str:
+    """The reconstruction's name ``interpolation``, one of :data:`INTERPOLATIONS`; else a
+    ValueError that names the choices."""
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"interpolation '{interpolation}' unknown; choose one of {', '.join(INTERPOLATIONS)}")
     return interpolation
