@@ -86,6 +86,17 @@ def test_a_pair_is_named_when_it_closes_two_additions_worth(config, shares, name
         assert f.steps_[1]["gap_after"] <= selection.STEP_SHRINK**2 * gap0
 
 
+def test_a_pair_member_is_not_ambiguous_with_its_partner(config):
+    """a and b close 22.5 % each alone, within the margin of each other: the first member's own
+    fit ties with its partner's, but both are named, so the partner is no alternative to it."""
+    f, base, band, ctx, _ = _finder(config, (0.4, 0.4, 0.2))
+    f._forward(ctx, base, band, {}, lambda *a: None)
+    assert sorted(s["name"] for s in f.steps_) == sorted([A, B]) and f.steps_[0]["pair"] == f.steps_[1]["name"]
+    first, partner = f.steps_[0]["name"], f.steps_[1]["name"]
+    assert abs(f.fits_[first].chi2_ - f.fits_[partner].chi2_) <= 2.0 * band.chi2_null_sd  # the tie the rule is about
+    assert f.steps_[0]["ambiguous"] == [] and f.steps_[1]["ambiguous"] == []
+
+
 @pytest.mark.parametrize("half_a, named", [(0.1, [A, B]), (5.0, [B])])
 def test_an_addition_whose_size_holds_none_is_not_named(config, half_a, named):
     """a alone closes 29 % and b 26 % of the gap; a's bank is 2 -+ 5 sqrt(inflation) deg in the

@@ -84,6 +84,7 @@ def _pair_steps(finder, ctx, fits, screening, first, first_band, partner, pair, 
     band_1, which_1 = first_band
     one = _step(finder, first, fits[first], band_1, which_1, band_1.max_statistic(fits[first].z_) <= band_1.threshold,
                 excess_rms(fits[first].z_, band_1), fits, screening, margin, {"pair": partner})
+    one["ambiguous"] = [c for c in one["ambiguous"] if c != family_of(partner)]  # named with it, not an alternative to it
     two = _step(finder, partner, pair, band_2, which_2, explains, gap, {**fits, partner: pair}, screening, margin, {"pair": first})
     return [one, two]
 
