@@ -178,21 +178,22 @@ class AugmentedSimulator:
         if any(uses_chassis_terms(s) for s in structures):
             return self._chassis_many(thetas, structures)
         n = self.germs.n
-        p, wind, coeffs, batch = self._batch(thetas, structures)
-        delta = actual_steering(self.delta, self.dt, first.steering_lag, first.steering_delay, self.interpolation)
-        groups = None if groups is None else [g * n for g in groups]
+        return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
+
+    def _one_pass(self, thetas, structures, groups, chassis: bool = False) -> list:
+        """The pairs' channels from one RK4 pass over all their realisations (``groups``: sizes
+        in realisations of the parts whose gusts are one product each, :meth:`_rk4`)."""
+        n = self.germs.n
+        p, wind, coeffs, batch = self._batch(thetas, structures, chassis)
+        delta = actual_steering(self.delta, self.dt, batch.steering_lag, batch.steering_delay, self.interpolation)
         if self.speed is not None or self.channels != STATES:
             x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
             a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
             return [measured_channels(x[:, i * n:(i + 1) * n], None if a_y is None else a_y[i * n:(i + 1) * n], s, self.channels)
                     for i, s in enumerate(structures)]
         x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
-        out = []
-        for i, s in enumerate(structures):
-            gain = np.asarray(s.output_gain, float)[:, None, None]
-            offset = np.asarray(s.output_offset, float)[:, None, None]
-            out.append(x[:, i * n:(i + 1) * n] * gain + offset)
-        return out
+        return [x[:, i * n:(i + 1) * n] * np.asarray(s.output_gain, float)[:, None, None] + np.asarray(s.output_offset, float)[:, None, None]
+                for i, s in enumerate(structures)]
 
     def _batch(self, thetas, structures, chassis: bool = False):
         """Parameters, mean wind, gust coefficients and one structure (its per-pair fields as
@@ -224,19 +225,7 @@ class AugmentedSimulator:
                 for i in members:
                     out[i] = self.simulate(thetas[i], structures[i])
                 continue
-            th, st = [thetas[i] for i in members], [structures[i] for i in members]
-            p, wind, coeffs, batch = self._batch(th, st, chassis=True)
-            delta = actual_steering(self.delta, self.dt, batch.steering_lag, batch.steering_delay, self.interpolation)
-            n, groups = self.germs.n, [self.germs.n] * len(members)
-            if self.speed is not None or self.channels != STATES:
-                x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
-                a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
-                sims = [measured_channels(x[:, k * n:(k + 1) * n], None if a_y is None else a_y[k * n:(k + 1) * n], s, self.channels)
-                        for k, s in enumerate(st)]
-            else:
-                x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
-                sims = [x[:, k * n:(k + 1) * n] * np.asarray(s.output_gain, float)[:, None, None] + np.asarray(s.output_offset, float)[:, None, None]
-                        for k, s in enumerate(st)]
+            sims = self._one_pass([thetas[i] for i in members], [structures[i] for i in members], [self.germs.n] * len(members), chassis=True)
             for i, x_i in zip(members, sims):
                 out[i] = x_i
         return out

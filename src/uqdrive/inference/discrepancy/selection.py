@@ -60,11 +60,13 @@ def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
 
 def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin, extra=None) -> dict:
     tie = [c for c in fits if c != name and finder._chi2(fits[c]) - finder._chi2(fit) <= margin]
+    extra = extra or {}
+    named = {family_of(name)} | ({family_of(extra["pair"])} if "pair" in extra else set())  # a pair partner is named with it, no alternative
     return {"name": name, "fit": fit, "band": band, "band_kind": which, "explains": bool(explains), "gap_after": gap,
-            "ambiguous": sorted({family_of(c) for c in tie} - {family_of(name)}),
+            "ambiguous": sorted({family_of(c) for c in tie} - named),
             "candidates": {c: round(finder._chi2(f), 2) for c, f in sorted(fits.items(), key=lambda kv: finder._chi2(kv[1]))},
             "screening": {c: [round(v["chi2"], 2), round(v["held"], 2), v["anchor"]] for c, v in sorted(screening.items(), key=lambda kv: kv[1]["chi2"])
-                          if np.isfinite(v["chi2"])}, **(extra or {})}
+                          if np.isfinite(v["chi2"])}, **extra}
 
 
 def _pair_holds(finder, ctx, fits, a, b, pair, margin, per_param) -> bool:
@@ -84,7 +86,6 @@ def _pair_steps(finder, ctx, fits, screening, first, first_band, partner, pair, 
     band_1, which_1 = first_band
     one = _step(finder, first, fits[first], band_1, which_1, band_1.max_statistic(fits[first].z_) <= band_1.threshold,
                 excess_rms(fits[first].z_, band_1), fits, screening, margin, {"pair": partner})
-    one["ambiguous"] = [c for c in one["ambiguous"] if c != family_of(partner)]  # named with it, not an alternative to it
     two = _step(finder, partner, pair, band_2, which_2, explains, gap, {**fits, partner: pair}, screening, margin, {"pair": first})
     return [one, two]
 
