@@ -17,6 +17,7 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
+from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import DataError, OutputError, atomic_path, check_writable
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
@@ -296,6 +297,7 @@ def build_parser() -> OneLineParser:
                                                         "distributions of their uncertain parameters from simulated or measured ones.",
                            epilog="Exit codes: 0 done, 2 refused input (one line on stderr: the field and the fix), "
                                   "128 + N interrupted by signal N. '%(prog)s COMMAND --help' describes each command.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in SUBCOMMANDS:
         add(sub)
