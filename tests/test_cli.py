@@ -164,7 +164,7 @@ def test_lost_control_is_found_from_the_data(tmp_path, monkeypatch):
     from uqdrive.io import write_dataset
     from uqdrive.vehicle.montecarlo import simulate_ensemble
 
-    monkeypatch.setattr("uqdrive.cli.identify._figure", lambda stats, moments, path: path.write_bytes(b"png"))
+    monkeypatch.setattr("uqdrive.cli.identify._figure", lambda stats, moments, path, title="": path.write_bytes(b"png"))
     ds = simulate_ensemble(load_config(CONFIG), "nlst", samples=2000)
     spun = np.flatnonzero(ds["spun"].values).tolist()
     assert len(spun) == ds.attrs["n_spun"] >= 3

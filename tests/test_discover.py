@@ -125,15 +125,17 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
     """--posterior / --no-posterior override config discrepancy.posterior; without either the
     config decides (None). The finder's reading of True/False/None is tested in
     test_discrepancy_posterior; here the plumbing from the command line."""
-    import uqdrive.cli.discover as discover
+    from types import SimpleNamespace
+
+    import uqdrive.cli.api as api
 
     seen = {}
 
-    def fake(config, measured, candidates, out, posterior=None, model=None):
+    def fake(data, *, posterior=None, **_):
         seen["posterior"] = posterior
-        return {"effect": "none", "effects": [], "ambiguous_with": [], "gap_before": 0.0, "gap_after": 0.0, "evidence": {"n_spun": 0}}
+        return SimpleNamespace(save=lambda out: None, summary=lambda out=None: "", document={}, model_fits=True)
 
-    monkeypatch.setattr(discover, "discover_file", fake)
+    monkeypatch.setattr(api, "discover", fake)
     root, cfg, paths = files
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / f"flag_{len(flag)}_{expected}"), *flag], capsys)
     assert code == 0, cap.err

@@ -181,7 +181,7 @@ def files_under(folder: Path) -> dict:
     return {p.relative_to(folder): (p.stat().st_size if p.is_file() else None) for p in folder.rglob("*")}
 
 
-def _stub_figure(stats, moments, path):
+def _stub_figure(stats, moments, path, title=""):
     Path(path).write_bytes(b"\x89PNG\r\n\x1a\n")  # the fuzz checks the edge, not matplotlib
 
 

@@ -19,7 +19,7 @@ from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
 from ..vehicle.uncertainty import known_quantities
 
-__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "baseline_warnings", "write_outputs"]
+__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "discover_dataset", "baseline_warnings", "write_outputs"]
 
 #: Fewer realisations give moment statistics too noisy for a verdict; the null band is bootstrapped
 #: at the data's own run count, so it widens as the runs get fewer.
@@ -69,9 +69,18 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     on exactly those channels along that speed; ``verdict.json``'s ``untestable`` names the
     candidates the channels cannot test (``lateral_kinematics`` without y).
     """
+    finder, verdict = discover_dataset(config, read_ensemble(measured), str(measured), candidates, posterior, log, model)
+    write_outputs(finder, verdict, out)
+    return verdict
+
+
+def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: Sequence[str] | None = None, posterior: bool | None = None,
+                     log: Callable[[str], None] | None = None, model: Path | None = None) -> tuple[DiscrepancyFinder, dict]:
+    """:func:`discover_file` on the validated ensemble ``ds`` (named ``measured`` in messages and
+    in the verdict), writing nothing: the fitted finder and the verdict.json fields.
+    ``model_fits`` says whether the final model leaves no unexplained gap (no ``unrecognised``)."""
     names = _checked_candidates(candidates)
     start = _start_model(model) if model is not None else None
-    ds = read_ensemble(measured)
     check_run_count(ds.sizes["sample"], str(measured), "discover")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
@@ -87,8 +96,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     finder.fit(ds)
     verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
                    fixed=known_quantities(config))
-    write_outputs(finder, verdict, out)
-    return verdict
+    verdict["model_fits"] = not any(e["effect"] == "unrecognised" for e in verdict["effects"])
+    return finder, verdict
 
 
 def _start_model(path: Path) -> dict:

@@ -16,20 +16,21 @@ import json
 import math
 import warnings
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
-from ..vehicle.channels import CHANNEL_UNITS, ChannelChaosModel
+from ..plots.fit import fit_figure
+from ..vehicle.channels import ChannelChaosModel
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
 
-__all__ = ["identify_file", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
+__all__ = ["identify_file", "identify_dataset", "fit_status", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 #: Below this many runs the sampling error of the runs' own distribution is named in the estimate's notes.
@@ -61,7 +62,7 @@ def _dst_divergence(cfg, delta):
             stats = {m: ensemble_statistics(simulate_ensemble(cfg, m, steer), cfg["montecarlo"]["spin_policy"]) for m in ("lst", "nlst")}
             return kl_divergence_series(stats["nlst"], stats["lst"]).values
     raise DataError("the DST cost needs the synthetic reality (LST and NLST) under the same input; "
-                    "the measured delta is neither (5.5) nor (5.7) of the config: use --cost std or inp")
+                    "the measured delta is neither the config's slalom nor its inverted form: use --cost std or inp")
 
 
 def _lost_control(ds, cfg, source: str):
@@ -209,8 +210,16 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     of the realisations that lost control according to the data, and ``spun_in_file_indices``
     when the file carries its own ``spun`` flag.
     """
-    source = str(measured)
-    ds = read_ensemble(measured)
+    summary, draw = identify_dataset(config, read_ensemble(measured), str(measured), cost, m_load, starts, state_scale)
+    write_outputs(Path(out), summary, draw, overwrite)
+    return summary
+
+
+def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "std", m_load: float | None = None, starts: int = 0,
+                     state_scale: str | None = None) -> tuple[dict, Callable]:
+    """Identify from the validated ensemble ``ds`` (named ``source`` in messages and in the
+    summary's ``measured``): the estimate.json fields and ``draw(path=None)``, which draws fit.png
+    (saved to ``path``, or returned as a matplotlib Figure when ``path`` is None)."""
     check_run_count(ds.sizes["sample"], source, "identify")
     channels = present_channels(ds)
     speed = speed_profile(ds)
@@ -281,8 +290,15 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     })
     if flagged is not None:
         summary["spun_in_file_indices"] = flagged
-    _write_outputs(Path(out), stats, est.moments_, summary, overwrite)
-    return summary
+    moments, title = est.moments_, f"Identified model vs measured ensemble, mean +- 3 std: {fit_status(summary)}"
+    return summary, lambda path=None: _figure(stats, moments, path, title)
+
+
+def fit_status(summary: Mapping[str, Any]) -> str:
+    """A fit's status in words: whether the optimiser converged and whether the model fits (the
+    misfit test), for the summary line and the title of fit.png."""
+    fits = {True: "model fits", False: "model does not fit", None: "misfit not tested"}[summary.get("model_fits")]
+    return f"{'optimiser converged' if summary['optimiser_converged'] else 'optimiser did not converge'}, {fits}"
 
 
 def _summary(est: DistributionEstimator, model: LSTChaosModel, theta0, m_load: float, n_runs: int) -> dict:
@@ -319,6 +335,8 @@ def _summary(est: DistributionEstimator, model: LSTChaosModel, theta0, m_load: f
         **out,
         "cost": _finite(est.cost_),
         "converged": bool(est.converged_) and not notes,
+        "optimiser_converged": bool(est.converged_),
+        "model_fits": None if gof is None else gof["passed"],
         "warnings": notes,
         "notes": fit_notes(names, th, est.bounds, est.upper_bounds_),
         "iterations": int(est.n_iter_),
@@ -364,47 +382,9 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, fi
         raise
 
 
-def _figure(stats, moments, path):
-    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments."""
+def _figure(stats, moments, path, title="Identified model vs measured ensemble, mean +- 3 std"):
+    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments
+    (saved to ``path``; returned as a Figure when ``path`` is None)."""
     model = None if moments is None else (moments.mean, moments.std)
-    fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path,
-               channels=[str(c) for c in stats["state"].values])
-
-
-def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std",
-               channels=STATES):
-    """fit.png: measured mean +- 3 std per channel (band) and the model's (lines).
-
-    Parameters
-    ----------
-    time : ndarray, shape (T,)
-        Output times (s).
-    measured_mean, measured_std : ndarray, shape (C, T)
-        Measured mean and std of each channel, in the channel's SI unit.
-    model : tuple of two ndarrays (C, T), or None
-        The identified model's mean and std.
-    path : path of the PNG
-    title : str
-        Figure title.
-    channels : sequence of str, length C
-        The channels' names, in the order of the rows.
-    """
-    from ..plots.figure import save_figure, state_axes
-
-    channels = list(channels)
-    fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
-                           title=title)
-    for ax in axes[len(channels):]:
-        ax.set_visible(False)
-    for i, (ax, state) in enumerate(zip(axes, channels)):
-        m, s = measured_mean[i], measured_std[i]
-        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
-        ax.plot(time, m, color="C0")
-        if model is not None:
-            ax.plot(time, model[0][i], "C3--", label="identified")
-            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8)
-            ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
-        ax.set_title(state if state in STATES else f"{state} [{CHANNEL_UNITS[state]}]")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
-    save_figure(fig, path)
+    return fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path, title=title,
+                      channels=[str(c) for c in stats["state"].values])

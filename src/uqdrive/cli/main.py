@@ -19,7 +19,8 @@ from pathlib import Path
 
 from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
-from ..io import DataError, OutputError, atomic_path, check_writable
+from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_writable
+from .help_text import HelpFormatter, candidate_listing, epilog
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
 
 __all__ = ["main", "build_parser", "Interrupted"]
@@ -30,6 +31,15 @@ FORCE_HELP = "replace an existing output (atomically); without it an existing ou
 VEHICLE_HELP = ("the car: a packaged vehicle name ('uqdrive vehicles' lists them) or a vehicle file NAME.yaml; replaces the "
                 "config's car (vehicle section but speed_kmh, g; l_f mean; tyre C, E when the file gives them)")
 IDENTIFY_OUTPUTS = ("estimate.json", "fit.png")
+#: Exit status of ``--strict`` when the model does not fit the data (identify: the misfit test
+#: fails; discover: a gap no candidate explains remains), and when the optimiser did not converge.
+EXIT_MODEL_DOES_NOT_FIT = 3
+EXIT_NOT_CONVERGED = 4
+STRICT_HELP = (f"exit with status {EXIT_MODEL_DOES_NOT_FIT} when the model does not fit the data{{}}, the outputs written "
+               "all the same; without it such a result exits 0 with warnings")
+QUIET_HELP = "print no progress (the stages and their elapsed time, on stderr when it is a terminal)"
+STATUS_TEXT = (f"exit status: 0 done; 2 refused input; with --strict {EXIT_MODEL_DOES_NOT_FIT} when the model does not fit "
+               f"the data\n(outputs written), {EXIT_NOT_CONVERGED} when the optimiser did not converge (identify)")
 
 
 class Interrupted(BaseException):
@@ -63,15 +73,19 @@ def _speed_notice(config, measured: Path) -> None:
 
 # -- subcommands --------------------------------------------------------------------------------
 def _add_simulate(sub) -> None:
-    p = sub.add_parser("simulate", help="simulate a Monte Carlo ensemble (thesis sec. 5.1) into a netCDF file",
-                       description="Simulate a Monte Carlo ensemble of the single-track model (thesis sec. 5.1) with the "
-                                   "config's distributions and write it in the uqdrive data schema.")
+    p = sub.add_parser("simulate", help="simulate a Monte Carlo ensemble of the single-track model into a netCDF file",
+                       description="Simulate a Monte Carlo ensemble of the single-track model with the config's distributions "
+                                   "under a slalom steering input and write it in the uqdrive data schema.",
+                       formatter_class=HelpFormatter, epilog=epilog("simulate"))
     p.add_argument("--model", required=True, type=_model_choice, metavar="{lst,nlst,MODEL.yaml}",
-                   help="linear (5.4) or non-linear (5.3) single-track model, or the augmented model.yaml that "
+                   help="lst: the linear single-track model (linear tyre), nlst: the non-linear one (Magic-Formula tyre), "
+                        "or the augmented model.yaml that "
                         "'uqdrive discover' wrote (the LST plus the named effect with its fitted parameters)")
-    p.add_argument("--steer", default="normal", choices=("normal", "inverted"), help="steering input (5.5) or (5.7) (default normal)")
+    p.add_argument("--steer", default="normal", choices=("normal", "inverted"), help="steering input: normal, the config's sine slalom (steering.delta_max_deg, steering.period), or inverted, "
+                        "the same slalom steered the other way first (default normal)")
     p.add_argument("--noise", type=finite_float("--noise", 0.0, 1.0), default=0.0, metavar="A",
-                   help="noise intensity A of (5.6), a finite number in [0, 1] (default 0: clean)")
+                   help="measurement-noise intensity A, a finite number in [0, 1]: white Gaussian noise of std A times "
+                        "each run's largest |value| added to every state (default 0: clean)")
     p.add_argument("--samples", type=bounded_int("--samples", 2, 10**7, "realisations"), default=None, metavar="N",
                    help="realisations, 2..10^7 (default: config montecarlo.samples)")
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
@@ -84,89 +98,77 @@ def _add_simulate(sub) -> None:
 
 
 def _simulate(args) -> None:
-    import numpy as np
-
     from ..io import write_dataset
-    from ..rng import rng_stream
-    from ..vehicle.montecarlo import simulate_ensemble
-    from ..vehicle.noise import noisy_ensemble
-    from ..vehicle.single_track import STATES
+    from .api import resolve_config, simulate
 
-    config = _load(args)
+    config = resolve_config(args.config, args.vehicle)
     check_writable(args.out, overwrite=args.force)
-    if args.model not in ("lst", "nlst"):
-        from .model import simulate_model
-
-        samples = int(config["montecarlo"]["samples"] if args.samples is None else args.samples)
-        ds = simulate_model(config, Path(args.model), args.steer, samples, int(config["seed"] if args.seed is None else args.seed))
-    else:
-        ds = simulate_ensemble(config, args.model, args.steer, samples=args.samples, seed=args.seed)
-    bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]
-    if bad:
-        raise ConfigError(f"the simulation diverged ('{bad[0]}' not finite) with this config: vehicle.* and uncertainty.* "
-                          "lie outside the model's stable range; give physical values")
-    if args.noise > 0:
-        ds = noisy_ensemble(ds, args.noise, rng_stream(ds.attrs["seed"], "noise", round(args.noise * 1e6)))
+    ds = simulate(args.model, config=config, steer=args.steer, noise=args.noise, samples=args.samples, seed=args.seed)
     write_dataset(ds, args.out, overwrite=args.force)
     print(f"wrote {args.out}: {args.model.upper()}, {args.steer} steering, {ds.sizes['sample']} samples, "
           f"{ds.attrs['n_spun']} spun, noise A = {args.noise:g}")
 
 
 def _add_identify(sub) -> None:
-    p = sub.add_parser("identify", help="identify the distributions of mu, l_f and the mean wind from an ensemble (thesis sec. 5.3)",
-                       description="Fit N(mu), N(l_f) and U(F_w_mean) of the LST chaos model (Table 5.4) to the mean and std of "
-                                   "an ensemble in the uqdrive data schema; write estimate.json and fit.png. Realisations that lost "
+    p = sub.add_parser("identify", help="identify the distributions of mu, l_f and the mean wind from an ensemble",
+                       formatter_class=HelpFormatter, epilog=epilog("identify", STATUS_TEXT),
+                       description="Fit N(mu), N(l_f) and U(F_w_mean) of the linear single-track model's polynomial chaos "
+                                   f"expansion to the mean and std of an ensemble of at least {MIN_RUNS} runs "
+                                   "in the uqdrive data schema; write estimate.json and fit.png. Realisations that lost "
                                    "control (|beta| > config montecarlo.spin_threshold) are found from the data and handled by "
                                    "montecarlo.spin_policy.")
-    p.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (simulated or measured)")
+    p.add_argument("measured", type=Path, metavar="MEASURED.nc",
+                   help=f"ensemble in the uqdrive data schema (simulated or measured), at least {MIN_RUNS} runs")
     p.add_argument("--cost", default="std", type=registry_choice("--cost", "uqdrive.inference.identify", "COSTS"), metavar="NAME",
-                   help="weights of the cost (5.25), a name of uqdrive.inference.identify.COSTS: std, inp (5.26) or dst (5.28) "
-                        "(default std)")
+                   help="time weights of the least-squares cost of mean and std, a name of uqdrive.inference.identify.COSTS: "
+                        "std (uniform), inp (weighted by the steering input's magnitude) or dst (by the divergence of the "
+                        "non-linear from the linear model; needs the config's slalom) (default std)")
     p.add_argument("--m-load", type=finite_float("--m-load", 0.0, 1e5, "kg"), default=None, metavar="KG",
                    help="assumed load mass in kg, finite, 0..1e5 (default: config uncertainty.m_load.mean)")
     p.add_argument("--starts", type=bounded_int("--starts", 0, 1000), default=0, metavar="N",
                    help="extra starting points of a global stage, 0..1000 (default 0: one local fit from the config's values)")
     p.add_argument("--state-scale", default="rms_mean", type=registry_choice("--state-scale", "uqdrive.inference.identify", "STATE_SCALES"),
                    metavar="NAME",
-                   help="per-state residual scale of (5.25). Default rms_mean: each state's residuals divided by the RMS of its "
-                        "measured mean, unit-free and accurate on outside data; none: SI units as the thesis prints (5.25), the "
+                   help="per-state residual scale of the cost. Default rms_mean: each state's residuals divided by the RMS of its "
+                        "measured mean, unit-free and accurate on outside data; none: SI units as the thesis prints its cost, the "
                         "thesis-faithful setting the workflow's experiments use (config identification.state_scale); rms_std: by "
                         "the RMS of the measured std")
     p.add_argument("--model", type=Path, default=None, metavar="MODEL.yaml",
                    help="identify with the augmented model that 'uqdrive discover' wrote (its effects held at their fitted "
-                        "values, distributions fitted on common random numbers) instead of the Table 5.4 chaos model")
+                        "values, distributions fitted on common random numbers) instead of the linear model's chaos expansion")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder for estimate.json and fit.png (created only once the input is accepted)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--strict", action="store_true",
+                   help=STRICT_HELP.format(" (the misfit test fails)") + f"; and {EXIT_NOT_CONVERGED} when the optimiser did not converge")
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     p.set_defaults(run=_identify)
 
 
-def _identify(args) -> None:
+def _identify(args) -> int:
     from ..io import check_output_folder
-    from .identify import identify_file
+    from .api import identify, resolve_config
+    from .progress import Progress
 
-    config = _load(args)
+    progress = Progress(quiet=args.quiet)
+    config = resolve_config(args.config, args.vehicle)
     check_output_folder(args.out, IDENTIFY_OUTPUTS, overwrite=args.force)
-    if args.model is not None:
-        from .model import identify_with_model
-
-        s = identify_with_model(config, args.measured, args.model, args.out)
-        _speed_notice(config, args.measured)
-        print(f"wrote {Path(args.out) / 'estimate.json'}: mu N({s['mu'][0]:.4f}, {s['mu'][1]:.4f}), l_f N({s['l_f'][0]:.4f}, "
-              f"{s['l_f'][1]:.4f}), F_w_mean U({s['F_w_mean'][0]:.1f}, {s['F_w_mean'][1]:.1f}) with {sorted(s['effects'])}"
-              f" ({'converged' if s['converged'] else 'DID NOT CONVERGE, see the warnings'})")
-        _report_warnings(s)
-        return
-    summary = identify_file(config, args.measured, args.cost, args.m_load, args.starts, args.out,
-                            state_scale=args.state_scale, overwrite=args.force)
+    settings = {} if args.model is not None else {"cost": args.cost, "m_load": args.m_load, "starts": args.starts,
+                                                  "state_scale": args.state_scale}
+    estimate = identify(args.measured, config=config, model=args.model, progress=progress, **settings)
+    progress("writing estimate.json and fit.png")
+    estimate.save(args.out, overwrite=args.force)
+    progress("done")
     _speed_notice(config, args.measured)
-    state = "converged" if summary["converged"] else "DID NOT CONVERGE, see the warnings"
-    fmt = lambda v, n: tuple(None if x is None else round(x, n) for x in v)  # noqa: E731
-    print(f"wrote {Path(args.out) / 'estimate.json'}: mu N{fmt(summary['mu'], 4)}, l_f N{fmt(summary['l_f'], 4)}, "
-          f"F_w_mean U{fmt(summary['F_w_mean'], 1)} ({state}, {summary['iterations']} iterations, {summary['n_spun']} lost control)")
-    _report_warnings(summary)
+    print(estimate.summary(args.out))
+    _report_warnings(estimate.document)
+    if args.strict and estimate.model_fits is False:
+        return EXIT_MODEL_DOES_NOT_FIT
+    if args.strict and not estimate.optimiser_converged:
+        return EXIT_NOT_CONVERGED
+    return 0
 
 
 def _report_warnings(summary) -> None:
@@ -179,6 +181,7 @@ def _report_warnings(summary) -> None:
 
 def _add_config(sub) -> None:
     p = sub.add_parser("config", help="write out the default config for editing, or check a config file",
+                       formatter_class=HelpFormatter, epilog=epilog("config"),
                        description="Write the packaged default configuration (with its comments) to a file or stdout, "
                                    "or validate a configuration file.")
     what = p.add_mutually_exclusive_group(required=True)
@@ -211,15 +214,17 @@ _model_choice.__name__ = "model (lst, nlst or a model.yaml)"
 
 def _add_discover(sub) -> None:
     p = sub.add_parser("discover", help="find what the model misses in an ensemble, name the effect, add it, show the gap shrink",
+                       formatter_class=HelpFormatter,
+                       epilog=epilog("discover", "candidate effects (--candidates; the packaged config searches "
+                                     "discrepancy.candidates):\n" + candidate_listing() + "\n\n" + STATUS_TEXT),
                        description="Fit the complete stochastic LST to an ensemble in the uqdrive data schema, calibrate a null "
                                    "band by parametric bootstrap, localise where the data leave it, name the missing physical "
                                    "effect among the candidates (or 'none' / 'unrecognised'), re-identify with it and write "
                                    "verdict.json, model.yaml, bands.png and localisation.png into --out.")
-    p.add_argument("measured", type=Path, metavar="MEASURED.nc", help="ensemble in the uqdrive data schema (>= 50 samples)")
+    p.add_argument("measured", type=Path, metavar="MEASURED.nc", help=f"ensemble in the uqdrive data schema, at least {MIN_RUNS} runs (that kept control)")
     p.add_argument("--candidates", default=None, metavar="a,b,...",
-                   help="comma-separated candidate effects or families (default: config discrepancy.candidates): "
-                        "tyre_saturation, actuator_lag, actuator_delay, road_bank, wind_gust, lateral_kinematics, "
-                        "sensor_bias, sensor_scale (or one channel, e.g. sensor_bias_psi_dot)")
+                   help="comma-separated candidate effects or families (default: config discrepancy.candidates); every "
+                        "registered effect is listed below, a family (sensor_bias, sensor_scale) names one per channel")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
@@ -231,13 +236,17 @@ def _add_discover(sub) -> None:
                    help="start from the augmented model a previous 'uqdrive discover' wrote: its effects are refitted with the "
                         "distributions and further effects added on top")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     p.set_defaults(run=_discover)
 
 
-def _discover(args) -> None:
-    from .discover import discover_file
+def _discover(args) -> int:
+    from .api import discover, resolve_config
+    from .progress import Progress
 
-    config = _load(args)
+    progress = Progress(quiet=args.quiet)
+    config = resolve_config(args.config, args.vehicle)
     out = Path(args.out)
     if out.exists() and not args.force:
         raise OutputError(f"output folder '{out}' exists; pass --force to replace it or choose another --out")
@@ -245,16 +254,20 @@ def _discover(args) -> None:
     if not existing.is_dir():
         raise OutputError(f"output folder '{out}' lies below '{existing}', which is not a folder; choose another --out")
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
-    v = discover_file(config, args.measured, candidates, out, posterior=args.posterior, model=args.model)
+    verdict = discover(args.measured, config=config, candidates=candidates, model=args.model, progress=progress,
+                       posterior=args.posterior)
+    progress("writing verdict.json, model.yaml and the figures")
+    verdict.save(out)
+    progress("done")
     _speed_notice(config, args.measured)
-    named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
-    print(f"wrote {out / 'verdict.json'}: effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
-          + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
-    _report_warnings(v)
+    print(verdict.summary(out))
+    _report_warnings(verdict.document)
+    return EXIT_MODEL_DOES_NOT_FIT if args.strict and not verdict.model_fits else 0
 
 
 def _add_vehicles(sub) -> None:
     p = sub.add_parser("vehicles", help="list the packaged vehicle files (or check given ones) with their main numbers",
+                       formatter_class=HelpFormatter, epilog=epilog("vehicles"),
                        description="List the packaged vehicle files, or check the named ones or vehicle files, with their "
                                    "main numbers in engineering units and the model's internal constants derived from them "
                                    "(with the tyre C, E and g of --config where a file does not give them).")
@@ -296,6 +309,8 @@ def build_parser() -> OneLineParser:
     parser = OneLineParser(prog="uqdrive", description="uqdrive: simulate single-track vehicle ensembles and identify the "
                                                         "distributions of their uncertain parameters from simulated or measured ones.",
                            epilog="Exit codes: 0 done, 2 refused input (one line on stderr: the field and the fix), "
+                                  f"{EXIT_MODEL_DOES_NOT_FIT} the model does not fit and {EXIT_NOT_CONVERGED} the optimiser "
+                                  "did not converge (identify and discover with --strict), "
                                   "128 + N interrupted by signal N. '%(prog)s COMMAND --help' describes each command.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -335,9 +350,10 @@ def main(argv: list[str] | None = None) -> int:
     with _signals_exit_cleanly(), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         try:
-            args.run(args)
+            status = args.run(args) or 0
             for message in dict.fromkeys(str(w.message) for w in caught):
                 stderr_line(f"uqdrive: warning: {message}")
+            return status
         except (ConfigError, DataError, OutputError) as exc:
             stderr_line(f"uqdrive: error: {exc}")
             return 2

@@ -77,7 +77,7 @@ def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: i
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, out: Path, model_samples: int = 1000) -> dict:
+def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Path | None, model_samples: int = 1000):
     """Identify mu, l_f and the mean wind with the augmented model (its effects held at their
     fitted values) on common random numbers; write ``out/estimate.json`` and ``out/fit.png``
     with the fields of plain ``uqdrive identify`` (warnings, standard errors, intervals, the
@@ -86,11 +86,15 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
     The residuals are the gaps in units of the statistics' sampling scale, which already holds
     the model's own Monte Carlo error (factor 1 + n / model_samples); the standard errors and the
     misfit's reference take the realisations' influences with that factor.
+
+    ``measured`` is a file or a validated xarray.Dataset; with ``out`` None nothing is written and
+    the summary comes back with ``draw(path=None)``, which draws fit.png (a Figure without a path).
     """
-    from .identify import fit_figure, fit_notes, fit_warnings, write_outputs
+    from .identify import fit_figure, fit_notes, fit_status, fit_warnings, write_outputs
 
     structure, dist = load_model(path)
-    ds = read_ensemble(measured)
+    ds = measured if isinstance(measured, xr.Dataset) else read_ensemble(measured)
+    measured = ds.attrs.get("source", "dataset") if isinstance(measured, xr.Dataset) else measured
     check_run_count(ds.sizes["sample"], str(measured), "identify")
     missing = [s for s in STATES if s not in ds]
     if missing or speed_profile(ds) is not None:
@@ -133,7 +137,8 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
                  for n, v, e in zip(names, th, se)}
     finite = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731
     summary = {"mu": [float(th[0]), float(th[1])], "l_f": [float(th[2]), float(th[3])], "F_w_mean": [float(th[4]), float(th[5])],
-               "cost": fit.chi2_, "converged": bool(fit.success_) and not warnings_, "warnings": warnings_,
+               "cost": fit.chi2_, "converged": bool(fit.success_) and not warnings_, "optimiser_converged": bool(fit.success_),
+               "model_fits": bool(fit.chi2_ <= ref.threshold), "warnings": warnings_,
                "notes": fit_notes(names, th, bounds, upper), "iterations": int(fit.nfev_),
                "fixed": {"m_load": float(dist.get("m_load", config["uncertainty"]["m_load"])["mean"])},
                "standard_errors": {k: [finite(se[2 * i]), finite(se[2 * i + 1])] for i, k in enumerate(("mu", "l_f", "F_w_mean"))},
@@ -146,6 +151,10 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
                "message": fit.message_, "measured": str(measured)}
     time = sim.output_time[index]
     model_stats = fit.statistics_
-    write_outputs(out, summary, lambda p: fit_figure(time, measured_stats[0], measured_stats[1], (model_stats[0], model_stats[1]), p,
-                                                     title="Identified augmented model vs measured ensemble: mean +- 3 std"))
+    title = f"Identified augmented model vs measured ensemble, mean +- 3 std: {fit_status(summary)}"
+    draw = lambda p=None: fit_figure(time, measured_stats[0], measured_stats[1], (model_stats[0], model_stats[1]), p,  # noqa: E731
+                                     title=title)
+    if out is None:
+        return summary, draw
+    write_outputs(out, summary, draw)
     return summary

@@ -1,0 +1,78 @@
+"""What the command line's help shows beyond the flags: examples per subcommand, the candidate
+effects of ``discover`` generated from the registry, and a formatter that keeps both as written."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+__all__ = ["HelpFormatter", "EXAMPLES", "candidate_listing", "epilog"]
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Wraps one-paragraph descriptions to the terminal; text holding line breaks (the examples,
+    the candidate list) is printed as written."""
+
+    def _fill_text(self, text, width, indent):
+        if "\n" in text:
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+#: Example command lines per subcommand (each a comment line and a command).
+EXAMPLES = {
+    "simulate": ("# 200 runs of the non-linear model under the slalom, with measurement noise",
+                 "uqdrive simulate --model nlst --samples 200 --noise 0.05 --out runs.nc",
+                 "# the model 'uqdrive discover' wrote, on another car",
+                 "uqdrive simulate --model gap/model.yaml --vehicle bmw_320i --out repaired.nc"),
+    "identify": ("# the distributions of mu, l_f and the mean wind of your runs, on your car",
+                 "uqdrive identify runs.nc --vehicle my_car.yaml --out fit/",
+                 "# the same with the effects discover found; exit 3 if the model still does not fit",
+                 "uqdrive identify runs.nc --model gap/model.yaml --strict --out refit/"),
+    "discover": ("# what the linear model misses in your runs, among the config's candidates",
+                 "uqdrive discover runs.nc --vehicle my_car.yaml --out gap/",
+                 "# only the chassis effects, no posterior sampling",
+                 "uqdrive discover runs.nc --candidates longitudinal_load_transfer,compliance_steer --no-posterior --out gap/"),
+    "config": ("uqdrive config --dump my.yaml      # write the default config to edit",
+               "uqdrive config --check my.yaml     # validate it"),
+    "vehicles": ("uqdrive vehicles                   # every packaged car",
+                 "uqdrive vehicles my_car.yaml       # check a vehicle file"),
+}
+
+
+def _few_words(description: str, limit: int = 100) -> str:
+    """The first clause of an effect's description, cut at a word within ``limit`` characters."""
+    clause = re.split(r": |, | \(", description, maxsplit=1)[0]
+    if len(clause) <= limit:
+        return clause
+    return clause[:limit].rsplit(" ", 1)[0] + " ..."
+
+
+def candidate_listing() -> str:
+    """Every registered candidate effect of ``discover`` with its parameters (units) and a few
+    words of its physics; the sensor effects grouped by family."""
+    from ..vehicle.effects import EFFECTS, FAMILIES
+
+    family_of = {name: fam for fam, members in FAMILIES.items() for name in members}
+    lines, done = [], set()
+    for name, effect in EFFECTS.items():
+        if name in done:
+            continue
+        params = ", ".join(f"{p} [{u}]" for p, u in zip(effect.parameters, effect.units))
+        if name in family_of:
+            fam = family_of[name]
+            members = FAMILIES[fam]
+            done.update(members)
+            words = _few_words(effect.description.replace(name.removeprefix(fam + "_"), "channel"))
+            unit = "-" if effect.units[0] == "-" else "the channel's unit"
+            lines += [f"  {fam}_<channel> ({effect.parameters[0].split('_', 1)[0]} [{unit}])",
+                      f"      {words}: {', '.join(members)}"]
+            continue
+        lines += [f"  {name} ({params})", f"      {_few_words(effect.description)}"]
+    return "\n".join(lines)
+
+
+def epilog(command: str, before: str = "") -> str:
+    """The text after a subcommand's flags: ``before`` (if any), then the examples."""
+    examples = "\n".join(("  " + line) for line in EXAMPLES[command])
+    return (before + "\n\n" if before else "") + "examples:\n" + examples + "\n"
