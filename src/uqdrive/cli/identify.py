@@ -87,9 +87,11 @@ def _lost_control(ds, cfg, source: str):
 
 
 #: What to check when the model does not fit (the misfit is beyond the sampling noise).
-MISFIT_FIX = ("the model does not fit these data: if the vehicle constants are not this car's, check mass (vehicle.m_base), "
-              "yaw inertia (vehicle.J0), cornering stiffness (vehicle.c_Sf, c_Sr), wheelbase and speed; else check the units "
-              "of the states, --m-load, and whether an effect the model lacks is present (uqdrive discover)")
+MISFIT_FIX = ("the model does not fit these data: if the vehicle constants are not this car's, check mass (vehicle file: "
+              "mass in kg; config: vehicle.m_base), yaw inertia (yaw_inertia in kg m^2; vehicle.J0), cornering stiffness "
+              "(cornering_stiffness in N/rad per axle, not kN/rad, or magic_formula; vehicle.c_Sf, c_Sr), wheelbase and "
+              "speed; else check the units of the states, --m-load, and whether an effect the model lacks is present "
+              "(uqdrive discover)")
 
 
 def _words(name: str) -> str:

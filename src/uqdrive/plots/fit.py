@@ -33,20 +33,22 @@ def fit_figure(time, measured_mean, measured_std, model, path, title="Identified
     fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
                            title=title)
     for ax in axes[len(channels):]:
-        ax.set_visible(False)
+        ax.axis("off")  # a spare panel holds the legend
     for i, (ax, state) in enumerate(zip(axes, channels)):
         m, s = measured_mean[i], measured_std[i]
-        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured")
-        ax.plot(time, m, color="C0")
+        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured mean +- 3 std")
+        ax.plot(time, m, color="C0", label="measured mean")
         if model is not None:
-            ax.plot(time, model[0][i], "C3--", label="identified")
-            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8)
+            ax.plot(time, model[0][i], "C3--", label="identified mean")
+            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8, label="identified +- 3 std")
             ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
         ax.set_title(f"{state} [{STATE_UNITS[state] if state in STATES else CHANNEL_UNITS[state]}]")
         ax.grid(alpha=0.3)
     for ax in axes[max(len(channels) - 2, 0):len(channels)]:
         ax.set_xlabel("time [s]")
-    axes[0].legend(fontsize=8)
+        ax.tick_params(labelbottom=True)  # the last row of each column, also above a hidden panel
+    spare = axes[len(channels):]
+    (spare[0].legend(*axes[0].get_legend_handles_labels(), loc="center") if len(spare) else axes[0].legend(fontsize=8))
     if path is None:
         return fig
     save_figure(fig, path)
