@@ -135,3 +135,16 @@ def test_progress_lines_carry_the_elapsed_time_and_quiet_silences_them(runs, tmp
     assert "s] reading the ensemble" in err and "s] done" in err
     assert main(["identify", str(runs["lst"]), "--config", CONFIG, "--quiet", "--out", str(tmp_path / "b")]) == 0
     assert "s] " not in capsys.readouterr().err
+
+
+def test_outputs_record_the_car_and_a_different_car_is_warned_of(runs):
+    """simulate records the car in the file; identifying it with another car says so, naming the
+    constants that differ in words and units; the same car gives no such warning (the control)."""
+    made = json.loads(__import__("xarray").open_dataset(runs["lst"]).attrs["vehicle"])
+    assert made["m_base"] == load_config(CONFIG)["vehicle"]["m_base"]
+    same = uqdrive.identify(runs["lst"], config=CONFIG)
+    assert same.vehicle == made and not any("record the car" in w for w in same.warnings)
+    other = uqdrive.identify(runs["lst"], config=CONFIG, vehicle="bmw_320i")
+    assert other.vehicle["name"] == "bmw_320i"
+    warned = [w for w in other.warnings if "record the car" in w]
+    assert len(warned) == 1 and "mass (kg) 1784 there, 1093.3 here" in warned[0] and "--vehicle" in warned[0]

@@ -18,7 +18,7 @@ import xarray as xr
 from ..config import ConfigError, load_config, validate_config
 from ..io import read_ensemble, validate_ensemble
 
-__all__ = ["Estimate", "Verdict", "identify", "discover", "simulate", "resolve_config"]
+__all__ = ["Estimate", "Verdict", "identify", "discover", "simulate", "resolve_config", "car_record", "car_warnings"]
 
 #: The settings of :func:`identify` (the flags of ``uqdrive identify``) and their defaults.
 IDENTIFY_SETTINGS = {"cost": "std", "m_load": None, "starts": 0, "state_scale": "rms_mean"}
@@ -34,6 +34,33 @@ def resolve_config(config: str | Path | Mapping[str, Any] | None = None, vehicle
     if vehicle is None:
         return dict(config)
     return validate_config({**copy.deepcopy(dict(config)), "vehicle_file": str(vehicle)})
+
+
+#: The vehicle constants recorded with every output (the config's names) and their words and units.
+CAR_KEYS = {"m_base": "mass (kg)", "J0": "yaw inertia over mass J0 (m^2)", "wheelbase": "wheelbase (m)",
+            "c_Sf": "front cornering stiffness c_Sf (-)", "c_Sr": "rear cornering stiffness c_Sr (-)"}
+
+
+def car_record(config: Mapping[str, Any]) -> dict:
+    """The car of ``config`` as every output records it: its name and main constants."""
+    vehicle = config["vehicle"]
+    return {"name": str(vehicle.get("name", "the config's car")), **{k: float(vehicle[k]) for k in CAR_KEYS}}
+
+
+def car_warnings(ds: xr.Dataset, config: Mapping[str, Any]) -> list[str]:
+    """A warning when the ensemble records the car that made it (attribute ``vehicle``) and that
+    car's constants differ from the car it is now fitted with."""
+    try:
+        made = json.loads(ds.attrs["vehicle"])
+        differ = [k for k in CAR_KEYS if abs(float(made[k]) - float(config["vehicle"][k])) > 1e-9 * abs(float(made[k]))]
+    except (KeyError, TypeError, ValueError):  # no record, or not one of uqdrive's
+        return []
+    if not differ:
+        return []
+    given = car_record(config)
+    detail = ", ".join(f"{CAR_KEYS[k]} {made[k]:.6g} there, {given[k]:.6g} here" for k in differ)
+    return [f"the data record the car '{made.get('name', '?')}' and are fitted with '{given['name']}', whose constants differ "
+            f"({detail}): if the data's car is the right one, pass it with --vehicle (vehicle= in Python)"]
 
 
 def _settings(given: Mapping[str, Any], defaults: Mapping[str, Any], command: str) -> dict:
@@ -205,12 +232,19 @@ def identify(data: str | Path | xr.Dataset, *, config=None, vehicle=None, model:
 
         say("fitting the augmented model")
         summary, draw = identify_with_model(cfg, ds if source == "dataset" else Path(source), Path(model), None)
-        return Estimate(summary, draw)
+        return Estimate(_with_car(summary, ds, cfg), draw)
     from .identify import identify_dataset
 
     say(f"fitting the chaos model (cost {s['cost']}, {s['starts']} extra starts)")
     summary, draw = identify_dataset(cfg, ds, source, s["cost"], s["m_load"], s["starts"], s["state_scale"])
-    return Estimate(summary, draw)
+    return Estimate(_with_car(summary, ds, cfg), draw)
+
+
+def _with_car(document: dict, ds: xr.Dataset, config: Mapping[str, Any]) -> dict:
+    """The document with the car it was fitted with and a warning if the data's car differs."""
+    document["warnings"] = list(document.get("warnings", [])) + car_warnings(ds, config)
+    document["vehicle"] = car_record(config)
+    return document
 
 
 def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candidates: Sequence[str] | None = None,
@@ -245,7 +279,7 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     ds, source = _dataset(data)
     names = None if candidates is None else [candidates] if isinstance(candidates, str) else list(candidates)
     finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model))
-    return Verdict(verdict, finder)
+    return Verdict(_with_car(verdict, ds, cfg), finder)
 
 
 def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str = "normal", noise: float = 0.0,
@@ -290,4 +324,5 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
                           "lie outside the model's stable range; give physical values")
     if noise > 0:
         ds = noisy_ensemble(ds, noise, rng_stream(ds.attrs["seed"], "noise", round(noise * 1e6)))
+    ds.attrs["vehicle"] = json.dumps(car_record(cfg))
     return ds
