@@ -320,7 +320,7 @@ def test_fit_at_a_bound_is_reported_not_converged(tiny, tmp_path, capsys):
     assert main(["identify", str(small), "--config", str(tiny[0]), "--out", str(tmp_path / "est")]) == 0
     est = json.loads((tmp_path / "est" / "estimate.json").read_text())
     assert est["converged"] is False and any("times the noise" in w and "units of the states" in w for w in est["warnings"])
-    assert "DID NOT CONVERGE" in capsys.readouterr().out
+    assert "NOT CONVERGED" in capsys.readouterr().out and est["model_fits"] is False
 
 
 # -- signals ------------------------------------------------------------------------------------------

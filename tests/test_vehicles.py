@@ -271,11 +271,13 @@ def test_discover_creates_missing_parents_and_notes_the_data_speed(tiny, capsys,
 
     seen = {}
 
-    def fake(config, measured, candidates, out, posterior=None, model=None):
+    def fake(config, ds, measured, candidates=None, posterior=None, log=None, model=None):
         seen["speed"] = config["vehicle"]["speed_kmh"]
-        return {"effect": "none", "ambiguous_with": [], "gap_before": 1.0, "gap_after": 1.0, "effects": [], "evidence": {"n_spun": 0}}
+        return None, {"effect": "none", "ambiguous_with": [], "gap_before": 1.0, "gap_after": 1.0, "effects": [], "evidence": {"n_spun": 0},
+                      "model_fits": True}
 
-    monkeypatch.setattr(discover, "discover_file", fake)
+    monkeypatch.setattr(discover, "discover_dataset", fake)
+    monkeypatch.setattr(discover, "write_outputs", lambda finder, verdict, out: None)
     out = tiny / "new" / "deeper" / "verdict"
     assert main(["discover", str(tiny / "v70.nc"), "--config", str(tiny / "c90.yaml"), "--out", str(out)]) == 0
     assert "replaces the config's vehicle.speed_kmh = 90 km/h" in capsys.readouterr().err
