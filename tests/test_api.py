@@ -148,3 +148,13 @@ def test_outputs_record_the_car_and_a_different_car_is_warned_of(runs):
     assert other.vehicle["name"] == "bmw_320i"
     warned = [w for w in other.warnings if "record the car" in w]
     assert len(warned) == 1 and "mass (kg) 1784 there, 1093.3 here" in warned[0] and "--vehicle" in warned[0]
+
+
+def test_all_names_every_registered_candidate():
+    from uqdrive.cli.api import candidate_names
+    from uqdrive.vehicle.effects import EFFECTS, expand_names
+
+    assert candidate_names(None) is None and candidate_names("road_bank") == ["road_bank"]
+    every = candidate_names(["all"])
+    assert every == list(EFFECTS) and expand_names(every) == list(EFFECTS)
+    assert candidate_names(["sensor_bias", "all"])[0] == "sensor_bias" and set(candidate_names(["sensor_bias", "all"])) >= set(EFFECTS)

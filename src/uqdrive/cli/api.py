@@ -258,7 +258,8 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     config, vehicle
         As for :func:`identify`.
     candidates : sequence of str, optional
-        Candidate effects or families (default: the config's ``discrepancy.candidates``).
+        Candidate effects or families (default: the config's ``discrepancy.candidates``);
+        ``"all"``: every registered effect.
     model : path, optional
         A model.yaml of a previous discover to start from.
     progress : callable, optional
@@ -277,9 +278,22 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     if progress is not None:
         progress("reading the ensemble")
     ds, source = _dataset(data)
-    names = None if candidates is None else [candidates] if isinstance(candidates, str) else list(candidates)
+    names = candidate_names(candidates)
     finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model))
     return Verdict(_with_car(verdict, ds, cfg), finder)
+
+
+def candidate_names(candidates: str | Sequence[str] | None) -> list[str] | None:
+    """The candidate list of :func:`discover`: None (the config's), names and families, where
+    ``"all"`` stands for every registered effect."""
+    if candidates is None:
+        return None
+    names = [candidates] if isinstance(candidates, str) else list(candidates)
+    if "all" in names:
+        from ..vehicle.effects import EFFECTS
+
+        names = [n for n in names if n != "all"] + [n for n in EFFECTS if n not in names]
+    return names
 
 
 def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str = "normal", noise: float = 0.0,

@@ -224,7 +224,8 @@ def _add_discover(sub) -> None:
     p.add_argument("measured", type=Path, metavar="MEASURED.nc", help=f"ensemble in the uqdrive data schema, at least {MIN_RUNS} runs (that kept control)")
     p.add_argument("--candidates", default=None, metavar="a,b,...",
                    help="comma-separated candidate effects or families (default: config discrepancy.candidates); every "
-                        "registered effect is listed below, a family (sensor_bias, sensor_scale) names one per channel")
+                        "registered effect is listed below, a family (sensor_bias, sensor_scale) names one per channel, "
+                        "'all' every registered effect")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
