@@ -158,3 +158,17 @@ def test_all_names_every_registered_candidate():
     every = candidate_names(["all"])
     assert every == list(EFFECTS) and expand_names(every) == list(EFFECTS)
     assert candidate_names(["sensor_bias", "all"])[0] == "sensor_bias" and set(candidate_names(["sensor_bias", "all"])) >= set(EFFECTS)
+
+
+def test_the_packaged_car_is_named_when_nothing_names_a_car(tmp_path, capsys):
+    """No --vehicle, no --config, no car in the file: a note says the packaged car was used; the
+    same runs recording their car (the control) get none."""
+    runs = uqdrive.simulate("lst", samples=10)
+    bare, recorded = tmp_path / "bare.nc", tmp_path / "recorded.nc"
+    write_dataset(runs, recorded)
+    runs.attrs.pop("vehicle")
+    write_dataset(runs, bare)
+    assert main(["identify", str(bare), "--out", str(tmp_path / "a")]) == 0
+    assert "note: no --vehicle given: fitted with the packaged config's car" in capsys.readouterr().err
+    assert main(["identify", str(recorded), "--out", str(tmp_path / "b")]) == 0
+    assert "no --vehicle given" not in capsys.readouterr().err

@@ -71,6 +71,24 @@ def _speed_notice(config, measured: Path) -> None:
                     f"vehicle.speed_kmh = {kmh:g} km/h")
 
 
+def _car_notice(args, config) -> None:
+    """One line when neither --vehicle nor --config named a car and the data do not record theirs:
+    the packaged car is then used, which is rarely the user's."""
+    if args.vehicle is not None or args.config is not None:
+        return
+    try:
+        import xarray as xr
+
+        with xr.open_dataset(args.measured) as ds:
+            if "vehicle" in ds.attrs:
+                return
+    except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
+        return
+    v = config["vehicle"]
+    stderr_line(f"uqdrive: note: no --vehicle given: fitted with the packaged config's car (mass {v['m_base']:g} kg, wheelbase "
+                f"{v['wheelbase']:g} m); give your car with --vehicle NAME|FILE ('uqdrive vehicles' lists the packaged ones)")
+
+
 # -- subcommands --------------------------------------------------------------------------------
 def _add_simulate(sub) -> None:
     p = sub.add_parser("simulate", help="simulate a Monte Carlo ensemble of the single-track model into a netCDF file",
@@ -162,6 +180,7 @@ def _identify(args) -> int:
     estimate.save(args.out, overwrite=args.force)
     progress("done")
     _speed_notice(config, args.measured)
+    _car_notice(args, config)
     print(estimate.summary(args.out))
     _report_warnings(estimate.document)
     if args.strict and estimate.model_fits is False:
@@ -261,6 +280,7 @@ def _discover(args) -> int:
     verdict.save(out)
     progress("done")
     _speed_notice(config, args.measured)
+    _car_notice(args, config)
     print(verdict.summary(out))
     _report_warnings(verdict.document)
     return EXIT_MODEL_DOES_NOT_FIT if args.strict and not verdict.model_fits else 0
