@@ -70,7 +70,7 @@ def test_a_misfit_on_a_good_optimum_is_told_apart_and_strict_exits_with_its_stat
     capsys.readouterr()
 
 
-@pytest.mark.long(8)
+@pytest.mark.long(16)
 def test_discover_result_equals_the_cli_verdict(tmp_path, capsys):
     from uqdrive.studies.hidden_effects import HiddenEffectCase, generate
 
