@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import DataError, OutputError, atomic_path, check_writable
+from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
 
 __all__ = ["main", "build_parser", "Interrupted"]
@@ -286,7 +287,7 @@ def _description(reference: str) -> str:
     return read_vehicle_file(reference)[1]["description"]
 
 
-SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_vehicles)
+SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_vehicles, add_import)
 
 
 # -- parser and shared error handling -------------------------------------------------------------
