@@ -125,7 +125,7 @@ def write_mdf(run: Run, path: Path) -> Path:
 
     mdf = MDF(version="4.10")
     for name, (t, x) in run.channels.items():
-        mdf.append([Signal(np.asarray(x, float), t, name=name, unit=UNITS[name])])
+        mdf.append([Signal(np.asarray(x, float), t, name=name, unit=UNITS.get(name, ""))])
     mdf.save(path, overwrite=True)
     mdf.close()
     return path
@@ -141,7 +141,8 @@ def write_csv(run: Run, path: Path, dialect: str = "en") -> Path:
     for name in names:
         t, x = run.channels[name]
         col = np.full(times.size, "", dtype=object)
-        col[np.searchsorted(times, np.round(t * 1e3, 6))] = [f"{v:.10g}".replace(".", dec) for v in x]
+        text = np.char.mod("%.10g", np.asarray(x, float))
+        col[np.searchsorted(times, np.round(t * 1e3, 6))] = np.char.replace(text, ".", dec) if dec != "." else text
         cols.append(col)
     lines = [sep.join(["Zeit_ms", *names])]
     lines += [sep.join([f"{ms:.6g}".replace(".", dec), *(c[i] for c in cols)]) for i, ms in enumerate(times)]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -38,6 +39,23 @@ def _step(recordings: Sequence[Recording], dt: float | None) -> float:
             raise DataError(f"--dt {dt!r}: give the grid step in s, a positive number (e.g. 0.01)")
         return float(dt)
     return default_step(channel_period(t) for rec in recordings for t, _ in rec.channels.values())
+
+
+def _warn_upsampled(recordings, cmap: ChannelMap, step: float) -> None:
+    """Say when a measured channel is coarser than the grid: its noise is interpolated between its
+    samples, smooth where white noise is not, and identify's noise estimate (differences of the
+    grid's neighbours) misses it, so the fit reads the noise as a misfit."""
+    coarse = {}
+    for name, entry in cmap.entries.items():
+        if name in CHANNELS:
+            period = max(channel_period(rec.channels[name][0]) for rec in recordings)
+            if period > step * (1.0 + 1e-6):
+                coarse[entry.channel] = period
+    if coarse:
+        slowest = max(coarse.values())
+        warnings.warn(f"channel(s) {', '.join(f'{c} ({p:.4g} s)' for c, p in coarse.items())} are sampled more coarsely than "
+                      f"the grid ({step:.4g} s): their noise is interpolated, which the identification's noise estimate does "
+                      f"not see; for identify and discover pass --dt {slowest:.4g}", UserWarning, stacklevel=3)
 
 
 def _offsets(recordings, splines, dt: float, align: str):
@@ -89,6 +107,7 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
                         "(e.g. 0.05)")
     check_run_count(len(recordings), "import", "an ensemble for identify and discover")
     step = _step(recordings, dt)
+    _warn_upsampled(recordings, cmap, step)
     splines = [{name: continuous_channel(t, x, step) for name, (t, x) in rec.channels.items()} for rec in recordings]
     offsets, window = _offsets(recordings, splines, step, align)
     t0, t1 = _check_coverage(recordings, cmap, offsets, window, align)

@@ -175,6 +175,11 @@ def _read_csv(path: Path, cmap: ChannelMap) -> dict:
         raise DataError(f"{source}: channel '{time_entry.channel}' (the time) is empty in data row "
                         f"{int(np.flatnonzero(~t_present)[0]) + 1}; give a time on every row")
     t_all = t_all * time_entry.factor
+    back = np.flatnonzero(np.diff(t_all) <= 0)
+    if back.size:
+        i = int(back[0])
+        raise DataError(f"{source}: channel '{time_entry.channel}' (the time) does not increase at data row {i + 2} "
+                        f"({t_all[i]:.6g} s then {t_all[i + 1]:.6g} s); sort the rows or repair the logger's clock")
     return {name: _convert(entry, t_all[present], values[present], source) for name, (entry, values, present) in columns.items()}
 
 
