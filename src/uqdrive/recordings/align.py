@@ -13,35 +13,34 @@ from scipy.signal import correlate
 __all__ = ["ACTIVE_FRACTION", "manoeuvre_window", "steering_offset", "steering_deviation"]
 
 #: The steering departs from straight (or from its final value) when it differs by more than this
-#: fraction of its range: above a robot's noise and a sensor's zero offset, below any manoeuvre.
+#: fraction of its largest angle: above a robot's noise and a sensor's zero offset, below any manoeuvre.
 ACTIVE_FRACTION = 0.05
 
 
 def manoeuvre_window(t: np.ndarray, s: np.ndarray) -> tuple[float, float]:
-    """The part of a run where its steering acts: from its first departure from the initial value
-    to the last time it differs from its final value.
+    """The part of a run where its steering acts: from its first departure from straight ahead to
+    the last time it differs from its final value (a step steer may hold its angle to the end).
 
     Parameters
     ----------
     t : ndarray, shape (k,)
         Uniform times (s).
     s : ndarray, shape (k,)
-        Steering angle (rad) at ``t``.
+        Steering angle (rad) at ``t``, zero straight ahead.
 
     Returns
     -------
     (float, float)
-        Start and end (s); the whole of ``t`` for a steering that never departs.
+        Start and end (s); the whole of ``t`` for a steering that never departs. A start at t[0]
+        means the recording began after the steering did.
     """
-    span = float(np.ptp(s))
+    span = float(np.max(np.abs(s)))
     if span == 0.0:
         return float(t[0]), float(t[-1])
     k = max(1, min(10, s.size // 10))
-    first = np.flatnonzero(np.abs(s - np.mean(s[:k])) > ACTIVE_FRACTION * span)
+    first = np.flatnonzero(np.abs(s) > ACTIVE_FRACTION * span)
     last = np.flatnonzero(np.abs(s - np.mean(s[-k:])) > ACTIVE_FRACTION * span)
-    if first.size == 0 or last.size == 0:
-        return float(t[0]), float(t[-1])
-    return float(t[first[0]]), float(t[last[-1]])
+    return float(t[first[0]]), float(t[last[-1]] if last.size else t[-1])
 
 
 def _samples(f: Callable, t: np.ndarray, lo: float, hi: float) -> np.ndarray:

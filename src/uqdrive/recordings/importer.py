@@ -78,9 +78,10 @@ def _check_coverage(recordings, cmap: ChannelMap, offsets, window, align: str) -
         start, end = rec.start - o, rec.end - o
         if align == "none":
             continue
-        if start > window[0] + 1e-9:
+        if start >= window[0]:  # not one sample of straight driving before the steering departs
             raise DataError(f"{rec.path}: channel '{steer}' starts {start - window[0]:.3g} s after the manoeuvre's steering "
-                            f"begins (as the other runs show); record from before the manoeuvre or leave the file out")
+                            f"begins (the steering is already turned at its first sample or the other runs show it); record "
+                            f"from before the manoeuvre or leave the file out")
         if end < window[1] - 1e-9:
             raise DataError(f"{rec.path}: channel '{steer}' ends {window[1] - end:.3g} s before the manoeuvre's steering "
                             f"does (as the other runs show); record the whole manoeuvre or leave the file out")
