@@ -222,15 +222,17 @@ def _spoil(run: rr.Run, channel: str, how: str) -> rr.Run:
     ("backwards", ".mf4", r"channel 'VehicleSpeed' has a time that does not increase at sample 101"),
     ("backwards", ".csv", r"channel 'Zeit_ms' \(the time\) does not increase at data row 101 \(1 s then 0.99 s\)"),
     ("too few runs", ".mf4", r"5 run\(s\).*needs at least 10.*record more runs"),
+    ("no steering", ".csv", r"run00.csv: channel 'SteeringWheelAngle' \(the steering\) never moves.*--align none"),
+    ("wrong scale", ".mf4", r"variable 'a_y' reaches .* \(channel 'LatAcc' in km/s\^2, map .*: check its units"),
 ])
 def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, suffix, pattern):
     rng = np.random.default_rng(11)
     n = 5 if case == "too few runs" else 10
     leads = rng.uniform(0.5, 2.0, n)
-    spoiled = 0 if case == "reference starts late" else 3
+    spoiled = 0 if case in ("reference starts late", "no steering") else 3
     if case.endswith("starts late"):
         leads[spoiled] = -0.5
-    runs = rr.record(np.full(n, 1.0), V, leads)
+    runs = rr.record(np.full(n, 1.0), V, leads, scale=0.0 if case == "no steering" else 1.0)
     if case == "ends early":
         runs[3] = rr.record(1.0, V, leads[3], duration=5.0)[0]
     if case in ("gap", "nan") or (case == "backwards" and suffix == ".mf4"):
@@ -242,13 +244,15 @@ def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, su
         lines = files[3].read_text().splitlines()
         lines[100], lines[101] = lines[101], lines[100]
         files[3].write_text("\n".join(lines) + "\n")
-    cmap = _write_map(tmp_path, a_y={"channel": "LatAcc", "units": "deg/s"}) if case == "wrong dimension" else _write_map(tmp_path)
+    changes = {"wrong dimension": {"a_y": {"channel": "LatAcc", "units": "deg/s"}},
+               "wrong scale": {"a_y": {"channel": "LatAcc", "units": "km/s^2"}}}.get(case, {})
+    cmap = _write_map(tmp_path, **changes)
     out = tmp_path / "ensemble.nc"
     code, stdout, stderr = _cli(["import", *files, "--channels", cmap, "--out", out], capsys)
     assert code == 2 and stdout == ""
     assert len(stderr.strip().splitlines()) == 1, stderr
     assert __import__("re").search(pattern, stderr), stderr
-    if case not in ("wrong dimension", "too few runs"):
+    if case not in ("wrong dimension", "too few runs", "wrong scale"):
         assert str(files[spoiled]) in stderr
     assert not out.exists() and not list(tmp_path.glob(".ensemble.nc*"))
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -58,11 +59,15 @@ def _warn_upsampled(recordings, cmap: ChannelMap, step: float) -> None:
                       f"not see; for identify and discover pass --dt {slowest:.4g}", UserWarning, stacklevel=3)
 
 
-def _offsets(recordings, splines, dt: float, align: str):
+def _offsets(recordings, splines, cmap: ChannelMap, dt: float, align: str):
     """Offsets (s, each run's clock minus the reference's) and the manoeuvre window of the reference."""
     ref = recordings[0]
     t_ref = np.arange(ref.start, ref.end, dt)
-    window = manoeuvre_window(t_ref, splines[0]["delta"](t_ref))
+    s_ref = splines[0]["delta"](t_ref)
+    if align == "steering" and not np.any(s_ref):
+        raise DataError(f"{ref.path}: channel '{cmap.entries['delta'].channel}' (the steering) never moves, so the runs "
+                        "cannot be aligned by it; record the manoeuvre's steering or pass --align none")
+    window = manoeuvre_window(t_ref, s_ref)
     if align == "none":
         return np.array([rec.start - ref.start for rec in recordings]), window
     offsets = [0.0]
@@ -110,7 +115,7 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
     step = _step(recordings, dt)
     _warn_upsampled(recordings, cmap, step)
     splines = [{name: continuous_channel(t, x, step) for name, (t, x) in rec.channels.items()} for rec in recordings]
-    offsets, window = _offsets(recordings, splines, step, align)
+    offsets, window = _offsets(recordings, splines, cmap, step, align)
     t0, t1 = _check_coverage(recordings, cmap, offsets, window, align)
     n_time = int(math.floor((t1 - t0) / step + 1e-9)) + 1
     if n_time < 3:
@@ -157,7 +162,15 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
         attrs["v_c"] = v_c
     ds = xr.Dataset(data, coords={"time": ("time", time, {"units": "s"}), "sample": ("sample", np.arange(len(kept)))},
                     attrs=attrs)
-    return validate_ensemble(ds, "the imported ensemble")
+    try:
+        return validate_ensemble(ds, "the imported ensemble")
+    except DataError as exc:  # a value beyond the physical: name the channel and its map entry
+        name = re.search(r"variable '(\w+)'", str(exc))
+        entry = cmap.entries.get(name.group(1)) if name else None
+        if entry is None:
+            raise
+        raise DataError(f"{exc} (channel '{entry.channel}' in {entry.units}, map '{cmap.source}': check its units, sign and "
+                        f"steering_ratio)") from None
 
 
 def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping, *, vehicle: str | Path | None = None,
