@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -251,7 +252,7 @@ def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, su
     code, stdout, stderr = _cli(["import", *files, "--channels", cmap, "--out", out], capsys)
     assert code == 2 and stdout == ""
     assert len(stderr.strip().splitlines()) == 1, stderr
-    assert __import__("re").search(pattern, stderr), stderr
+    assert re.search(pattern, stderr), stderr
     if case not in ("wrong dimension", "too few runs", "wrong scale"):
         assert str(files[spoiled]) in stderr
     assert not out.exists() and not list(tmp_path.glob(".ensemble.nc*"))
@@ -284,3 +285,19 @@ def test_import_then_identify_recovers_the_runs_friction(tmp_path, capsys, suffi
     assert estimate["converged"], estimate["warnings"]
     assert abs(estimate["mu"][0] - mus.mean()) < 0.06
     assert abs(estimate["mu"][1] - mus.std(ddof=1)) < 0.06
+
+
+def test_the_vehicle_files_steering_ratio_converts_the_hand_wheel(twelve, tmp_path, capsys):
+    """A map without steering_ratio and --vehicle with one give the ensemble of the map with it;
+    without either the hand-wheel angle is taken for the road wheel's (15.3 times too large)."""
+    _, files, _, _ = twelve
+    spec = yaml.safe_load((Path(__file__).parents[1] / "src/uqdrive/vehicles/rajamani_sedan.yaml").read_text())
+    (tmp_path / "car.yaml").write_text(yaml.safe_dump({**spec, "steering_ratio": rr.RATIO}))
+    cmap = _write_map(tmp_path, delta={"channel": "SteeringWheelAngle", "units": "deg"})
+    for name, extra in (("car.nc", ["--vehicle", tmp_path / "car.yaml"]), ("none.nc", [])):
+        code, _, stderr = _cli(["import", *files, "--channels", cmap, "--dt", "0.02", "--out", tmp_path / name, *extra], capsys)
+        assert code == 0, stderr
+    reference = import_runs(files, rr.MAP, dt=0.02)
+    with xr.open_dataset(tmp_path / "car.nc") as car, xr.open_dataset(tmp_path / "none.nc") as none:
+        np.testing.assert_allclose(car["delta"].values, reference["delta"].values, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(none["delta"].values, rr.RATIO * reference["delta"].values, rtol=1e-9, atol=1e-12)
