@@ -301,3 +301,14 @@ def test_the_vehicle_files_steering_ratio_converts_the_hand_wheel(twelve, tmp_pa
     with xr.open_dataset(tmp_path / "car.nc") as car, xr.open_dataset(tmp_path / "none.nc") as none:
         np.testing.assert_allclose(car["delta"].values, reference["delta"].values, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(none["delta"].values, rr.RATIO * reference["delta"].values, rtol=1e-9, atol=1e-12)
+
+
+def test_the_speed_is_one_number_a_shared_profile_or_one_per_run():
+    from uqdrive.recordings.importer import _speed
+
+    ramp = np.linspace(20.0, 25.0, 50)
+    assert _speed(np.full((3, 50), 25.0)) == (None, 25.0)
+    dims, values = _speed(np.tile(ramp, (3, 1)))[0]
+    assert dims == ("time",) and np.array_equal(values, ramp)
+    dims, values = _speed(np.stack([ramp, ramp, ramp * 1.01]))[0]
+    assert dims == ("sample", "time") and values.shape == (3, 50)
