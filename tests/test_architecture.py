@@ -130,3 +130,33 @@ from .h import \\
     for source in [tricky, tricky[:continued], *(p.read_text() for p in sorted(PACKAGE_ROOT.rglob("*.py")))]:
         assert dumped(_import_nodes(source, "<test>")) == dumped(_all_import_nodes(source))
     assert len(_import_nodes(tricky, "<test>")) == 5 and len(_import_nodes(tricky[:continued], "<test>")) == 4
+
+
+#: The parts below the edges (the command line, the studies and the workflow scripts): they read
+#: typed settings (uqdrive.settings), never the config mapping.
+BELOW_THE_EDGES = ("numerics", "vehicle", "inference", "control", "wheelslip")
+
+
+def _config_readers(source: str) -> list[str]:
+    """Functions of ``source`` with a parameter named config or cfg, and reads or writes of ``self.config``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            a = node.args
+            if any(x.arg in ("config", "cfg") for x in a.posonlyargs + a.args + a.kwonlyargs):
+                found.append(f"line {node.lineno}: {getattr(node, 'name', 'lambda')} takes the config")
+        elif isinstance(node, ast.Attribute) and node.attr == "config" and isinstance(node.value, ast.Name) and node.value.id == "self":
+            found.append(f"line {node.lineno}: self.config")
+    return found
+
+
+def test_nothing_below_the_edges_takes_the_config_mapping():
+    readers = [f"{p.relative_to(PACKAGE_ROOT)} {r}" for part in BELOW_THE_EDGES for p in sorted((PACKAGE_ROOT / part).rglob("*.py"))
+               for r in _config_readers(p.read_text())]
+    assert not readers, "build uqdrive.settings.Settings at the edge and pass it down:\n" + "\n".join(readers)
+
+
+def test_the_config_reader_check_can_fail():
+    planted = "def f(x, *, cfg=None):\n    pass\nclass A:\n    def g(self, config):\n        self.config = config\n    h = lambda config: 0\n"
+    assert len(_config_readers(planted)) == 4
+    assert _config_readers("def f(settings):\n    self.settings = settings\n") == []

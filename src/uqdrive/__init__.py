@@ -13,6 +13,7 @@ if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .config import load_config  # noqa: F401
     from .inference.identify import DistributionEstimator  # noqa: F401
     from .io import read_ensemble  # noqa: F401
+    from .settings import Settings  # noqa: F401
     from .vehicle.chaos import LSTChaosModel  # noqa: F401
     from .vehicle.montecarlo import simulate_ensemble  # noqa: F401
     from .vehicle.statistics import ensemble_statistics  # noqa: F401
@@ -21,6 +22,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "load_config": ".config",
     "DistributionEstimator": ".inference.identify",
     "read_ensemble": ".io",
+    "Settings": ".settings",
     "LSTChaosModel": ".vehicle.chaos",
     "simulate_ensemble": ".vehicle.montecarlo",
     "ensemble_statistics": ".vehicle.statistics",
@@ -29,6 +31,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
 __all__ = [
     "DistributionEstimator",
     "LSTChaosModel",
+    "Settings",
     "__version__",
     "ensemble_statistics",
     "load_config",

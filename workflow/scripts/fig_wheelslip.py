@@ -1,5 +1,6 @@
 """Rule fig_wheelslip: paper Figs 4-8, the PID schedule, calibration and closed loop."""
 import sys
+from uqdrive.settings import Settings
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
@@ -10,7 +11,7 @@ from uqdrive.plots.figure import save_figure
 from uqdrive.wheelslip.quarter_car import QuarterCar
 
 i, o, config = snakemake.input, snakemake.output, snakemake.params.config  # noqa: F821
-car = QuarterCar.from_config(config)
+car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
 gps = [xr.load_dataset(p) for p in i.gp]
 save_figure(pw.friction_curves(car, config["wheelslip"]["curves_mu_H"]), o.curves)
 save_figure(pw.gp_function(gps[0]), o.function)

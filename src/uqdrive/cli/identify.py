@@ -21,13 +21,14 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
-from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
+from ..inference.identify import DistributionEstimator, WeightContext, state_weights
 from ..vehicle.channels import CHANNEL_UNITS, ChannelChaosModel
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
+from ..settings import Settings
 
 __all__ = ["identify_file", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
@@ -58,7 +59,7 @@ def _dst_divergence(cfg, delta):
     st = cfg["steering"]
     for steer, sign in STEERS.items():
         if np.allclose(delta, steering_input(np.arange(delta.size) * cfg["time"]["dt"], np.deg2rad(st["delta_max_deg"]), st["period"], sign), atol=1e-6):
-            stats = {m: ensemble_statistics(simulate_ensemble(cfg, m, steer), cfg["montecarlo"]["spin_policy"]) for m in ("lst", "nlst")}
+            stats = {m: ensemble_statistics(simulate_ensemble(Settings.from_config(cfg), m, steer), cfg["montecarlo"]["spin_policy"]) for m in ("lst", "nlst")}
             return kl_divergence_series(stats["nlst"], stats["lst"]).values
     raise DataError("the DST cost needs the synthetic reality (LST and NLST) under the same input; "
                     "the measured delta is neither (5.5) nor (5.7) of the config: use --cost std or inp")
@@ -168,7 +169,7 @@ def _channel_notes(cfg, ds, channels, speed) -> list[str]:
     from ..inference.identifiability import unidentifiable_parameters
 
     # the four states identify every parameter fitted here (thesis sec. 5.3.1): the test is for subsets
-    open_ = {} if channels == STATES else unidentifiable_parameters(cfg, channels, UNCERTAIN)
+    open_ = {} if channels == STATES else unidentifiable_parameters(Settings.from_config(cfg), channels, UNCERTAIN)
     out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
            f"not determined by the data; record {hint}" for p, hint in open_.items()]
     if "beta" not in channels:
@@ -221,7 +222,7 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
     policy = cfg["montecarlo"]["spin_policy"]
     ds, spun, in_file = _lost_control(ds, cfg, source)
     stats = ensemble_statistics(ds, policy, channels)
-    scale = state_scale or configured_state_scale(cfg)
+    scale = state_scale or Settings.from_config(cfg).identify.scale()
     try:
         state_weights(scale, stats["mean"].values, stats["std"].values)
     except ValueError:
@@ -229,18 +230,18 @@ def identify_file(config: Mapping[str, Any], measured: Path, cost: str, m_load: 
                         f"--state-scale {scale} cannot scale it; use --state-scale none") from None
     delta = ds["delta"].values
     m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
                           quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
     if channels != STATES or speed is not None:
         model = ChannelChaosModel(model, channels, speed)
     kl = _dst_divergence(cfg, delta) if cost == "dst" else None
-    theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    theta0 = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in channels]).astype(float)
     # Measurement noise inflates the measured std: the model's variance gets the noise variance
     # estimated from the data (order-4 differences leave the smooth signal out).
     noise = np.array([estimate_noise_variance(runs[i], order=4) for i in range(runs.shape[0])])
     est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale, optimiser=configured_optimiser(cfg),
+                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale, optimiser=Settings.from_config(cfg).identify.optimiser,
                                 noise_variance=noise)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

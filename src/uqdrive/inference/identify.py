@@ -15,7 +15,7 @@ from scipy.optimize import OptimizeResult, least_squares, minimize
 from ..numerics.threads import single_blas_thread
 from .sampling import gauss_newton_errors, run_influence, sampling_errors
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "OPTIMISERS", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -111,13 +111,6 @@ def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
     return 1.0 / scale**2
 
 
-def configured_state_scale(config, normalised: bool = False) -> str:
-    """The state scale the config selects: ``identification.state_scale`` (thesis-faithful
-    experiments; default "none") or ``normalised_state_scale`` (default "rms_mean")."""
-    ident = config["identification"]
-    return ident.get("normalised_state_scale", "rms_mean") if normalised else ident.get("state_scale", "none")
-
-
 def _lbfgsb(est: "DistributionEstimator", z0, box) -> OptimizeResult:
     """Quasi-Newton (L-BFGS-B) on the scaled cost with the model's analytic gradient."""
     return minimize(est._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": est.max_iter, "ftol": 1e-15, "gtol": 1e-10})
@@ -156,11 +149,6 @@ def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
 
 #: Registry of local optimisers of the fit; config strings select them.
 OPTIMISERS: dict[str, Callable] = {"lbfgsb": _lbfgsb, "gauss_newton": _gauss_newton}
-
-
-def configured_optimiser(config) -> str:
-    """The local optimiser the config selects (``identification.optimiser``, default "lbfgsb")."""
-    return config["identification"].get("optimiser", "lbfgsb")
 
 
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):

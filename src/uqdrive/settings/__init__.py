@@ -3,10 +3,10 @@ the frozen objects every model and algorithm below the command line, studies and
 """
 
 from __future__ import annotations
+
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any, Mapping
-
 
 from ..config import config_hash, restrict_config
 from .car import PARAMETER_NAMES, Normal, ParameterLayout, Uncertainty, Uniform, Vehicle

@@ -14,13 +14,14 @@ import xarray as xr
 from .._version import __version__
 from ..inference.bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posteriors, sample_ensembles
 from ..config import config_hash
-from ..inference.identify import DistributionEstimator, configured_optimiser, configured_state_scale
+from ..inference.identify import DistributionEstimator
 from ..vehicle.montecarlo import simulate_ensemble
 from ..vehicle.noise import add_noise, estimate_noise_variance
 from ..vehicle.chaos import LSTChaosModel
 from ..rng import rng_stream
 from ..vehicle.statistics import used_samples
 from ..vehicle.single_track import STATES
+from ..settings import Settings
 
 __all__ = ["CASES", "prepare_data", "posterior_case", "summarise", "posterior_table_rows", "coverage_study"]
 
@@ -49,7 +50,7 @@ def _model(config, dt=None, m_load=None, gusts: bool = False):
         cfg["time"] = dict(cfg["time"], dt=dt)
     m_load = cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load
     ident = cfg["identification"]
-    return LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=gusts, order=ident["order"],
+    return LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=gusts, order=ident["order"],
                          quadrature_points=ident["quadrature_points"], fixed={"m_load": m_load})
 
 
@@ -71,11 +72,11 @@ def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generato
     if noise_var is not None:  # noise-aware, as the identification's past-the-thesis estimate
         std = np.sqrt(np.maximum(std**2 - noise_var[:, None], 0.0))
     full, coarse = models
-    truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    truth = Settings.from_config(config).uncertainty.theta(UNCERTAIN)
     est, unit_free = (
         DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                              state_scale=configured_state_scale(config, normalised),
-                              optimiser=configured_optimiser(config)).fit(mean, std, truth)
+                              state_scale=Settings.from_config(config).identify.scale(normalised),
+                              optimiser=Settings.from_config(config).identify.optimiser).fit(mean, std, truth)
         for normalised in (False, True)
     )
     for name, step in (("time.dt", dt), ("bayes.model_dt", b["model_dt"])):
@@ -86,14 +87,14 @@ def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generato
     every = int(round(b["likelihood_dt"] / b["model_dt"]))
     data_idx = np.arange(stride, x.shape[2], stride)
     # The likelihood times are every `every`-th model time: the sampler's model computes only those.
-    target = (MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var), BoxPrior.from_config(config), data_idx // stride)
+    target = (MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var), BoxPrior.from_settings(Settings.from_config(config)), data_idx // stride)
     n_ens = b["ensembles"] if ensembles is None else ensembles
     centre = est.theta_.copy()
     starts = [centre] + [centre * (1.0 + b["dispersion"] * rng.standard_normal(centre.size)) for _ in range(n_ens - 1)]
     admissible = log_posteriors(coarse, [(np.array(starts), *target)], every)[0]
     starts = [s if np.isfinite(lp) else centre for s, lp in zip(starts, admissible)]
     attrs = {"optimiser_estimate": est.theta_, "optimiser_converged": int(est.converged_), "truth": truth,
-             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": configured_state_scale(config, normalised=True),
+             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": Settings.from_config(config).identify.scale(normalised=True),
              "likelihood_times": int(data_idx.size), "model_gusts": int(b.get("model_gusts", False)), "moves": b.get("moves", "stretch"), "n_samples": int(x.shape[1]), "seed": int(config["seed"]),
              "config_hash": config_hash(config), "uqdrive_version": __version__}
     return {"target": target, "every": every, "starts": starts, "attrs": attrs}
@@ -190,7 +191,7 @@ def coverage_study(config: Mapping[str, Any], sets: int, steps: int, rng: np.ran
     models = _models(config)
     cases = []
     for k in range(sets):
-        ens = simulate_ensemble(config, "lst", seed=int(config["seed"]) + 1000 + k)
+        ens = simulate_ensemble(Settings.from_config(config), "lst", seed=int(config["seed"]) + 1000 + k)
         x, _ = prepare_data(config, ens)
         cases.append(_setup_case(config, x, None, rng, 1, models))
         del ens, x

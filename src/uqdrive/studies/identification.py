@@ -19,14 +19,15 @@ import xarray as xr
 
 from .._version import __version__
 from ..config import config_hash
-from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, initial_guess
+from ..inference.identify import DistributionEstimator, WeightContext, initial_guess
 from ..numerics.metrics import normalised_w2_normal, normalised_w2_uniform
 from ..rng import rng_stream
-from ..vehicle.montecarlo import STEERS, TimeGrid, kle_from_config, simulate_ensemble
+from ..vehicle.montecarlo import STEERS, simulate_ensemble, wind_kle
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.statistics import kl_divergence_series
 from ..vehicle.single_track import STATES, steering_input
 from .experiments import EXPERIMENTS
+from ..settings import Settings
 
 __all__ = ["MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan",
            "replicate_config", "coverage_study", "coverage_table", "binomial_band"]
@@ -64,7 +65,7 @@ class Estimate:
 def true_theta(config) -> np.ndarray:
     """Distribution parameters of the config in ``theta_names`` order, shape (6,): the truth of the
     simulated experiments."""
-    return LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    return Settings.from_config(config).uncertainty.theta(UNCERTAIN)
 
 
 def w2_scores(theta, config, thesis_formula: bool = False) -> np.ndarray:
@@ -82,7 +83,7 @@ def w2_scores(theta, config, thesis_formula: bool = False) -> np.ndarray:
 
 def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ident) -> dict:
     model = LSTChaosModel(
-        config, uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"],
+        Settings.from_config(config), uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"],
         steer=data.steer, fixed={"m_load": float(m_load)},
     )
     std = data.std
@@ -90,9 +91,9 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
         if data.noise_variance is None:
             raise ValueError(f"{task.label}: noise-aware estimation needs the noise variance of the data")
         std = np.sqrt(np.maximum(std**2 - np.asarray(data.noise_variance)[:, None], 0.0))
-    scale = task.state_scale or configured_state_scale(config)
+    scale = task.state_scale or Settings.from_config(config).identify.scale()
     est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                                state_scale=scale, optimiser=configured_optimiser(config))
+                                state_scale=scale, optimiser=Settings.from_config(config).identify.optimiser)
     theta0 = physical_start(model, theta0)
     try:
         est.fit(data.mean, std, theta0, WeightContext(data.delta, data.kl_divergence))
@@ -178,7 +179,7 @@ def run_experiment(
             "title": f"identification experiment: {name}",
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
-            "state_scales": ",".join(sorted({t.state_scale or configured_state_scale(config) for t in tasks})),
+            "state_scales": ",".join(sorted({t.state_scale or Settings.from_config(config).identify.scale() for t in tasks})),
             "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
         },
     )
@@ -225,7 +226,7 @@ def experiment_plan(config: Mapping[str, Any], name: str):
         dev = [tuple(ident["basic_deviation"])] * runs
         return tasks, dev, dev, [{"lst": "lst_normal_no_wind_moment", "nlst": "nlst_normal_no_wind_moment"}] * runs
     if name in ("normalised", "normalised_inverted"):  # the basic / inverted test with unit-free residuals
-        scale = configured_state_scale(config, normalised=True)
+        scale = Settings.from_config(config).identify.scale(normalised=True)
         dev = [tuple(ident["basic_deviation"])] * runs
         nlst_n = [Estimate(t.label, t.data, t.cost, state_scale=scale) for t in nlst]
         if name == "normalised":
@@ -251,7 +252,7 @@ def measured_data_sets(config: Mapping[str, Any], stats: Mapping[str, xr.Dataset
     The DST weights use D_KL between the noiseless NLST and LST outputs of the same input
     (the synthetic reality is known, sec. 5.3.2), also for the noisy data sets.
     """
-    t = TimeGrid.from_config(config).output
+    t = Settings.from_config(config).time.output
     st = config["steering"]
     delta = {s: steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[s]) for s in STEERS}
     kl = {s: kl_divergence_series(stats[f"nlst_{s}"], stats[f"lst_{s}"]).values for s in STEERS if f"nlst_{s}" in stats and f"lst_{s}" in stats}
@@ -313,12 +314,12 @@ def coverage_study(config: Mapping[str, Any], replicates: int, samples: int, dt:
     cfg = replicate_config(config, dt)
     seed = int(cfg["seed"] if seed is None else seed)
     ident = cfg["identification"]
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"])
-    truth = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    kle = kle_from_config(cfg)
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"])
+    truth = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
+    kle = wind_kle(Settings.from_config(cfg))
     rows = []
     for r in range(replicates):
-        ds = simulate_ensemble(cfg, "lst", samples=samples, seed=seed + r, kle=kle)
+        ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=samples, seed=seed + r, kle=kle)
         runs = np.stack([ds[s].values for s in STATES]).astype(float)
         mean, std = runs.mean(axis=1), runs.std(axis=1, ddof=1)
         start = initial_guess(truth, 0.05, 0.15, rng_stream(seed, "identify_coverage", r))

@@ -14,6 +14,7 @@ from .._version import __version__
 from ..config import config_hash
 from ..vehicle.chaos import ChaosMoments, LSTChaosModel
 from ..vehicle.single_track import STATES
+from ..settings import Settings
 
 __all__ = ["pce_dataset", "convergence_study"]
 
@@ -68,8 +69,8 @@ def convergence_study(
     theta = None
     for i, order in enumerate(orders):
         for j, q in enumerate(quadrature_points):
-            model = LSTChaosModel(config, order=order, quadrature_points=q)
-            theta = model.theta_from_config(config, model.uncertain) if theta is None else theta
+            model = LSTChaosModel(Settings.from_config(config), order=order, quadrature_points=q)
+            theta = Settings.from_config(config).uncertainty.theta(model.uncertain) if theta is None else theta
             t0 = time.perf_counter()
             r = model.moments(theta)
             seconds[i, j] = time.perf_counter() - t0

@@ -6,9 +6,11 @@ Every function is vectorised over realisations: parameters may be scalars or arr
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
+
+from ..settings import Settings
 
 __all__ = [
     "STATES",
@@ -79,23 +81,23 @@ class VehicleParameters:
     E: float = 0.97
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], **draws) -> "VehicleParameters":
-        """Nominal parameters of a validated config; ``draws`` override mu, m_load, l_f."""
-        veh, unc, tyre = config["vehicle"], config["uncertainty"], config["tyre"]
+    def from_settings(cls, settings: Settings, **draws) -> "VehicleParameters":
+        """Nominal parameters of the settings' car and means; ``draws`` override mu, m_load, l_f."""
+        veh, unc = settings.vehicle, settings.uncertainty
         nominal = cls(
-            mu=unc["mu"]["mean"],
-            m_load=unc["m_load"]["mean"],
-            l_f=unc["l_f"]["mean"],
-            m_base=veh["m_base"],
-            J0=veh["J0"],
-            wheelbase=veh["wheelbase"],
-            c_Sf=veh["c_Sf"],
-            c_Sr=veh["c_Sr"],
-            v_c=veh["speed_kmh"] / 3.6,
-            M_c=veh["M_c"],
-            g=veh["g"],
-            C=tyre["C"],
-            E=tyre["E"],
+            mu=unc.mu.mean,
+            m_load=unc.m_load.mean,
+            l_f=unc.l_f.mean,
+            m_base=veh.m_base,
+            J0=veh.J0,
+            wheelbase=veh.wheelbase,
+            c_Sf=veh.c_Sf,
+            c_Sr=veh.c_Sr,
+            v_c=veh.v_c,
+            M_c=veh.M_c,
+            g=veh.g,
+            C=veh.C,
+            E=veh.E,
         )
         return replace(nominal, **draws)
 

@@ -55,12 +55,10 @@ kappa_r = K / (m_base g) (K in rad per g at the base mass; a roll angle phi'' = 
 
 from __future__ import annotations
 
-from typing import Any, Mapping
-
 import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
-from ..vehicle_spec import require
+from ..settings import Vehicle
 from .single_track import VehicleParameters
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
@@ -349,19 +347,19 @@ class ExtendedSingleTrackRHS:
         out[3] = v * (np.sin(course) if self.course_sine else course)
 
 
-def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
+def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
                       n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None):
     """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
     RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half``
-    its speed profile), plus the config whose vehicle section gives cg_height and track_width to
-    the lateral load transfer.
+    its speed profile), plus the car's settings whose cg_height and track_width the lateral
+    load transfer needs.
 
     With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
     right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
     h_t = (0.0, 1.0)
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
-        h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
+        h_t = (vehicle.require("cg_height", purpose), vehicle.require("track_width", purpose))
     rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...settings import Settings
 from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, FAMILIES
 from ...vehicle.single_track import STATES
@@ -176,12 +177,14 @@ def localise(time, z, band, limit: int = 20, signals=STATES):
     return out[:limit]
 
 
-def model_document(aug, config, verdict) -> dict:
+def model_document(aug, settings: Settings, verdict) -> dict:
     """``model.yaml`` content: the baseline, every added effect with its fitted parameters, the
-    distributions of the fit ``aug`` (a :class:`.fit.StructureFit`) and the verdict's names."""
+    distributions of the fit ``aug`` (a :class:`.fit.StructureFit`), the settings' load and
+    wind sigma, and the verdict's names."""
     effects = {name: dict(params) for name, params in aug.structure_.effects}
     d = distributions(aug.theta_)
-    d["m_load"] = dict(config["uncertainty"]["m_load"])
+    load = settings.uncertainty.m_load
+    d["m_load"] = {"mean": load.mean, "std": load.std}
     return {"uqdrive_model": 1, "baseline": "lst", "effects": effects, "distributions": d,
-            "wind_sigma": float(config["wind"]["sigma"]), "verdict": verdict["effect"],
+            "wind_sigma": float(settings.wind.sigma), "verdict": verdict["effect"],
             "verdict_effects": [e["effect"] for e in verdict["effects"]]}

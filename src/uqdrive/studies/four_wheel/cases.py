@@ -22,6 +22,7 @@ from ...vehicle.four_wheel.model import PSI, R, VX, VY, Y
 from ...vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
 from ..hidden_effects import wind_kle
 from ..manoeuvres import MANOEUVRES, steering_command
+from ...settings import Settings
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -128,7 +129,7 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     draws : dict
         mu, m_load, l_f, F_w_mean (samples,).
     """
-    car = FourWheelCar.from_config(config) if car is None else car
+    car = FourWheelCar.from_vehicle(Settings.from_config(config).vehicle) if car is None else car
     u, w = config["uncertainty"], config["wind"]
     n = int(case.samples)
     rng = rng_stream(case.seed, "hidden_parameters", STREAM_KEY)
