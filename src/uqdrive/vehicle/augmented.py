@@ -14,7 +14,7 @@ import numpy as np
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import Settings
 from .effects import ModelStructure
-from .single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
+from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
@@ -269,9 +269,7 @@ class AugmentedSimulator:
         A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
         A = A.copy()
         A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        W_gust = W.copy()
-        if not self.gust_yaw_moment:
-            W_gust[:, 1] = 0.0
+        W_gust = gust_input_column(W, self.gust_yaw_moment)
         const = W * wind[:, None]
         const[:, 2] += s.lateral_acceleration / p.v_c
         held = self._held_input(s)
@@ -282,7 +280,7 @@ class AugmentedSimulator:
             delta = held_integral(self.delta, self.dt, s.steering_delay)
         else:
             steer = B
-        E = np.concatenate([steer[:, :, None], const[:, :, None], W_gust[:, :, None] * coeffs[:, None, :]], axis=2)
+        E = input_matrix(steer, const, W_gust, coeffs)
         g = np.column_stack([delta, np.ones_like(delta), self.f.T])
         x = lti_foh_response(A, E, g, self.dt, self.stride, np.zeros((A.shape[0], 4)))
         if held:

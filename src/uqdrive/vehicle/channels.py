@@ -30,7 +30,7 @@ from ..numerics.integrate import foh_discretise_single, lti_response_single, rk4
 from ..numerics.recursion import decoupled_blocks
 from ..numerics.threads import with_single_blas_thread
 from ..settings import SpeedRamp
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lateral_acceleration_map,
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lateral_acceleration_map,
                            lst_matrices_at_speed, nlst_rhs, wind_yaw_moment)
 
 __all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel", "speed_ramp",
@@ -331,8 +331,7 @@ def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenf
     for i, (v, v_dot) in enumerate(zip(0.5 * (speed[1:] + speed[:-1]), np.diff(speed) / grid.step)):
         A, B, W = lst_matrices_at_speed(p, v, v_dot)
         W_gust = gust_input_column(W, gust_yaw_moment)
-        E = np.concatenate([B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None],
-                            W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]], axis=2)
+        E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
         Phi, P, Q = foh_discretise(A, E, grid.step)
         x = np.einsum("nij,nj->ni", Phi, x) + P @ g[i] + Q @ g[i + 1]
         if (i + 1) % grid.substeps == 0:

@@ -15,7 +15,7 @@ from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
 from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lst_matrices, make_nlst_rhs,
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, make_nlst_rhs,
                            steering_input, wind_yaw_moment)
 
 __all__ = [
@@ -77,10 +77,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     A, B, W = lst_matrices(p)
     W_gust = gust_input_column(W, gust_yaw_moment)
     n = A.shape[0]
-    E = np.concatenate(
-        [B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None], W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]],
-        axis=2,
-    )
+    E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
     g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
     return lti_foh_response(A, E, g, grid.step, grid.substeps, np.zeros((n, 4)))
 

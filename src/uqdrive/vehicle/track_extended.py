@@ -59,7 +59,7 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from ..settings import Vehicle
-from .single_track import VehicleParameters
+from .single_track import VehicleParameters, curvature_argument
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
@@ -240,8 +240,7 @@ class ExtendedSingleTrackRHS:
         """Force (N) at slip ``q`` (rad) and peak ``peak`` (N): Magic Formula or its slope at zero."""
         B = self.B if B is None else B
         if self.saturating:
-            bx = B * q
-            return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
+            return peak * np.sin(self.C * np.arctan(curvature_argument(B * q, self.E)))
         return peak * B * self.C * q
 
     def _yielded_front_slip(self, q0, peak):
@@ -256,7 +255,7 @@ class ExtendedSingleTrackRHS:
             return q
         for _ in range(3):
             bx = B * q
-            u = bx - self.E * (bx - np.arctan(bx))
+            u = curvature_argument(bx, self.E)
             slope = peak * np.cos(self.C * np.arctan(u)) * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
             q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
         return q

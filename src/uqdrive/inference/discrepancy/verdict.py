@@ -139,7 +139,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "catch_all": {"chi2": round(float(np.sum(catch_z**2)), 2), "parameters": p_catch, "max_statistic": round(band.max_statistic(catch_z), 3)},
             "screening": {c: round(v["chi2"], 2) for c, v in sorted(finder.screening_.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])},
             "candidates": summary,
-            "samples": int(ctx.n + finder.spun_.size) if finder.config["montecarlo"]["spin_policy"] == "exclude" else int(ctx.n),
+            "samples": int(ctx.n + finder.spun_.size) if finder.settings.spin.policy == "exclude" else int(ctx.n),
             "samples_used": finder.samples_used_,
             "n_spun": int(finder.spun_.size),
             "spun_indices": [int(i) for i in finder.spun_],
