@@ -13,6 +13,7 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
+from ..settings import ParameterLayout
 from .sampling import gauss_newton_errors, run_influence, sampling_errors
 
 __all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "OPTIMISERS", "initial_guess", "default_bounds", "DistributionEstimator"]
@@ -160,10 +161,9 @@ def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
 
 
 def default_bounds(theta_names, wheelbase: float):
-    """Physical boxes: mu > 0, 0 < l_f < L, std > 0, mean wind within +- 5 kN."""
-    box = {"mu_mean": (0.05, 3.0), "mu_std": (1e-4, 1.5), "l_f_mean": (0.05, wheelbase - 0.05), "l_f_std": (1e-4, 1.5),
-           "m_load_mean": (-500.0, 2000.0), "m_load_std": (1e-2, 500.0), "F_w_mean_low": (-5000.0, 5000.0), "F_w_mean_high": (-5000.0, 5000.0)}
-    return [box[n] for n in theta_names]
+    """Physical boxes: mu > 0, 0 < l_f < L, std > 0, mean wind within +- 5 kN
+    (:meth:`uqdrive.settings.ParameterLayout.identify_box`)."""
+    return ParameterLayout.identify_box(theta_names, wheelbase)
 
 
 class DistributionEstimator:

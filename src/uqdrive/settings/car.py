@@ -12,7 +12,7 @@ import numpy as np
 from ..config import ConfigError
 from ..vehicle_spec import OPTIONAL_QUANTITIES, internal_constants
 
-__all__ = ["PARAMETER_NAMES", "Vehicle", "Normal", "Uniform", "Uncertainty", "ParameterLayout"]
+__all__ = ["PARAMETER_NAMES", "IDENTIFY_BOX", "Vehicle", "Normal", "Uniform", "Uncertainty", "ParameterLayout"]
 
 
 #: Stationary uncertainties in germ order xi_1..xi_4 of (5.8)-(5.11).
@@ -161,14 +161,31 @@ class Uncertainty:
         return np.array([v for n in uncertain if n not in known for v in getattr(self, n).theta], float)
 
 
+#: The identification's box per distribution parameter (identify's PCE model may also fit the
+#: load): mu > 0, 0 < l_f < L (the wheelbase closes it), std > 0, mean wind within +- 5 kN.
+IDENTIFY_BOX = {"mu_mean": (0.05, 3.0), "mu_std": (1e-4, 1.5), "l_f_mean": (0.05, None), "l_f_std": (1e-4, 1.5),
+                "m_load_mean": (-500.0, 2000.0), "m_load_std": (1e-2, 500.0), "F_w_mean_low": (-5000.0, 5000.0),
+                "F_w_mean_high": (-5000.0, 5000.0)}
+
+
 @dataclass(frozen=True)
 class ParameterLayout:
     """The six distribution parameters theta of the augmented model and of the identification
-    with every quantity uncertain: names, the prior's values, and which are known (index -> value)."""
+    with every quantity uncertain: names, the prior's values, which are known (index -> value),
+    the discrepancy search's box and typical magnitudes (so an optimiser steps every parameter
+    alike), and the identification's box (:meth:`identify_box`; the two boxes differ)."""
 
     names: tuple = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
     start: tuple = ()
     known: Mapping[int, float] = field(default_factory=lambda: MappingProxyType({}))
+    bounds: tuple = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
+    scales: tuple = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)
+
+    @staticmethod
+    def identify_box(theta_names, wheelbase: float) -> list:
+        """The identification's (low, high) per name of ``theta_names`` (:data:`IDENTIFY_BOX`),
+        the l_f mean's upper end 0.05 m short of the ``wheelbase`` (m)."""
+        return [(lo, wheelbase - 0.05) if hi is None else (lo, hi) for lo, hi in (IDENTIFY_BOX[n] for n in theta_names)]
 
     @classmethod
     def of(cls, u: Uncertainty) -> "ParameterLayout":

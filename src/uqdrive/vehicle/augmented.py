@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
-from ..settings import Settings
+from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
@@ -24,7 +24,7 @@ from .uncertainty import Germs, kle_nystrom
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
-THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
+THETA_NAMES = ParameterLayout.names
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
@@ -17,9 +18,9 @@ from .band import compared_times, mean_std
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
-THETA_BOUNDS = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
+THETA_BOUNDS = ParameterLayout.bounds
 #: Typical magnitudes, so that the optimiser steps every parameter alike.
-THETA_SCALE = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)
+THETA_SCALE = ParameterLayout.scales
 
 
 class StructureFit:
