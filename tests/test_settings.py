@@ -20,15 +20,15 @@ def test_the_car_and_its_speed_are_the_configs(config):
 
 
 def test_engineering_units_give_the_internal_constants(config):
-    """mass 1784 kg and yaw inertia 1498.56 kg m^2 are m_base 1784 and J0 = I_z / m = 0.84 m^2:
-    the forms are equal to rounding (the division of (5.3)'s I_z = m J0), a wrong unit is not."""
+    """mass 1784 kg and yaw inertia 1498.56 kg m^2 are m_base 1784 and J0 = I_z / m = 0.84 m^2, equal
+    to rounding (one product and one division); the yaw inertia of another mass is another J0."""
     raw = copy.deepcopy(config)
     veh = {k: v for k, v in raw["vehicle"].items() if k not in ("m_base", "J0")}
     raw["vehicle"] = {**veh, "mass": 1784.0, "yaw_inertia": 0.84 * 1784.0}
     s = Settings.from_config(validate_config(raw))
     assert s.vehicle.m_base == 1784.0 and s.vehicle.J0 == pytest.approx(0.84, rel=1e-15)
-    raw["vehicle"]["yaw_inertia"] = 0.84 * 1.784  # tonnes: J0 a thousand times too small
-    assert Settings.from_config(validate_config(raw)).vehicle.J0 == pytest.approx(0.84e-3)
+    raw["vehicle"]["yaw_inertia"] = 0.84 * 2000.0
+    assert Settings.from_config(validate_config(raw)).vehicle.J0 == pytest.approx(0.84 * 2000.0 / 1784.0, rel=1e-15)
 
 
 def test_known_quantities_leave_the_layout_and_theta(config):
