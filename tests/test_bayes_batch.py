@@ -81,7 +81,7 @@ def test_identical_blocks_share_one_exponential_only_where_identical():
 @pytest.fixture(scope="module")
 def sampler_model(config):
     """The sampler's model of the default config (model_dt grid, KLE gusts)."""
-    return _model(config, dt=config["bayes"]["model_dt"], gusts=True)
+    return _model(Settings.from_config(config), dt=config["bayes"]["model_dt"], gusts=True)
 
 
 def _prior_draws(config, seed, n):

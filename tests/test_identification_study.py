@@ -76,7 +76,7 @@ def test_unit_free_residuals_reproduce_table_6_2(config):
     truth = true_theta(config)
     got = {}
     for key in ("lst_normal", "nlst_normal"):
-        out = _fit(config, data[key], Estimate("x", key, "std", state_scale="rms_mean"), truth, 100.0, np.random.default_rng(0), config["identification"])
+        out = _fit(Settings.from_config(config), data[key], Estimate("x", key, "std", state_scale="rms_mean"), truth, 100.0, np.random.default_rng(0))
         got[key] = out["theta"]
     lst, nlst = got["lst_normal"], got["nlst_normal"]
     ref_l, ref_n = THESIS_TABLE_6_2["LST-STD"], THESIS_TABLE_6_2["NLST-STD"]

@@ -71,3 +71,19 @@ def test_discover_settings_take_the_sections_values_or_the_defaults(config):
 def test_the_two_search_boxes_are_those_of_identify_and_discover():
     assert ParameterLayout.identify_box(("l_f_mean", "mu_std"), 2.85) == [(0.05, 2.85 - 0.05), (1e-4, 1.5)]
     assert ParameterLayout.bounds[2] == (0.3, 2.5) and len(ParameterLayout.scales) == len(ParameterLayout.names) == 6
+
+
+def test_a_workflow_rules_restricted_config_gives_the_parts_it_holds(config):
+    """A rule hands its script only the keys it reads: the identifiability job's keys (the tyre's
+    C alone, the means, the steering amplitude) give the same rank test as the whole config, and
+    the parts the keys do not cover are None instead of an error at parse time."""
+    from uqdrive.inference.identifiability import observability_analysis
+
+    keys = ("vehicle", "tyre.C", "uncertainty.mu.mean", "uncertainty.m_load.mean", "uncertainty.l_f.mean", "uncertainty.F_w_mean",
+            "steering.delta_max_deg")
+    part = Settings.from_config(restrict_config(config, keys))
+    assert part.vehicle.E is None and part.uncertainty.mu.std is None and part.time is None and part.ensemble_provenance is None
+    whole = observability_analysis(Settings.from_config(config))
+    assert observability_analysis(part).singular_values.tolist() == whole.singular_values.tolist()
+    with pytest.raises(KeyError, match="lacks a key an ensemble reads"):
+        part.ensemble_hash(10, 1)

@@ -1,6 +1,5 @@
 """Rule fig_wheelslip: paper Figs 4-8, the PID schedule, calibration and closed loop."""
 import sys
-from uqdrive.settings import Settings
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
@@ -9,6 +8,7 @@ import xarray as xr
 from uqdrive.plots import wheelslip as pw
 from uqdrive.plots.figure import save_figure
 from uqdrive.wheelslip.quarter_car import QuarterCar
+from uqdrive.settings import Settings
 
 i, o, config = snakemake.input, snakemake.output, snakemake.params.config  # noqa: F821
 car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)

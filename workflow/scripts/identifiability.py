@@ -1,12 +1,12 @@
 """Rule identifiability: rank of the non-linear observability matrix (3.9)-(3.12)."""
 import csv
 import sys
-from uqdrive.settings import Settings
 
 sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.inference.identifiability import observability_analysis
 from uqdrive.io import atomic_path
+from uqdrive.settings import Settings
 
 r = observability_analysis(Settings.from_config(snakemake.params.config))  # noqa: F821
 with atomic_path(snakemake.output[0]) as tmp:  # noqa: F821

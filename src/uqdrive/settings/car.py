@@ -10,7 +10,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..config import ConfigError
-from ..vehicle_spec import OPTIONAL_QUANTITIES, internal_constants
+from ..vehicle_spec import ENGINEERING_KEYS, OPTIONAL_QUANTITIES, internal_constants
 
 __all__ = ["PARAMETER_NAMES", "IDENTIFY_BOX", "Vehicle", "Normal", "Uniform", "Uncertainty", "ParameterLayout"]
 
@@ -63,11 +63,16 @@ class Vehicle:
         and the speed, given in km/h, once here::
 
             v_c = speed_kmh / 3.6     (m/s)
+
+        A quantity the sections lack (a workflow rule's restricted config) is None.
         """
-        k = internal_constants(vehicle, tyre, l_f)
-        kmh = vehicle["speed_kmh"]
-        return cls(m_base=k["m_base"], J0=k["J0"], wheelbase=k["wheelbase"], c_Sf=k["c_Sf"], c_Sr=k["c_Sr"], M_c=vehicle["M_c"],
-                   g=vehicle["g"], C=k["C"], E=k["E"], speed_kmh=kmh, v_c=kmh / 3.6,
+        if any(key in vehicle for key in ENGINEERING_KEYS):
+            k = internal_constants(vehicle, tyre, l_f)
+        else:
+            k = {**{key: vehicle.get(key) for key in ("m_base", "J0", "wheelbase", "c_Sf", "c_Sr")}, "C": tyre.get("C"), "E": tyre.get("E")}
+        kmh = vehicle.get("speed_kmh")
+        return cls(m_base=k["m_base"], J0=k["J0"], wheelbase=k["wheelbase"], c_Sf=k["c_Sf"], c_Sr=k["c_Sr"], M_c=vehicle.get("M_c"),
+                   g=vehicle.get("g"), C=k["C"], E=k["E"], speed_kmh=kmh, v_c=None if kmh is None else kmh / 3.6,
                    **{q: vehicle.get(q) for q in OPTIONAL_QUANTITIES})
 
     def at_speed(self, v: float) -> "Vehicle":
@@ -143,12 +148,15 @@ class Uncertainty:
 
     @classmethod
     def from_section(cls, u: Mapping[str, Any]) -> "Uncertainty":
-        """The quantities of a config's ``uncertainty`` section."""
-        return cls(*(Normal(u[n]["mean"], u[n]["std"]) for n in PARAMETER_NAMES[:3]), Uniform(u["F_w_mean"]["low"], u["F_w_mean"]["high"]))
+        """The quantities of a config's ``uncertainty`` section (one the section lacks is None, a
+        value it lacks None)."""
+        normal = [Normal(u[n].get("mean"), u[n].get("std")) if n in u else None for n in PARAMETER_NAMES[:3]]
+        wind = u.get("F_w_mean")
+        return cls(*normal, None if wind is None else Uniform(wind.get("low"), wind.get("high")))
 
     def known(self) -> dict[str, float]:
         """The quantities declared known, name -> value, in germ order."""
-        out = {n: getattr(self, n).known for n in PARAMETER_NAMES}
+        out = {n: getattr(self, n).known for n in PARAMETER_NAMES if getattr(self, n) is not None}
         return {n: v for n, v in out.items() if v is not None}
 
     def nominal(self) -> dict[str, float]:
