@@ -12,11 +12,16 @@ import numpy as np
 from ..config import ConfigError
 from ..vehicle_spec import ENGINEERING_KEYS, OPTIONAL_QUANTITIES, internal_constants
 
-__all__ = ["PARAMETER_NAMES", "IDENTIFY_BOX", "Vehicle", "Normal", "Uniform", "Uncertainty", "ParameterLayout"]
+__all__ = ["PARAMETER_NAMES", "IDENTIFY_BOX", "metres_per_second", "Vehicle", "Normal", "Uniform", "Uncertainty", "ParameterLayout"]
 
 
 #: Stationary uncertainties in germ order xi_1..xi_4 of (5.8)-(5.11).
 PARAMETER_NAMES = ("mu", "m_load", "l_f", "F_w_mean")
+
+
+def metres_per_second(kmh):
+    """A speed in km/h (float or ndarray, any shape) in m/s: kmh / 3.6."""
+    return kmh / 3.6
 
 
 @dataclass(frozen=True)
@@ -72,13 +77,13 @@ class Vehicle:
             k = {**{key: vehicle.get(key) for key in ("m_base", "J0", "wheelbase", "c_Sf", "c_Sr")}, "C": tyre.get("C"), "E": tyre.get("E")}
         kmh = vehicle.get("speed_kmh")
         return cls(m_base=k["m_base"], J0=k["J0"], wheelbase=k["wheelbase"], c_Sf=k["c_Sf"], c_Sr=k["c_Sr"], M_c=vehicle.get("M_c"),
-                   g=vehicle.get("g"), C=k["C"], E=k["E"], speed_kmh=kmh, v_c=None if kmh is None else kmh / 3.6,
+                   g=vehicle.get("g"), C=k["C"], E=k["E"], speed_kmh=kmh, v_c=None if kmh is None else metres_per_second(kmh),
                    **{q: vehicle.get(q) for q in OPTIONAL_QUANTITIES})
 
     def at_speed(self, v: float) -> "Vehicle":
         """The same car at the constant speed ``v`` (m/s), taken through km/h as a config's speed is."""
         kmh = v * 3.6
-        return replace(self, speed_kmh=kmh, v_c=kmh / 3.6)
+        return replace(self, speed_kmh=kmh, v_c=metres_per_second(kmh))
 
     def require(self, key: str, purpose: str) -> float:
         """The optional quantity ``key`` (:data:`uqdrive.vehicle_spec.OPTIONAL_QUANTITIES`), or a

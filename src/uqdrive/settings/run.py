@@ -9,6 +9,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .car import metres_per_second
+
 __all__ = ["TimeGrid", "SpeedRamp", "Wind", "Steering", "Spin", "Identify", "Discover", "Control", "WheelSlipCar"]
 
 
@@ -53,7 +55,7 @@ class SpeedRamp:
     def on(self, t) -> np.ndarray:
         """v(t) (m/s) at the times ``t`` (s), same shape: constant before and after the change."""
         s = np.clip((np.asarray(t, float) - self.t_start) / self.duration, 0.0, 1.0)
-        return (self.start_kmh + (self.end_kmh - self.start_kmh) * s) / 3.6
+        return metres_per_second(self.start_kmh + (self.end_kmh - self.start_kmh) * s)
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_te
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
-from .uncertainty import Germs, kle_nystrom
+from .uncertainty import Germs, kle_of_wind
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
@@ -83,7 +83,7 @@ class AugmentedSimulator:
         self.car = settings.vehicle
         self.load = settings.uncertainty.m_load
         w = settings.wind
-        self.kle = kle_nystrom(0.0, horizon, w.Tc, w.kle_quadrature, w.kle_truncation)
+        self.kle = kle_of_wind(w, horizon)
         if germs.kle.shape[1] < self.kle.n_modes:
             raise ValueError(f"germs hold {germs.kle.shape[1]} KLE modes; the wind needs {self.kle.n_modes}")
         self.f = self.kle.eigenfunctions(self.time)  # (n_c, T)
@@ -98,8 +98,7 @@ class AugmentedSimulator:
               matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None) -> "AugmentedSimulator":
         """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
         moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
-        w = settings.wind
-        n_modes = kle_nystrom(0.0, float(np.asarray(time)[-1]), w.Tc, w.kle_quadrature, w.kle_truncation).n_modes
+        n_modes = kle_of_wind(settings.wind, float(np.asarray(time)[-1])).n_modes
         return cls(settings, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
 
     def with_germs(self, germs: Germs) -> "AugmentedSimulator":

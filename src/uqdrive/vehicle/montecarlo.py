@@ -11,7 +11,7 @@ import xarray as xr
 
 from .._version import __version__
 from ..settings import Settings, TimeGrid
-from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
+from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
 from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
@@ -38,8 +38,7 @@ STEERS = {"normal": 1.0, "inverted": -1.0}
 def wind_kle(settings: Settings) -> KarhunenLoeve:
     """KLE (5.16)-(5.22) of the unit side-wind process over the settings' horizon [0, t_end] (s)
     with their wind's quadrature and truncation."""
-    w = settings.wind
-    return kle_nystrom(0.0, settings.time.t_end, w.Tc, w.kle_quadrature, w.kle_truncation)
+    return kle_of_wind(settings.wind, settings.time.t_end)
 
 
 def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..settings import PARAMETER_NAMES, Uncertainty
+from ..settings import PARAMETER_NAMES, Uncertainty, Wind
 
 __all__ = [
     "PARAMETER_NAMES",
@@ -18,6 +18,7 @@ __all__ = [
     "squared_exponential_covariance",
     "KarhunenLoeve",
     "kle_nystrom",
+    "kle_of_wind",
     "Germs",
 ]
 
@@ -188,6 +189,12 @@ def kle_nystrom(t_start: float, t_end: float, Tc: float, n_quadrature: int, trun
     # Fix the sign so results do not depend on the LAPACK build: f_n(t_start-side node) >= 0.
     functions *= np.where(functions[:, :1] < 0, -1.0, 1.0)
     return KarhunenLoeve(nodes, weights, lam[:n_keep].copy(), functions, lam, float(Tc))
+
+
+def kle_of_wind(wind: Wind, t_end: float) -> KarhunenLoeve:
+    """The KLE (5.16)-(5.22) of the unit side wind over [0, ``t_end``] (s) with the settings
+    ``wind`` (Tc, Gauss-Legendre points, truncation)."""
+    return kle_nystrom(0.0, t_end, wind.Tc, wind.kle_quadrature, wind.kle_truncation)
 
 
 @dataclass(frozen=True)
