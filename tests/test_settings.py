@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from uqdrive.config import ConfigError, config_hash, restrict_config, validate_config
-from uqdrive.settings import ENSEMBLE_SETTINGS, ParameterLayout, Settings, TimeGrid, ensemble_hash
+from uqdrive.settings import ENSEMBLE_SETTINGS, Normal, ParameterLayout, Settings, TimeGrid, Uniform, ensemble_hash
 
 
 def test_the_car_and_its_speed_are_the_configs(config):
@@ -87,3 +87,11 @@ def test_a_workflow_rules_restricted_config_gives_the_parts_it_holds(config):
     assert observability_analysis(part).singular_values.tolist() == whole.singular_values.tolist()
     with pytest.raises(KeyError, match="lacks a key an ensemble reads"):
         part.ensemble_hash(10, 1)
+
+
+@pytest.mark.parametrize("make", [lambda: Normal(1.0, -0.2), lambda: Normal(1.0, float("nan")), lambda: Uniform(400.0, -400.0),
+                                  lambda: TimeGrid(10.0, 0.0, 0.005), lambda: TimeGrid(-1.0, 0.01, 0.005)])
+def test_settings_refuse_what_no_config_means(make):
+    with pytest.raises(ConfigError):
+        make()
+    assert Normal(1.0, 0.0).known == 1.0 and Uniform(5.0, 5.0).known == 5.0 and TimeGrid(1.0, 0.01, 0.005).substeps == 2

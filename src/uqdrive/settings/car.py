@@ -103,6 +103,10 @@ class Normal:
     mean: float
     std: float
 
+    def __post_init__(self):
+        if self.std is not None and not self.std >= 0:
+            raise ConfigError(f"a standard deviation of {self.std} is not a spread: give a std >= 0 (0: the quantity is known)")
+
     @property
     def known(self) -> float | None:
         """Its value when known, else None."""
@@ -125,6 +129,10 @@ class Uniform:
 
     low: float
     high: float
+
+    def __post_init__(self):
+        if self.low is not None and self.high is not None and not self.low <= self.high:
+            raise ConfigError(f"the interval [{self.low}, {self.high}] is reversed: give low <= high (equal: the quantity is known)")
 
     @property
     def known(self) -> float | None:

@@ -9,6 +9,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..config import ConfigError
 from .car import metres_per_second
 
 __all__ = ["TimeGrid", "SpeedRamp", "Wind", "Steering", "Spin", "Identify", "Discover", "Control", "WheelSlipCar"]
@@ -21,6 +22,12 @@ class TimeGrid:
     t_end: float
     dt: float
     step: float
+
+    def __post_init__(self):
+        for name in ("t_end", "dt", "step"):
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ConfigError(f"time grid: {name} = {value} s must be positive")
 
     @property
     def n_out(self) -> int:
