@@ -118,6 +118,8 @@ class BoxPrior:
     def from_settings(cls, settings: Settings) -> "BoxPrior":
         """The box of the settings' ``bayes_prior`` (low, high per parameter, in ``theta_names`` order)."""
         b = settings.bayes_prior
+        if not b:
+            raise KeyError("the config lacks bayes.prior (low, high of each distribution parameter)")
         return cls(np.array([lo for lo, _ in b], float), np.array([hi for _, hi in b], float))
 
     def __call__(self, theta) -> float:
