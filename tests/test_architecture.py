@@ -138,15 +138,16 @@ BELOW_THE_EDGES = ("numerics", "vehicle", "inference", "control", "wheelslip")
 
 
 def _config_readers(source: str) -> list[str]:
-    """Functions of ``source`` with a parameter named config or cfg, and reads or writes of ``self.config``."""
+    """Functions of ``source`` with a parameter named config or cfg, and reads or writes of a
+    ``config`` attribute (``self.config``, ``finder.config``)."""
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
             a = node.args
             if any(x.arg in ("config", "cfg") for x in a.posonlyargs + a.args + a.kwonlyargs):
                 found.append(f"line {node.lineno}: {getattr(node, 'name', 'lambda')} takes the config")
-        elif isinstance(node, ast.Attribute) and node.attr == "config" and isinstance(node.value, ast.Name) and node.value.id == "self":
-            found.append(f"line {node.lineno}: self.config")
+        elif isinstance(node, ast.Attribute) and node.attr == "config":
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
     return found
 
 
@@ -157,6 +158,7 @@ def test_nothing_below_the_edges_takes_the_config_mapping():
 
 
 def test_the_config_reader_check_can_fail():
-    planted = "def f(x, *, cfg=None):\n    pass\nclass A:\n    def g(self, config):\n        self.config = config\n    h = lambda config: 0\n"
-    assert len(_config_readers(planted)) == 4
+    planted = ("def f(x, *, cfg=None):\n    pass\nclass A:\n    def g(self, config):\n        self.config = config\n    h = lambda config: 0\n"
+               "def k(finder):\n    return finder.config['seed']\n")
+    assert len(_config_readers(planted)) == 5
     assert _config_readers("def f(settings):\n    self.settings = settings\n") == []
