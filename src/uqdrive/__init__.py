@@ -14,6 +14,7 @@ if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .inference.identify import DistributionEstimator  # noqa: F401
     from .io import read_ensemble  # noqa: F401
     from .recordings.importer import import_runs  # noqa: F401
+    from .settings import Settings  # noqa: F401
     from .vehicle.chaos import LSTChaosModel  # noqa: F401
     from .vehicle.montecarlo import simulate_ensemble  # noqa: F401
     from .vehicle.statistics import ensemble_statistics  # noqa: F401
@@ -23,6 +24,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "DistributionEstimator": ".inference.identify",
     "read_ensemble": ".io",
     "import_runs": ".recordings.importer",
+    "Settings": ".settings",
     "LSTChaosModel": ".vehicle.chaos",
     "simulate_ensemble": ".vehicle.montecarlo",
     "ensemble_statistics": ".vehicle.statistics",
@@ -31,6 +33,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
 __all__ = [
     "DistributionEstimator",
     "LSTChaosModel",
+    "Settings",
     "__version__",
     "ensemble_statistics",
     "import_runs",

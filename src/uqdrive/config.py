@@ -38,7 +38,7 @@ _MAX = 2**63 - 1  # largest seed netCDF attributes and numpy seed sequences shar
 #: Physical range of each value the models read: key -> (low, high, low inclusive, high
 #: inclusive, unit). Wider than any vehicle, so that only unit slips and typos land outside.
 #: A std of 0 (and a mean wind with low == high) declares the quantity known
-#: (:func:`uqdrive.vehicle.uncertainty.known_quantities`).
+#: (:meth:`uqdrive.settings.Uncertainty.known`).
 PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
     "seed": (0, _MAX, True, True, ""),
     "vehicle.m_base": (0.0, 1e5, False, True, "kg"),

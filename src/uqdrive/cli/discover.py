@@ -17,7 +17,7 @@ from ..inference.discrepancy import DiscrepancyFinder
 from ..io import MIN_RUNS, DataError, check_run_count, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
-from ..vehicle.uncertainty import known_quantities
+from ..settings import Settings
 
 __all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "baseline_warnings", "write_outputs"]
 
@@ -79,14 +79,14 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed; a profile's mean stands for it
         ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0]) if profile is None else float(np.mean(profile))
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
-    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
-        config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
-    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
-    if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
+    # the data's speed wins, as in identify (the CLI says so)
+    settings = Settings.from_config(config, speed=v_c if abs(v_c * 3.6 - kmh) > 1e-9 * kmh else None)
+    finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
+    if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > settings.spin.threshold, axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
-    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
-                   fixed=known_quantities(config))
+    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder),
+                   fixed=settings.uncertainty.known())
     write_outputs(finder, verdict, out)
     return verdict
 
@@ -99,18 +99,18 @@ def _start_model(path: Path) -> dict:
     return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
 
 
-def baseline_warnings(finder: DiscrepancyFinder, config: Mapping[str, Any]) -> list[str]:
+def baseline_warnings(finder: DiscrepancyFinder) -> list[str]:
     """Warnings of the baseline fit, in the words of ``uqdrive identify``: the optimiser did not
     converge, or a distribution parameter (a std at zero excepted) sits at a bound of its search
     box. (Whether the baseline fits the data at all is the verdict's question.)"""
-    from ..inference.discrepancy.fit import THETA_BOUNDS, known_theta
+    from ..inference.discrepancy.fit import THETA_BOUNDS
     from ..vehicle.augmented import THETA_NAMES
     from .identify import fit_warnings
 
     base = finder.baseline_
-    u = config["uncertainty"]
-    theta0 = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], u["F_w_mean"]["low"], u["F_w_mean"]["high"]]
-    free = [i for i in range(len(THETA_NAMES)) if i not in known_theta(config)]
+    layout = finder.settings.layout
+    theta0 = list(layout.start)
+    free = [i for i in range(len(THETA_NAMES)) if i not in layout.known]
     pick = lambda seq: [seq[i] for i in free]  # noqa: E731
     out = fit_warnings(pick(base.theta_), pick(theta0), pick(THETA_BOUNDS), pick(THETA_NAMES), bool(base.success_), base.message_)
     return [f"baseline fit: {w}" for w in out]

@@ -21,6 +21,7 @@ from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load
 from ..io import DataError, OutputError, atomic_path, check_writable
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
+from ..settings import Settings
 
 __all__ = ["main", "build_parser", "Interrupted"]
 
@@ -100,7 +101,7 @@ def _simulate(args) -> None:
         samples = int(config["montecarlo"]["samples"] if args.samples is None else args.samples)
         ds = simulate_model(config, Path(args.model), args.steer, samples, int(config["seed"] if args.seed is None else args.seed))
     else:
-        ds = simulate_ensemble(config, args.model, args.steer, samples=args.samples, seed=args.seed)
+        ds = simulate_ensemble(Settings.from_config(config), args.model, args.steer, samples=args.samples, seed=args.seed)
     bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]
     if bad:
         raise ConfigError(f"the simulation diverged ('{bad[0]}' not finite) with this config: vehicle.* and uncertainty.* "

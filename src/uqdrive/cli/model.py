@@ -24,6 +24,7 @@ from ..vehicle.effects import ModelStructure, structure_from_effects
 from ..vehicle.montecarlo import STEERS, spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, steering_input
+from ..settings import Settings
 
 __all__ = ["is_model_file", "load_model", "simulate_model", "identify_with_model"]
 
@@ -64,7 +65,7 @@ def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: i
     st = config["steering"]
     delta = steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
     v_c = config["vehicle"]["speed_kmh"] / 3.6
-    sim = AugmentedSimulator.drawn(cfg, t, delta, v_c, samples, rng_stream(seed, "parameters"))
+    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta, v_c, samples, rng_stream(seed, "parameters"))
     x = sim.simulate(_theta(dist), structure)
     spun = spin_mask(x[2], config["montecarlo"]["spin_threshold"])
     data = {s: (("sample", "time"), x[i], {"units": STATE_UNITS[s], "long_name": STATE_NAMES[s]}) for i, s in enumerate(STATES)}
@@ -108,7 +109,7 @@ def identify_with_model(config: Mapping[str, Any], measured: Path, path: Path, o
     t = ds["time"].values
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(4)])
     stride = max(1, int(np.ceil((t.size - 1) / 150)))
-    sim = AugmentedSimulator.drawn(config, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
                                    interpolation=str(ds["delta"].attrs.get("interpolation", "linear")))
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])
