@@ -192,6 +192,8 @@ BAD_CARS = {
     "track_width_tiny": (dict(track_width=0.01), ["key 'track_width' = 0.01 m is not a car's"]),
     "inertia_for_its_mass": (dict(mass=300.0, yaw_inertia=9e5), ["yaw_inertia / mass", "J0 = 3000 m^2", "their units"]),
     "no_source": (dict(source=None), ["key 'source' is missing", "where the numbers come from"]),
+    "stiffness_scalar": (dict(cornering_stiffness=160000.0), ["key 'cornering_stiffness'", "write it as a mapping {front: ..., rear: ...}"]),
+    "stiffness_no_rear": (dict(cornering_stiffness={"front": 160000.0}), ["key 'cornering_stiffness.rear' is missing; add rear (N/rad)"]),
 }
 
 

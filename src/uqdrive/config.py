@@ -119,7 +119,8 @@ _FIXES = {
     "exclusiveMinimum": lambda e: f"give a value > {e.validator_value}",
     "maximum": lambda e: f"give a value <= {e.validator_value}",
     "exclusiveMaximum": lambda e: f"give a value < {e.validator_value}",
-    "type": lambda e: f"give a value of type {e.validator_value}",
+    "type": lambda e: (f"write it as a mapping {{{', '.join(f'{k}: ...' for k in e.schema['properties'])}}}"
+                       if e.validator_value == "object" and e.schema.get("properties") else f"give a value of type {e.validator_value}"),
     "enum": lambda e: "choose one of " + ", ".join(map(str, e.validator_value)),
     "minItems": lambda e: f"give at least {e.validator_value} item(s)",
     "maxItems": lambda e: f"give at most {e.validator_value} item(s)",
@@ -146,7 +147,9 @@ def _schema_error(error, where: str = "config key '{}'") -> ConfigError:
     if error.validator == "required":
         missing = [k for k in error.validator_value if isinstance(error.instance, Mapping) and k not in error.instance][:1]
         if where.startswith("vehicle file") and missing:
-            return ConfigError(f"{name(path + missing)} is missing; add {FILE_KEY_HINTS.get(missing[0], missing[0])}")
+            unit = _unit("vehicle." + _key(path)) if path else ""
+            hint = FILE_KEY_HINTS.get(missing[0], f"{missing[0]}" + (f" ({unit})" if unit and unit != "-" else ""))
+            return ConfigError(f"{name(path + missing)} is missing; add {hint}")
         return ConfigError(f"{name(path + missing)} is missing; add it (the default: uqdrive config --dump -)")
     fix = _FIXES.get(error.validator)
     unit = _unit(_key(path) if where.startswith("config") else "vehicle." + _key(path))
