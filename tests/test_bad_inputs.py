@@ -71,6 +71,7 @@ BAD_MODELS = {
     "unknown_parameter": (_model(lambda d: d["effects"]["actuator_lag"].update(tau=0.1)), "has no parameter 'tau'"),
     "l_f_beyond_wheelbase": (_model(lambda d: d["distributions"]["l_f"].update(mean=3.5)), "beyond the wheelbase"),
     "low_above_high": (_model(lambda d: d["distributions"]["F_w_mean"].update(low=500.0)), "swap them"),
+    "extra_field": (_model(lambda d: d["distributions"]["mu"].update(skew=1.0)), "write mu: {mean: <number>, std: <number>}"),
     "duplicate_key": (lambda: yaml.safe_dump(MODEL).replace("baseline: lst\n", "baseline: lst\nbaseline: lst\n"),
                       "key 'baseline' is given twice"),
 }
@@ -191,6 +192,7 @@ BAD_CARS = {
     "cg_height_mm": (dict(cg_height=550.0), ["key 'cg_height' = 550 m", "mm?"]),
     "track_width_tiny": (dict(track_width=0.01), ["key 'track_width' = 0.01 m is not a car's"]),
     "inertia_for_its_mass": (dict(mass=300.0, yaw_inertia=9e5), ["yaw_inertia / mass", "J0 = 3000 m^2", "their units"]),
+    "mass_with_comma": (dict(mass="1,573"), ["key 'mass' (kg): '1,573'", "write a plain number"]),
     "no_source": (dict(source=None), ["key 'source' is missing", "where the numbers come from"]),
     "stiffness_scalar": (dict(cornering_stiffness=160000.0), ["key 'cornering_stiffness'", "write it as a mapping {front: ..., rear: ...}"]),
     "stiffness_no_rear": (dict(cornering_stiffness={"front": 160000.0}), ["key 'cornering_stiffness.rear' is missing; add rear (N/rad)"]),

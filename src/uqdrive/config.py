@@ -120,7 +120,9 @@ _FIXES = {
     "maximum": lambda e: f"give a value <= {e.validator_value}",
     "exclusiveMaximum": lambda e: f"give a value < {e.validator_value}",
     "type": lambda e: (f"write it as a mapping {{{', '.join(f'{k}: ...' for k in e.schema['properties'])}}}"
-                       if e.validator_value == "object" and e.schema.get("properties") else f"give a value of type {e.validator_value}"),
+                       if e.validator_value == "object" and e.schema.get("properties") else
+                       f"write a plain {e.validator_value} (digits and a decimal point, no unit or separators)"
+                       if e.validator_value in ("number", "integer") else f"give a value of type {e.validator_value}"),
     "enum": lambda e: "choose one of " + ", ".join(map(str, e.validator_value)),
     "minItems": lambda e: f"give at least {e.validator_value} item(s)",
     "maxItems": lambda e: f"give at most {e.validator_value} item(s)",

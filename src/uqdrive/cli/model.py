@@ -71,7 +71,7 @@ def check_effects(effects, where: str) -> dict:
         if name not in EFFECTS:
             raise DataError(f"{where}: effect '{name}' is unknown; known effects: {', '.join(sorted(EFFECTS))}")
         e = EFFECTS[name]
-        form = "{" + ", ".join(f"{p}: <{u}>" for p, u in zip(e.parameters, e.units)) + "}"
+        form = "{" + ", ".join(f"{p}: <{'number' if u == '-' else u}>" for p, u in zip(e.parameters, e.units)) + "}"
         if not isinstance(params, Mapping):
             raise DataError(f"{where}: effect '{name}' is {params!r}, not its parameters; write {name}: {form}")
         unknown = [p for p in params if p not in e.parameters]
@@ -106,7 +106,7 @@ def check_distributions(dist, where: str, wheelbase: float | None = None) -> dic
                 continue
             raise DataError(f"{where}: distribution '{name}' is missing; give all of mu, l_f and F_w_mean ({form})")
         d = dist[name]
-        want = "{" + ", ".join(f"{f}: <{r[-1]}>" for f, r in fields.items()) + "}"
+        want = "{" + ", ".join(f"{f}: <{'number' if r[-1] == '-' else r[-1]}>" for f, r in fields.items()) + "}"
         if not isinstance(d, Mapping) or set(d) != set(fields):
             raise DataError(f"{where}: distribution '{name}' is {d!r}; write {name}: {want}")
         for f, (lo, hi, lo_in, hi_in, unit) in fields.items():
