@@ -72,6 +72,7 @@ BAD_MODELS = {
     "l_f_beyond_wheelbase": (_model(lambda d: d["distributions"]["l_f"].update(mean=3.5)), "beyond the wheelbase"),
     "low_above_high": (_model(lambda d: d["distributions"]["F_w_mean"].update(low=500.0)), "swap them"),
     "extra_field": (_model(lambda d: d["distributions"]["mu"].update(skew=1.0)), "write mu: {mean: <number>, std: <number>}"),
+    "newer_version": (_model(lambda d: d.update(uqdrive_model=2)), "uqdrive_model = 2"),
     "duplicate_key": (lambda: yaml.safe_dump(MODEL).replace("baseline: lst\n", "baseline: lst\nbaseline: lst\n"),
                       "key 'baseline' is given twice"),
 }
@@ -185,7 +186,7 @@ def _car(tmp_path, text=None, **changes):
 
 
 BAD_CARS = {
-    "tonnes": (dict(mass=1.573, yaw_inertia=2.873), ["key 'mass' = 1.573 kg is not a car's", "tonnes?", "1573 kg"]),
+    "tonnes": (dict(mass=1.573, yaw_inertia=2.873), ["key 'mass' = 1.573 kg is not a car's (cars: 100 to 60000 kg)", "tonnes?", "1573 kg"]),
     "inertia_t_m2": (dict(yaw_inertia=2.873), ["key 'yaw_inertia' = 2.873 kg m^2", "t m^2?"]),
     "stiffness_kN": (dict(cornering_stiffness={"front": 160.0, "rear": 160.0}), ["cornering_stiffness.front' = 160 N/rad", "kN/rad?"]),
     "wheelbase_mm": (dict(wheelbase=2680.0), ["key 'wheelbase' = 2680 m", "mm?"]),

@@ -88,7 +88,7 @@ _RANGES = {
 #: truck): key -> (low, high, unit, the likely slip below, the likely slip above); a value outside
 #: is refused with the slip that would explain it (a mass in tonnes, a stiffness in kN/rad).
 PLAUSIBLE = {
-    "mass": (300.0, 6e4, "kg", ("tonnes", 1e3), ("g", 1e-3)),
+    "mass": (100.0, 6e4, "kg", ("tonnes", 1e3), None),
     "yaw_inertia": (50.0, 1e6, "kg m^2", ("t m^2", 1e3), ("g m^2", 1e-3)),
     "wheelbase": (1.0, 12.0, "m", None, ("mm", 1e-3)),
     "cg_to_front_axle": (0.1, 10.0, "m", None, ("mm", 1e-3)),

@@ -141,6 +141,9 @@ def load_model(path: str | Path, config: Mapping[str, Any] | None = None) -> tup
     if not isinstance(doc, dict) or doc.get("baseline") != "lst" or "distributions" not in doc:
         raise DataError(f"'{path}' is not a uqdrive model file (needs baseline: lst, effects, distributions); write one with `uqdrive discover`")
     where = f"model file '{path}'"
+    if doc.get("uqdrive_model", 1) != 1:
+        raise DataError(f"{where}: uqdrive_model = {doc['uqdrive_model']!r}; this uqdrive reads version 1: write it again with "
+                        "this version's `uqdrive discover`")
     effects = check_effects(doc.get("effects"), where)
     dist = check_distributions(doc["distributions"], where, None if config is None else float(config["vehicle"]["wheelbase"]))
     return structure_from_effects(effects), dist
