@@ -61,8 +61,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
-    succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
-    replaces the config's ``vehicle.speed_kmh`` where they differ.
+    succeeded, so a failure leaves no verdict behind. The data's speed (``v``, else the attribute
+    ``v_c``: :func:`uqdrive.io.data_speed`) replaces the config's ``vehicle.speed_kmh`` where they differ.
 
     The file may carry any non-empty set of channels (psi, psi_dot, beta, y, a_y) and a speed
     ``v`` that changes over time: the baseline, the null band and every candidate are computed

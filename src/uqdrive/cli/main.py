@@ -45,8 +45,9 @@ def _load(args) -> dict:
 
 
 def _speed_notice(config, measured: Path) -> None:
-    """One line when the data's speed (attribute v_c) replaced the config's vehicle.speed_kmh, once
-    the command succeeded (a refusal stays one line: the reader names what is wrong)."""
+    """One line when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced the
+    config's vehicle.speed_kmh or a v_c beside v was ignored, once the command succeeded (a refusal
+    stays one line: the reader names what is wrong)."""
     from ..io import data_speed
 
     try:
