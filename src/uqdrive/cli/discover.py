@@ -14,7 +14,7 @@ import numpy as np
 import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
-from ..io import MIN_RUNS, DataError, check_run_count, read_ensemble, speed_profile
+from ..io import MIN_RUNS, DataError, OutputError, check_run_count, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
 from ..settings import Settings
@@ -61,8 +61,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
-    succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
-    replaces the config's ``vehicle.speed_kmh`` where they differ.
+    succeeded, so a failure leaves no verdict behind. The data's speed (``v``, else the attribute
+    ``v_c``: :func:`uqdrive.io.data_speed`) replaces the config's ``vehicle.speed_kmh`` where they differ.
 
     The file may carry any non-empty set of channels (psi, psi_dot, beta, y, a_y) and a speed
     ``v`` that changes over time: the baseline, the null band and every candidate are computed
@@ -70,7 +70,7 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     candidates the channels cannot test (``lateral_kinematics`` without y).
     """
     names = _checked_candidates(candidates)
-    start = _start_model(model) if model is not None else None
+    start = _start_model(model, config) if model is not None else None
     ds = read_ensemble(measured)
     check_run_count(ds.sizes["sample"], str(measured), "discover")
     if abs(float(ds["time"].values[0])) > 1e-9:
@@ -91,11 +91,11 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     return verdict
 
 
-def _start_model(path: Path) -> dict:
+def _start_model(path: Path, config: Mapping[str, Any]) -> dict:
     """The effects and distributions of a ``model.yaml`` to start from (a DataError otherwise)."""
     from .model import load_model
 
-    structure, dist = load_model(path)
+    structure, dist = load_model(path, config)
     return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
 
 
@@ -133,6 +133,8 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
         save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"],
                                        channels=finder.channels_), tmp / "bands.png")
         save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold, channels=finder.channels_), tmp / "localisation.png")
+        if out.exists() and not out.is_dir():
+            raise OutputError(f"output folder '{out}' became a regular file meanwhile; it is not replaced by a folder: choose another --out")
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
             out.rename(old / out.name)

@@ -18,7 +18,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
-from ..io import DataError, OutputError, atomic_path, check_writable
+from ..io import DataError, OutputError, atomic_path, check_replaced_folder, check_writable
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
 from ..settings import Settings
@@ -47,19 +47,25 @@ def _load(args) -> dict:
 
 
 def _speed_notice(config, measured: Path) -> None:
-    """One line when the data's speed (attribute v_c) replaced the config's vehicle.speed_kmh, once
-    the command succeeded (a refusal stays one line: the reader names what is wrong)."""
+    """One line when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced the
+    config's vehicle.speed_kmh or a v_c beside v was ignored, once the command succeeded (a refusal
+    stays one line: the reader names what is wrong)."""
+    from ..io import data_speed
+
     try:
         import xarray as xr
 
         with xr.open_dataset(measured) as ds:
-            v_c = float(ds.attrs["v_c"])
+            v_c, ignored = data_speed(ds)
+            name = "v" if "v" in ds else "v_c"
     except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
         return
     kmh = float(config["vehicle"]["speed_kmh"])
-    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
-        stderr_line(f"uqdrive: note: the data's speed v_c = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's "
-                    f"vehicle.speed_kmh = {kmh:g} km/h")
+    said = [ignored] if ignored else []
+    if v_c is not None and abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
+        said.insert(0, f"the data's speed {name} = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's vehicle.speed_kmh = {kmh:g} km/h")
+    if said:
+        stderr_line(f"uqdrive: note: {'; '.join(said)}")
 
 
 # -- subcommands --------------------------------------------------------------------------------
@@ -239,12 +245,7 @@ def _discover(args) -> None:
     from .discover import discover_file
 
     config = _load(args)
-    out = Path(args.out)
-    if out.exists() and not args.force:
-        raise OutputError(f"output folder '{out}' exists; pass --force to replace it or choose another --out")
-    existing = next(p for p in out.parents if p.exists())
-    if not existing.is_dir():
-        raise OutputError(f"output folder '{out}' lies below '{existing}', which is not a folder; choose another --out")
+    out = check_replaced_folder(args.out, overwrite=args.force)
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     v = discover_file(config, args.measured, candidates, out, posterior=args.posterior, model=args.model)
     _speed_notice(config, args.measured)

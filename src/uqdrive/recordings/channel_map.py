@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 import yaml
 
+from .._yaml import load_yaml
 from ..config import read_vehicle_file
 from ..io import DataError
 
@@ -194,7 +195,7 @@ def read_channel_map(channels: str | Path | Mapping, vehicle: str | Path | None 
     else:
         source = str(channels)
         try:
-            raw = yaml.safe_load(Path(channels).read_text(encoding="utf-8-sig"))
+            raw = load_yaml(Path(channels).read_text(encoding="utf-8-sig"))
         except OSError as exc:
             raise DataError(f"cannot read channel map '{source}': {exc.strerror or exc}; give the path of MAP.yaml") from None
         except (yaml.YAMLError, UnicodeDecodeError) as exc:
