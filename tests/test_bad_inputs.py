@@ -152,9 +152,9 @@ def test_identify_discover_and_identify_model_use_the_same_speed(tiny, tmp_path,
         seen[name] = speed
         raise _Stop
 
-    monkeypatch.setattr("uqdrive.cli.identify.LSTChaosModel", lambda cfg, *a, **k: catch("identify", cfg["vehicle"]["speed_kmh"] / 3.6))
-    monkeypatch.setattr("uqdrive.cli.discover.DiscrepancyFinder", lambda cfg, **k: catch("discover", cfg["vehicle"]["speed_kmh"] / 3.6))
-    monkeypatch.setattr("uqdrive.cli.model.AugmentedSimulator.drawn", lambda cfg, t, d, v_c, *a, **k: catch("identify --model", v_c))
+    monkeypatch.setattr("uqdrive.cli.identify.LSTChaosModel", lambda settings, *a, **k: catch("identify", settings.vehicle.v_c))
+    monkeypatch.setattr("uqdrive.cli.discover.DiscrepancyFinder", lambda settings, **k: catch("discover", settings.vehicle.v_c))
+    monkeypatch.setattr("uqdrive.cli.model.AugmentedSimulator.drawn", lambda settings, t, d, v_c, *a, **k: catch("identify --model", v_c))
     model = tmp_path / "model.yaml"
     model.write_text(yaml.safe_dump(MODEL))
     for argv in (["identify"], ["discover"], ["identify", "--model", str(model)]):
