@@ -25,6 +25,7 @@ from uqdrive.config import load_config
 from uqdrive.io import write_dataset
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.noise import add_noise
+from uqdrive.settings import Settings
 
 SETS = {
     "all": (("psi", "psi_dot", "beta", "y", "a_y"), False),
@@ -45,7 +46,7 @@ def one(cfg, channels, braking, n, seed, folder):
     data_cfg = copy.deepcopy(cfg)
     if braking:
         data_cfg["montecarlo"]["speed_profile"] = dict(BRAKING)
-    ds = simulate_ensemble(data_cfg, "lst", samples=n, seed=seed)
+    ds = simulate_ensemble(Settings.from_config(data_cfg), "lst", samples=n, seed=seed)
     rng = np.random.default_rng(seed + 1)
     ds = ds.drop_vars([c for c in ("psi", "psi_dot", "beta", "y", "a_y", "spun") if c not in channels])
     for c in channels:

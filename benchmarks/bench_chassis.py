@@ -19,6 +19,7 @@ from timing import best_of
 from uqdrive.config import load_config
 from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+from uqdrive.settings import Settings
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
@@ -55,7 +56,7 @@ def main(argv=None):
     config = load_config(None)
     config["vehicle"].update(cg_height=0.55, track_width=1.6)
     t = np.arange(1001) * 0.01
-    sim = AugmentedSimulator.drawn(config, t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 4.0), 19.4, args.samples,
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 4.0), 19.4, args.samples,
                                    np.random.default_rng(7), stride=2)
     print("| structure | pairs | one simulate per pair (s) | simulate_many (s) | ratio | same numbers |")
     print("|---|---|---|---|---|---|")

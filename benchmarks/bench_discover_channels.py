@@ -27,6 +27,7 @@ from collections import defaultdict
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
 from uqdrive.studies.hidden_effects import benchmark_cases, generate
+from uqdrive.settings import Settings
 
 SETS = {
     "all": (("psi", "psi_dot", "beta", "y", "a_y"), False),
@@ -46,7 +47,7 @@ def run(config, case, set_name, n, seed_offset=0):
     case = dataclasses.replace(case, samples=n, seed=case.seed + 1000 * seed_offset, speed=BRAKING if braking else {})
     ds = generate(config, case, channels=channels)
     t0 = time.perf_counter()
-    finder = DiscrepancyFinder(config).fit(ds)
+    finder = DiscrepancyFinder(Settings.from_config(config)).fit(ds)
     v = finder.verdict_
     return {"case": case.name, "set": set_name, "runs": n, "seed": case.seed, "effect": v["effect"],
             "effects": [e["effect"] for e in v["effects"]], "parameters": v["parameters"], "gap_before": v["gap_before"],

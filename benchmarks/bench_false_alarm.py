@@ -27,6 +27,7 @@ from pathlib import Path
 
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy.finder import DiscrepancyFinder
+from uqdrive.settings import Settings
 from uqdrive.io import atomic_path
 from uqdrive.studies.discrepancy import clopper_pearson, false_alarm_row
 from uqdrive.studies.hidden_effects import benchmark_cases, generate
@@ -64,7 +65,7 @@ def main(argv=None):
         case = replace(template, seed=seed)
         t0 = time.perf_counter()
         ds = generate(config, case)
-        finder = DiscrepancyFinder(config, seed=seed, posterior=False).fit(ds)
+        finder = DiscrepancyFinder(Settings.from_config(config), seed=seed, posterior=False).fit(ds)
         v = finder.verdict_
         named = [e["effect"] for e in v["effects"]]
         rows.append({"replicate": i, "template": template.name, "seed": seed, "samples": case.samples, "hold": case.hold,

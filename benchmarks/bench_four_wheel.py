@@ -27,6 +27,7 @@ from uqdrive.config import load_config
 from uqdrive.io import write_dataset
 from uqdrive.studies.four_wheel import amplitude_for, case_label, four_wheel_cases, generate, steady_limit
 from uqdrive.vehicle.four_wheel import FourWheelCar
+from uqdrive.settings import Settings
 
 CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m, a 1.8 t saloon's (the four-wheel car's defaults)
 CANDIDATES = ("tyre_saturation,actuator_lag,actuator_delay,road_bank,wind_gust,lateral_kinematics,sensor_bias,sensor_scale,"
@@ -105,7 +106,7 @@ def main(argv=None):
     if args.quick:
         config["discrepancy"].update(QUICK)
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-    car = FourWheelCar.from_config(config)
+    car = FourWheelCar.from_vehicle(Settings.from_config(config).vehicle)
     limit = steady_limit(config, car)
     cases = four_wheel_cases(config, samples=args.samples)
     if args.cases:

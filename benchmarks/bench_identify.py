@@ -19,6 +19,7 @@ from uqdrive.inference.identify import DistributionEstimator, initial_guess
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.statistics import ensemble_statistics
+from uqdrive.settings import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -28,10 +29,10 @@ def main() -> None:
     parser.add_argument("--config", default=REPO / "config" / "config.yaml")
     args = parser.parse_args()
     config = load_config(args.config)
-    stats = ensemble_statistics(simulate_ensemble(config, "lst"), "keep")
+    stats = ensemble_statistics(simulate_ensemble(Settings.from_config(config), "lst"), "keep")
     mean, std = stats["mean"].values, stats["std"].values
-    model = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
-    truth = model.theta_from_config(config, model.uncertain)
+    model = LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
+    truth = Settings.from_config(config).uncertainty.theta(model.uncertain)
     theta0 = initial_guess(truth, 0.1, 0.25, np.random.default_rng(3))
 
     print("LST-LST identification, STD cost, 6 parameters, start 10-25 % off; times: best of 3 runs")

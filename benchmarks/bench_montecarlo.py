@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from uqdrive.config import load_config
-from uqdrive.vehicle.montecarlo import kle_from_config, simulate_ensemble
+from uqdrive.vehicle.montecarlo import simulate_ensemble, wind_kle
 from uqdrive.vehicle.reference import solve_realisations
 from uqdrive.vehicle.single_track import STATES
+from uqdrive.settings import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -30,14 +31,14 @@ def bench(model: str, config, kle, subset: int, targets: dict) -> dict:
     times = []
     for _ in range(3):  # best of three, as timeit does: the first run also pays for page faults
         t0 = time.perf_counter()
-        ds = simulate_ensemble(config, model, kle=kle)
+        ds = simulate_ensemble(Settings.from_config(config), model, kle=kle)
         times.append(time.perf_counter() - t0)
     t_ours = min(times)
     idx = np.linspace(0, n - 1, subset).astype(int)
     t0 = time.perf_counter()
-    baseline = solve_realisations(config, ds, kle, idx)  # RK45, rtol 1e-3, atol 1e-6
+    baseline = solve_realisations(Settings.from_config(config), ds, kle, idx)  # RK45, rtol 1e-3, atol 1e-6
     t_base = (time.perf_counter() - t0) * n / subset
-    ref = solve_realisations(config, ds, kle, idx, "DOP853", 1e-10, 1e-12)
+    ref = solve_realisations(Settings.from_config(config), ds, kle, idx, "DOP853", 1e-10, 1e-12)
     ours = np.stack([ds[s].values[idx] for s in STATES], axis=-1)
     return {
         "model": model.upper(),
@@ -53,7 +54,7 @@ def bench(model: str, config, kle, subset: int, targets: dict) -> dict:
 def peak_memory(config, kle) -> float:
     """Peak traced Python/NumPy allocation (MiB) of one NLST ensemble synthesis."""
     tracemalloc.start()
-    simulate_ensemble(config, "nlst", kle=kle)
+    simulate_ensemble(Settings.from_config(config), "nlst", kle=kle)
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     return peak / 2**20
@@ -65,7 +66,7 @@ def main() -> None:
     parser.add_argument("--subset", type=int, default=20, help="realisations timed with solve_ivp")
     args = parser.parse_args()
     config = load_config(args.config)
-    kle = kle_from_config(config)
+    kle = wind_kle(Settings.from_config(config))
     rows = [bench(m, config, kle, args.subset, {"lst": 1000, "nlst": 50}) for m in ("lst", "nlst")]
     n = config["montecarlo"]["samples"]
     print(f"{n}-run ensembles, 0-{config['time']['t_end']} s, step {config['time']['step']} s; baseline = solve_ivp RK45 "

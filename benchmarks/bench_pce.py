@@ -14,9 +14,10 @@ import numpy as np
 from timing import best_of
 
 from uqdrive.config import load_config
-from uqdrive.vehicle.montecarlo import kle_from_config, monte_carlo_moments, simulate_ensemble
+from uqdrive.vehicle.montecarlo import monte_carlo_moments, simulate_ensemble, wind_kle
 from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.statistics import ensemble_statistics
+from uqdrive.settings import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -32,13 +33,13 @@ def main() -> None:
     parser.add_argument("--reference", type=int, default=100_000)
     args = parser.parse_args()
     config = load_config(args.config)
-    kle = kle_from_config(config)
-    ref_mean, ref_std, n_ref = monte_carlo_moments(config, "lst", args.reference, 10_000, seed=config["seed"] + 1)
+    kle = wind_kle(Settings.from_config(config))
+    ref_mean, ref_std, n_ref = monte_carlo_moments(Settings.from_config(config), "lst", args.reference, 10_000, seed=config["seed"] + 1)
 
-    t_setup, model = best_of(lambda: LSTChaosModel(config), 3)
-    theta = model.theta_from_config(config, model.uncertain)
+    t_setup, model = best_of(lambda: LSTChaosModel(Settings.from_config(config)), 3)
+    theta = Settings.from_config(config).uncertainty.theta(model.uncertain)
     t_pce, r = best_of(lambda: model.moments(theta), 20)
-    t_mc, stats = best_of(lambda: ensemble_statistics(simulate_ensemble(config, "lst", kle=kle), "keep"), 3)
+    t_mc, stats = best_of(lambda: ensemble_statistics(simulate_ensemble(Settings.from_config(config), "lst", kle=kle), "keep"), 3)
     e_pce = error(r.mean, r.std, ref_mean, ref_std)
     e_mc = error(stats["mean"].values, stats["std"].values, ref_mean, ref_std)
     n = config["montecarlo"]["samples"]
@@ -55,7 +56,7 @@ def main() -> None:
     # N_PCE = 3 is ~10x more accurate than N_PCE = 2 (vs N_PCE = 4: std error 0.0012 vs 0.011);
     # against the 10^5-run reference its error is mostly the reference's own sampling error, so
     # the equal-error ratio printed for it is a lower bound.
-    fine = LSTChaosModel(config, order=3, quadrature_points=5)
+    fine = LSTChaosModel(Settings.from_config(config), order=3, quadrature_points=5)
     t_fine, r3 = best_of(lambda: fine.moments(theta), 5)
     e_fine = error(r3.mean, r3.std, ref_mean, ref_std)
     print(f"{'PCE N_PCE=3, 5 pts (moments)':34} {1e3 * t_fine:10.1f} {e_fine[0]:9.4f} {e_fine[1]:9.4f}"
@@ -63,8 +64,8 @@ def main() -> None:
     print(f"speed-up vs per-realisation solve_ivp MC "
           f"(~42 s for {n} runs, see bench_montecarlo.py): {42.0 / t_pce:.0f}x")
 
-    ident = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
-    th = ident.theta_from_config(config, ident.uncertain)
+    ident = LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
+    th = Settings.from_config(config).uncertainty.theta(ident.uncertain)
     t_plain, _ = best_of(lambda: ident.moments(th), 10)
     t_grad, _ = best_of(lambda: ident.moments(th, gradient=True), 10)
     print(f"identification model (3 germs, N_PCE=2, {ident.time.size} times): moments {1e3 * t_plain:.1f} ms, "

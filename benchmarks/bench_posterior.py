@@ -21,6 +21,7 @@ from uqdrive.inference.bayes import log_posterior, log_posteriors, sample_ensemb
 from uqdrive.numerics.threads import single_blas_thread
 from uqdrive.studies.bayes import _models, _setup_case, prepare_data
 from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.settings import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -45,7 +46,7 @@ def main() -> None:
     args = parser.parse_args()
     config = load_config(args.config)
     b = config["bayes"]
-    x, _ = prepare_data(config, simulate_ensemble(config, "lst"))
+    x, _ = prepare_data(config, simulate_ensemble(Settings.from_config(config), "lst"))
     models = _models(config)
     case = _setup_case(config, x, None, np.random.default_rng(0), None, models)
     like, prior, index = case["target"]

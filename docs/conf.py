@@ -23,8 +23,12 @@ import uqdrive  # noqa: E402
 
 sys.path.insert(0, str(HERE))
 import equations  # noqa: E402
+import import_example  # noqa: E402
 
 equations.write_index(HERE.parent / "src" / "uqdrive", HERE / "api" / "generated" / "equations.md")
+# The import guide's worked example runs here: its logs, the import and the identification, so
+# that every number the page shows comes from this build (docs/import_example.py).
+import_example.write_example(HERE / "api" / "generated" / "import_example.md")
 
 project = "uqdrive"
 author = "uqdrive contributors"

@@ -9,10 +9,11 @@ from uqdrive.dependencies import PACKAGE_ROOT, _import_nodes, import_graph, modu
 
 # Layer of each top-level part of the package; a module may import its own layer or lower ones.
 LAYERS = {
-    "_version": 0, "_lazy": 0, "_errors": 0, "config": 0, "vehicle_spec": 0, "rng": 0, "dependencies": 0,
+    "_version": 0, "_lazy": 0, "_errors": 0, "_yaml": 0, "config": 0, "vehicle_spec": 0, "rng": 0, "dependencies": 0,
+    "settings": 0,
     "numerics": 1,
     "vehicle": 2,
-    "io": 3, "inference": 3, "control": 3, "wheelslip": 3,
+    "io": 3, "outputs": 3, "recordings": 3, "inference": 3, "control": 3, "wheelslip": 3,
     "studies": 4,
     "plots": 5, "cli": 5, "": 5,
 }
@@ -130,3 +131,35 @@ from .h import \\
     for source in [tricky, tricky[:continued], *(p.read_text() for p in sorted(PACKAGE_ROOT.rglob("*.py")))]:
         assert dumped(_import_nodes(source, "<test>")) == dumped(_all_import_nodes(source))
     assert len(_import_nodes(tricky, "<test>")) == 5 and len(_import_nodes(tricky[:continued], "<test>")) == 4
+
+
+#: The parts below the edges (the command line, the studies and the workflow scripts): they read
+#: typed settings (uqdrive.settings), never the config mapping.
+BELOW_THE_EDGES = ("numerics", "vehicle", "inference", "control", "wheelslip")
+
+
+def _config_readers(source: str) -> list[str]:
+    """Functions of ``source`` with a parameter named config or cfg, and reads or writes of a
+    ``config`` attribute (``self.config``, ``finder.config``)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            a = node.args
+            if any(x.arg in ("config", "cfg") for x in a.posonlyargs + a.args + a.kwonlyargs):
+                found.append(f"line {node.lineno}: {getattr(node, 'name', 'lambda')} takes the config")
+        elif isinstance(node, ast.Attribute) and node.attr == "config":
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return found
+
+
+def test_nothing_below_the_edges_takes_the_config_mapping():
+    readers = [f"{p.relative_to(PACKAGE_ROOT)} {r}" for part in BELOW_THE_EDGES for p in sorted((PACKAGE_ROOT / part).rglob("*.py"))
+               for r in _config_readers(p.read_text())]
+    assert not readers, "build uqdrive.settings.Settings at the edge and pass it down:\n" + "\n".join(readers)
+
+
+def test_the_config_reader_check_can_fail():
+    planted = ("def f(x, *, cfg=None):\n    pass\nclass A:\n    def g(self, config):\n        self.config = config\n    h = lambda config: 0\n"
+               "def k(finder):\n    return finder.config['seed']\n")
+    assert len(_config_readers(planted)) == 5
+    assert _config_readers("def f(settings):\n    self.settings = settings\n") == []

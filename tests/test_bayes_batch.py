@@ -17,6 +17,7 @@ from uqdrive.numerics.integrate import foh_discretise_single, lti_response_singl
 from uqdrive.studies.bayes import UNCERTAIN, _model, coverage_study, posterior_case, prepare_data, summarise
 from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.settings import Settings
 
 
 def _close(got, want, rel=1e-12):
@@ -80,13 +81,13 @@ def test_identical_blocks_share_one_exponential_only_where_identical():
 @pytest.fixture(scope="module")
 def sampler_model(config):
     """The sampler's model of the default config (model_dt grid, KLE gusts)."""
-    return _model(config, dt=config["bayes"]["model_dt"], gusts=True)
+    return _model(Settings.from_config(config), dt=config["bayes"]["model_dt"], gusts=True)
 
 
 def _prior_draws(config, seed, n):
     """n parameter vectors uniform in the prior box (most put a quadrature node at mu <= 0 or l_f
     outside the wheelbase), then n in the part of the box where every node is physical."""
-    prior = BoxPrior.from_config(config)
+    prior = BoxPrior.from_settings(Settings.from_config(config))
     rng = np.random.default_rng(seed)
     box = prior.low + (prior.high - prior.low) * rng.random((n, prior.low.size))
     physical = box[rng.permutation(n)].copy()
@@ -110,7 +111,7 @@ def test_moments_batch_equals_moments_one_by_one(config, sampler_model, seed):
     the variance at seed 2427 (a draw with mu = 0.11, std 0.028: low friction, slow lateral
     modes that carry the rounding of every step). 1e-11 keeps a 9x margin over that worst measured case."""
     _, thetas = _prior_draws(config, seed, 4)
-    truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    truth = Settings.from_config(config).uncertainty.theta(UNCERTAIN)
     thetas[:2] = truth * (1.0 + 0.1 * np.random.default_rng(seed).standard_normal((2, truth.size)))  # some surely admissible
     batch = sampler_model.moments_batch(thetas)
     every3 = sampler_model.moments_batch(thetas, every=3)
@@ -140,7 +141,7 @@ def _likelihood(model, truth, every, N=400, seed=0):
 def test_log_posterior_batch_equals_the_scalar_log_posterior(config, sampler_model):
     """Inside and outside the prior, admissible or not: the batched log-posterior (model observed
     every 3rd time) is the scalar one per theta, -inf at the same places, else to 1e-9 relative."""
-    truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    truth = Settings.from_config(config).uncertainty.theta(UNCERTAIN)
     like, idx = _likelihood(sampler_model, truth, 3)
     prior, thetas = _prior_draws(config, 11, 10)
     near = truth * (1.0 + 0.02 * np.random.default_rng(4).standard_normal((6, truth.size)))
@@ -160,9 +161,9 @@ def test_lockstep_sampler_gives_the_sequential_scalar_chain(config, sampler_mode
     """Two ensembles in lockstep, every half-ensemble update of both one batched model call,
     against the sequential sampler with one scalar log-posterior per walker (the code before
     batching): the same chains to the last bit and the same log-probabilities to rounding."""
-    truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    truth = Settings.from_config(config).uncertainty.theta(UNCERTAIN)
     like, idx = _likelihood(sampler_model, truth, 3)
-    prior = BoxPrior.from_config(config)
+    prior = BoxPrior.from_settings(Settings.from_config(config))
     starts = [truth, truth * 1.05]
     kw = {"walkers": 12, "max_steps": 30, "check_every": 30, "tau_factor": 50, "burn_in": 10, "moves": "de"}
     old = sample_ensembles(lambda t: log_posterior(t, sampler_model, like, prior, idx), starts, rng=np.random.default_rng(5), **kw)
@@ -225,6 +226,6 @@ def test_coverage_study_in_lockstep_equals_the_set_by_set_loop(small):
     rng = np.random.default_rng(9)
     want = []
     for k in range(sets):
-        x, _ = prepare_data(small, simulate_ensemble(small, "lst", seed=int(small["seed"]) + 1000 + k))
+        x, _ = prepare_data(small, simulate_ensemble(Settings.from_config(small), "lst", seed=int(small["seed"]) + 1000 + k))
         want.append(summarise(posterior_case(copy.deepcopy(small), x, None, rng, ensembles=1, max_steps=steps))["contains_truth"].astype(int))
     assert np.array_equal(per_set, np.array(want)) and total == 6 * sets and hits == int(np.sum(want))

@@ -6,6 +6,7 @@ from uqdrive.config import load_config
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 
 from conftest import REPO
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
@@ -16,7 +17,7 @@ def small():
 
 
 def test_noisy_data_and_noise_estimate(small):
-    ens = simulate_ensemble(small, "lst")
+    ens = simulate_ensemble(Settings.from_config(small), "lst")
     x0, nv0 = prepare_data(small, ens)
     x1, nv1 = prepare_data(small, ens, 0.05)
     assert nv0 is None and nv1.shape == (4,) and np.all(nv1 > 0)
@@ -24,7 +25,7 @@ def test_noisy_data_and_noise_estimate(small):
 
 
 def test_posterior_case_runs_and_summarises(small):
-    ens = simulate_ensemble(small, "lst")
+    ens = simulate_ensemble(Settings.from_config(small), "lst")
     x, nv = prepare_data(small, ens)
     ds = posterior_case(small, x, nv, np.random.default_rng(0), ensembles=2, max_steps=100)
     assert ds["chain"].shape[0] == 2 and ds["chain"].shape[-1] == 6
@@ -40,7 +41,7 @@ def test_likelihood_times_must_align(small):
 
     cfg = copy.deepcopy(small)
     cfg["bayes"]["likelihood_dt"] = 0.25  # not a multiple of model_dt = 0.1
-    ens = simulate_ensemble(cfg, "lst", samples=20)
+    ens = simulate_ensemble(Settings.from_config(cfg), "lst", samples=20)
     x, nv = prepare_data(cfg, ens)
     with pytest.raises(ValueError, match="likelihood_dt = 0.25 must be a multiple of"):
         posterior_case(cfg, x, nv, np.random.default_rng(0), ensembles=2, max_steps=20)

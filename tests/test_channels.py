@@ -23,6 +23,7 @@ from uqdrive.vehicle.single_track import VehicleParameters, lateral_acceleration
 
 from conftest import tiny_config
 from test_edge_validation import files_under, refused
+from uqdrive.settings import Settings
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 
@@ -37,7 +38,7 @@ def coarse(config):
 
 @pytest.fixture(scope="module")
 def lst_data(config):
-    return simulate_ensemble(coarse(config), "lst", samples=300, seed=3)
+    return simulate_ensemble(Settings.from_config(coarse(config)), "lst", samples=300, seed=3)
 
 
 def test_a_y_is_the_force_sum_and_v_times_beta_dot_plus_yaw_rate():
@@ -92,8 +93,8 @@ def test_a_constant_v_is_the_constant_speed(lst_data):
 # -- the model's channels -----------------------------------------------------------------------------
 def test_states_through_the_channel_model_are_the_chaos_models(config):
     cfg = coarse(config)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
-    theta = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
+    theta = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     ref = model.moments(theta)
     got = ChannelChaosModel(model, ["y", "psi_dot"]).moments(theta)
     np.testing.assert_array_equal(got.mean, ref.mean[[3, 1]])
@@ -106,9 +107,9 @@ def test_a_y_moments_match_monte_carlo(config):
     Carlo mean (std / sqrt(n)) plus 1e-3 of its peak (PCE truncation), the std within 5 %
     (its Monte Carlo error is 1/sqrt(2 n) = 1.6 %)."""
     cfg = coarse(config)
-    ds = simulate_ensemble(cfg, "lst", samples=2000, seed=11)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
-    r = ChannelChaosModel(model, ["a_y"]).moments(LSTChaosModel.theta_from_config(cfg, UNCERTAIN))
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=2000, seed=11)
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
+    r = ChannelChaosModel(model, ["a_y"]).moments(Settings.from_config(cfg).uncertainty.theta(UNCERTAIN))
     a = ds["a_y"].values
     se = a.std(0, ddof=1) / np.sqrt(a.shape[0])
     assert np.all(np.abs(r.mean[0] - a.mean(0)) <= 4 * se + 1e-3 * np.abs(a.mean(0)).max())
@@ -117,9 +118,9 @@ def test_a_y_moments_match_monte_carlo(config):
 
 def test_a_y_gradient_is_the_derivative(config):
     cfg = coarse(config)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
     cm = ChannelChaosModel(model, ["a_y", "psi_dot"])
-    theta = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    theta = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     assert_moment_gradients(cm, theta, variance=True)
 
 
@@ -138,19 +139,19 @@ def assert_moment_gradients(cm, theta, variance):
 
 # -- identifiability ----------------------------------------------------------------------------------
 def test_all_states_reproduce_the_thesis_rank_test(config):
-    full = observability_analysis(config)
-    mine = channel_observability(config, ["psi", "psi_dot", "beta", "y"])
+    full = observability_analysis(Settings.from_config(config))
+    mine = channel_observability(Settings.from_config(config), ["psi", "psi_dot", "beta", "y"])
     assert mine.rank == full.rank and mine.removal_rank == full.removal_rank
 
 
 def test_channel_sets_and_what_they_separate(config):
     # with m_load free, m_load and the mean wind only scale each other (W = 1 / (m v)), any channels
-    assert set(unidentifiable_parameters(config, ["psi_dot", "a_y"])) == {"m_load", "F_w_mean"}
+    assert set(unidentifiable_parameters(Settings.from_config(config), ["psi_dot", "a_y"])) == {"m_load", "F_w_mean"}
     # identify's parameters (m_load known): the IMU alone separates them; so does the yaw rate alone
-    assert unidentifiable_parameters(config, ["psi_dot", "a_y"], UNCERTAIN) == {}
-    assert unidentifiable_parameters(config, ["psi_dot"], UNCERTAIN) == {}
+    assert unidentifiable_parameters(Settings.from_config(config), ["psi_dot", "a_y"], UNCERTAIN) == {}
+    assert unidentifiable_parameters(Settings.from_config(config), ["psi_dot"], UNCERTAIN) == {}
     # the yaw angle alone leaves the lateral position unobservable (y integrates psi)
-    assert channel_observability(config, ["psi"], UNCERTAIN).unidentifiable == ["y"]
+    assert channel_observability(Settings.from_config(config), ["psi"], UNCERTAIN).unidentifiable == ["y"]
 
 
 # -- identification from an IMU -----------------------------------------------------------------------
@@ -221,7 +222,7 @@ def test_identify_warns_when_the_channels_cannot_identify_a_parameter(tmp_path, 
     import uqdrive.inference.identifiability as ident
 
     cfg = tiny_config()
-    ds = simulate_ensemble(cfg, "lst", samples=12, seed=1).drop_vars(["psi", "beta", "y"])
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=12, seed=1).drop_vars(["psi", "beta", "y"])
     write_dataset(ds, tmp_path / "imu.nc")
     asked = []
     monkeypatch.setattr(ident, "unidentifiable_parameters", lambda c, ch, p: asked.append(ch) or {"l_f": "beta"})

@@ -10,6 +10,7 @@ from uqdrive.cli.main import main
 from uqdrive.io import read_ensemble
 
 from conftest import REPO
+from uqdrive.settings import Settings
 
 CONFIG = str(REPO / "config" / "test.yaml")
 
@@ -145,7 +146,7 @@ def test_identify_default_flags_land_on_the_thesis_values(tmp_path):
     assert config["uncertainty"]["mu"] == {"mean": 1.0, "std": 0.2} and config["uncertainty"]["F_w_mean"] == {"low": -400.0, "high": 400.0}
     assert config["uncertainty"]["l_f"] == {"mean": 1.55, "std": 0.2}
     path = tmp_path / "lst.nc"
-    write_dataset(simulate_ensemble(config, "lst", samples=2000), path)
+    write_dataset(simulate_ensemble(Settings.from_config(config), "lst", samples=2000), path)
     est = _identify_default(path, tmp_path / "est")
     assert est["state_scale"] == "rms_mean" and est["converged"] is True
     assert est["mu"][0] == pytest.approx(1.0, abs=0.02)
@@ -165,7 +166,7 @@ def test_lost_control_is_found_from_the_data(tmp_path, monkeypatch):
     from uqdrive.vehicle.montecarlo import simulate_ensemble
 
     monkeypatch.setattr("uqdrive.cli.identify._figure", lambda stats, moments, path, title="": path.write_bytes(b"png"))
-    ds = simulate_ensemble(load_config(CONFIG), "nlst", samples=2000)
+    ds = simulate_ensemble(Settings.from_config(load_config(CONFIG)), "nlst", samples=2000)
     spun = np.flatnonzero(ds["spun"].values).tolist()
     assert len(spun) == ds.attrs["n_spun"] >= 3
     write_dataset(ds, tmp_path / "flagged.nc")

@@ -19,6 +19,7 @@ from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.channels import CHANNELS
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 from uqdrive.vehicle.uncertainty import Germs
+from uqdrive.settings import Settings
 
 IMU = ("psi_dot", "a_y")
 BRAKING = {"start_kmh": 70.0, "end_kmh": 45.0, "t_brake": 1.0, "duration": 2.0}  # -3.5 m/s^2, the speed falls by 36 %
@@ -52,7 +53,7 @@ def test_model_channels_are_the_reality_s(short, effect, size, channel, speed):
     cfg["uncertainty"]["m_load"] = {"mean": float(draws["m_load"][0]), "std": 0.0}
     theta = [draws["mu"][0], 0.0, draws["l_f"][0], 0.0, draws["F_w_mean"][0], draws["F_w_mean"][0]]
     s = ModelStructure() if effect == "none" else EFFECTS[{"sensor_scale": "sensor_scale_a_y"}.get(effect, effect)].augment(ModelStructure(), [size])
-    sim = AugmentedSimulator(cfg, t, delta, float(v[0]), germs, channels=CHANNELS, speed=v if speed else None)
+    sim = AugmentedSimulator(Settings.from_config(cfg), t, delta, float(v[0]), germs, channels=CHANNELS, speed=v if speed else None)
     model = sim.simulate(theta, s)[:, 0]
     gain = size if effect == "sensor_scale" else 1.0
     truth[4] *= gain
@@ -66,7 +67,7 @@ def test_imu_only_null_says_none(short, runs, manoeuvre, seed):
     the band bootstrapped over exactly those two channels at that run count; the y-only candidate
     is reported untestable, the sensor errors of unrecorded channels are not tried at all."""
     case = HiddenEffectCase("null", "none", 0.0, manoeuvre, {"amplitude_deg": 2.0}, samples=runs, seed=seed)
-    f = DiscrepancyFinder(short).fit(generate(short, case, channels=IMU))
+    f = DiscrepancyFinder(Settings.from_config(short)).fit(generate(short, case, channels=IMU))
     v = f.verdict_
     assert v["effect"] == "none" and not v["evidence"]["significant"]
     assert f.measured_.shape[1] == 2 and f.band_.cell_scale.shape[1] == 2 and v["evidence"]["channels"] == list(IMU)
@@ -79,7 +80,7 @@ def test_imu_names_an_accelerometer_bias(short):
     """A 0.3 m/s^2 offset on a_y (a tilted accelerometer), IMU only, 20 runs: named on a_y with its
     size in the interval. Without a_y in the comparison nothing could be named."""
     case = HiddenEffectCase("bias", "sensor_bias", 0.3, "lane_change", {"amplitude_deg": 2.0}, samples=20, seed=41, channel="a_y")
-    v = DiscrepancyFinder(short, candidates=["sensor_bias", "actuator_lag"]).fit(generate(short, case, channels=IMU)).verdict_
+    v = DiscrepancyFinder(Settings.from_config(short), candidates=["sensor_bias", "actuator_lag"]).fit(generate(short, case, channels=IMU)).verdict_
     assert v["effect"] == "sensor_bias" and v["parameters"]["channel"] == "a_y"
     est, lo, hi = v["parameters"]["offset_a_y"]
     assert lo <= 0.3 <= hi and abs(est - 0.3) < 0.05

@@ -18,6 +18,7 @@ from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
 from uqdrive.studies.discrepancy import benchmark_dataset, benchmark_rows, case_outcome
 from uqdrive.studies.hidden_effects import benchmark_cases, case_label, generate
+from uqdrive.settings import Settings
 
 CI_CASES = ("thesis_nlst", "none_lane_change", "sensor_bias_psi_dot", "actuator_lag_200ms")
 #: The case that needs 300 samples: its mu mean must come within 0.05 of 1.0.
@@ -25,7 +26,7 @@ LARGE = {"thesis_nlst"}
 
 
 def _outcome(config, case):
-    verdict = DiscrepancyFinder(config).fit(generate(config, case)).verdict_
+    verdict = DiscrepancyFinder(Settings.from_config(config)).fit(generate(config, case)).verdict_
     return case_outcome(case_label(case), verdict), verdict
 
 

@@ -15,6 +15,7 @@ from uqdrive.inference.discrepancy.fit import StructureFit
 from uqdrive.inference.discrepancy.ranking import gauss_newton_chi2
 from uqdrive.vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS, Effect, ModelStructure
+from uqdrive.settings import Settings
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
@@ -23,7 +24,7 @@ THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 def sim(config):
     t = np.arange(301) * 0.01
     delta = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 2.0)
-    return AugmentedSimulator.drawn(config, t, delta, 25.0, 24, np.random.default_rng(11), stride=4)
+    return AugmentedSimulator.drawn(Settings.from_config(config), t, delta, 25.0, 24, np.random.default_rng(11), stride=4)
 
 
 class _OnePassPerCall(StructureFit):
@@ -220,11 +221,10 @@ def test_known_parameters_are_held_at_their_values_and_get_no_jacobian():
 
 def test_known_theta_maps_the_configs_known_quantities(config):
     u = {**config["uncertainty"], "l_f": {"mean": 1.4, "std": 0.0}, "F_w_mean": {"low": 50.0, "high": 50.0}}
-    from uqdrive.inference.discrepancy.fit import known_theta
-
-    assert known_theta({**config, "uncertainty": u}) == {2: 1.4, 3: 0.0, 4: 50.0, 5: 50.0}
+    
+    assert dict(Settings.from_config({**config, "uncertainty": u}).layout.known) == {2: 1.4, 3: 0.0, 4: 50.0, 5: 50.0}
     u = {**config["uncertainty"], "mu": {"mean": 0.8, "std": 0.0}}
-    assert known_theta({**config, "uncertainty": u}) == {0: 0.8, 1: 0.0}
+    assert dict(Settings.from_config({**config, "uncertainty": u}).layout.known) == {0: 0.8, 1: 0.0}
 
 
 def test_gauss_newton_chi2_is_the_linear_least_squares_rest_within_the_bounds():
@@ -276,7 +276,7 @@ def test_forward_selection_names_an_effect_the_distributions_absorbed(config):
     mean, std = sim.moments(TRUTH, a_lat, gust=6.0)
     measured = np.stack([mean, std])
     band = NullBand.from_replicates(np.random.default_rng(0).standard_normal((200, 2, 4, 12)), scan_windows(12), 0.01)
-    f = DiscrepancyFinder(config, candidates=["road_bank", "wind_gust", "sensor_scale", "sensor_bias"], top=1, max_effects=2)
+    f = DiscrepancyFinder(Settings.from_config(config), candidates=["road_bank", "wind_gust", "sensor_scale", "sensor_bias"], top=1, max_effects=2)
     f.measured_, f.scale_, f._n, f.band_ = measured, np.full_like(measured, 1e-2), 40, band  # z in units of a unit-normal null band
     f.candidates_ = _testable(f.candidates, sim.channels)[0]
     f.steps_, f.unresolved_, f.fits_, f.screening_ = [], {}, {}, {}
@@ -336,7 +336,7 @@ def test_statistics_equal_the_simulators_own_measured_channels(config):
     g mean(x) + o against mean(g x + o))."""
     t = np.arange(101) * 0.01
     delta = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 2.0)
-    sim = AugmentedSimulator.drawn(config, t, delta, 25.0, 16, np.random.default_rng(12), stride=4, channels=("psi_dot", "beta", "a_y"))
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, delta, 25.0, 16, np.random.default_rng(12), stride=4, channels=("psi_dot", "beta", "a_y"))
     s = ModelStructure(output_gain=(1.0, 1.1, 0.9, 1.0), output_offset=(0.0, 0.01, 0.002, 0.0), a_y_gain=1.05, a_y_offset=0.2)
     index = np.arange(1, sim.output_time.size)
     noise = np.array([1e-6, 1e-8, 1e-3])

@@ -12,6 +12,7 @@ from uqdrive.inference.discrepancy import DiscrepancyFinder, selection
 from uqdrive.inference.discrepancy.band import NullBand, excess_rms, scan_windows
 from uqdrive.inference.discrepancy.effectset import EffectSet
 from uqdrive.vehicle.effects import ModelStructure
+from uqdrive.settings import Settings
 
 K = 60
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
@@ -28,7 +29,7 @@ def _parts(rng):
 def _stand_in_finder(config, candidates, band, scale, joint):
     """A finder over ``candidates`` whose joint fits are ``joint``, chi2 the fits' own, every band
     ``band`` (no bootstrap), every candidate screened alike, on the linear footing (``scale``)."""
-    f = DiscrepancyFinder(config, candidates=candidates, top=3, max_effects=3)
+    f = DiscrepancyFinder(Settings.from_config(config), candidates=candidates, top=3, max_effects=3)
     f.candidates_, f.band_, f.scale_ = list(candidates), band, scale
     f.steps_, f.unresolved_, f.fits_, f.screening_, f.removed_ = [], {}, {}, {}, []
     f._joint, f._chi2 = joint, lambda fit: fit.chi2_
@@ -187,7 +188,7 @@ def test_an_effect_whose_interval_holds_no_effect_is_dropped(config, inflation, 
     whether the effect is needed)."""
     from uqdrive.inference.discrepancy.selection import size_check
 
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.band_ = SimpleNamespace(inflation=inflation, mean_square_null=1.0)
     f.scale_ = ONE
     f.steps_, f.removed_ = [{"name": A}, {"name": C}], []
@@ -207,7 +208,7 @@ def test_an_effect_whose_interval_holds_no_effect_is_dropped(config, inflation, 
 def test_a_single_effect_without_a_size_leaves_the_start_model(config):
     from uqdrive.inference.discrepancy.selection import size_check
 
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.band_ = SimpleNamespace(inflation=9.0, mean_square_null=1.0)  # the null's inflation alone: -+ 0.15 holds 0
     f.scale_ = ONE
     f.steps_, f.removed_ = [{"name": C}], []
@@ -226,7 +227,7 @@ def _chi2_fit(names, chi2, values=None):
 def _backward_finder(config, chi2_without):
     from uqdrive.inference.discrepancy.selection import backward_check
 
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.band_ = SimpleNamespace(inflation=1.0, mean_square_null=1.0)
     f.scale_ = ONE
     band = SimpleNamespace(chi2_null_sd=5.0, inflation=1.0, mean_square_null=1.0)  # margin 10, penalty 2 per parameter
@@ -274,7 +275,7 @@ def test_the_backward_check_keeps_a_single_effect(config):
 @pytest.mark.parametrize("other, ambiguous", [(100.0 + 9.0, ["wind_gust"]), (100.0 + 11.0, [])])
 def test_a_step_lists_candidates_within_the_margin_as_ambiguous(config, other, ambiguous):
     """The tie: another candidate's joint fit within the margin (10) of the named one's chi2."""
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f._chi2 = lambda fit: fit.chi2_
     fits = {A: _chi2_fit([A], 100.0), B: _chi2_fit([B], other), C: _chi2_fit([C], 400.0)}
     step = selection._step(f, A, fits[A], None, "own", False, 0.5, fits, {A: {"chi2": 1.0, "held": 2.0, "anchor": "current"},
@@ -312,7 +313,7 @@ def test_of_two_effects_without_a_size_the_one_the_data_need_least_goes_first(co
     nearest to none first) the bias would have gone and the bank stayed."""
     from uqdrive.inference.discrepancy.selection import size_check
 
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.band_ = SimpleNamespace(inflation=1.0, mean_square_null=1.0)
     f.scale_ = ONE
     f.steps_, f.removed_ = [{"name": A}, {"name": C}], []

@@ -19,6 +19,7 @@ from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS
 from uqdrive.vehicle.noise import estimate_noise_variance
 from uqdrive.vehicle.single_track import STATES
+from uqdrive.settings import Settings
 
 TRUTH = {"mu_mean": 1.0, "mu_std": 0.2, "phi": 2.0}
 SAMPLER = dict(ensembles=2, walkers=16, burn_in=100, max_steps=600, check_every=200, validate=6)
@@ -77,7 +78,7 @@ def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, see
     K = (x.shape[-1] - 1) // stride
     x = x[:, :, : K * stride + 1 : stride]
     index = np.arange(1, K + 1)
-    sim = AugmentedSimulator.drawn(model_config, ds["time"].values, ds["delta"].values, ds.attrs["v_c"], M, np.random.default_rng(seed), stride=stride,
+    sim = AugmentedSimulator.drawn(Settings.from_config(model_config), ds["time"].values, ds["delta"].values, ds.attrs["v_c"], M, np.random.default_rng(seed), stride=stride,
                                    channels=channels)
     u = model_config["uncertainty"]
     theta0 = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], u["F_w_mean"]["low"], u["F_w_mean"]["high"]]

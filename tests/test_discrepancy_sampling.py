@@ -14,6 +14,7 @@ from uqdrive.studies.hidden_effects import HiddenEffectCase, generate
 from uqdrive.vehicle.augmented import AugmentedSimulator, actual_steering, held_integral, reconstruction_error
 from uqdrive.vehicle.effects import ModelStructure, effect
 from uqdrive.vehicle.single_track import lst_matrices
+from uqdrive.settings import Settings
 
 THETA = [1.0, 0.0, 1.55, 0.0, 0.0, 0.0]
 
@@ -29,7 +30,7 @@ def test_held_command_is_simulated_exactly_by_the_linear_model(config):
     dt = 0.01
     t = np.arange(301) * dt
     u = _pulse(t)
-    sim = AugmentedSimulator.drawn(config, t, u, 19.4, 1, np.random.default_rng(2), interpolation="previous")
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, u, 19.4, 1, np.random.default_rng(2), interpolation="previous")
     sim.sigma = 0.0
     held = sim.simulate(THETA)[:, 0]
     p, _, _ = sim.parameters(THETA)
@@ -40,7 +41,7 @@ def test_held_command_is_simulated_exactly_by_the_linear_model(config):
         x[:, k + 1] = M[:4, :4] @ x[:, k] + M[:4, 4] * u[k]
     scale = np.abs(x).max(axis=1)
     assert np.all(np.abs(held - x).max(axis=1) < 1e-9 * scale + 1e-15)
-    linear = AugmentedSimulator(config, t, u, 19.4, sim.germs)
+    linear = AugmentedSimulator(Settings.from_config(config), t, u, 19.4, sim.germs)
     linear.sigma = 0.0
     assert np.abs(linear.simulate(THETA)[1, 0] - x[1]).max() > 0.01 * scale[1]
 
@@ -114,12 +115,12 @@ def test_held_pulse_null_case_says_none_read_either_way(held_null):
     delay that would fit it is below one sample: not named, still ``none``."""
     c, ds = held_null
     candidates = ["actuator_delay", "actuator_lag", "road_bank", "sensor_bias"]
-    v = DiscrepancyFinder(c, candidates=candidates).fit(ds).verdict_
+    v = DiscrepancyFinder(Settings.from_config(c), candidates=candidates).fit(ds).verdict_
     assert v["effect"] == "none" and v["effects"] == [] and v["evidence"]["interpolation"] == "previous"
     wrong = ds.copy()
     wrong["delta"] = wrong["delta"].copy()
     wrong["delta"].attrs["interpolation"] = "linear"
-    v = DiscrepancyFinder(c, candidates=candidates).fit(wrong).verdict_
+    v = DiscrepancyFinder(Settings.from_config(c), candidates=candidates).fit(wrong).verdict_
     assert v["effect"] == "none" and v["effects"] == []
     assert v["evidence"]["significant"] and "below one sample" in v["evidence"]["unresolved"]["actuator_delay"]
 
@@ -143,8 +144,8 @@ def test_held_reality_and_held_model_agree_on_the_same_draws(config):
                   (d["m_load"] - u["m_load"]["mean"]) / u["m_load"]["std"], (d["F_w_mean"] - lo) / (hi - lo), d["xi_wind"])
     theta = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], lo, hi]
     v = c["vehicle"]["speed_kmh"] / 3.6
-    held = AugmentedSimulator(c, t, delta, v, germs, interpolation="previous").simulate(theta)
+    held = AugmentedSimulator(Settings.from_config(c), t, delta, v, germs, interpolation="previous").simulate(theta)
     scale = np.abs(x).max(axis=(1, 2), keepdims=True)
     assert np.all(np.abs(held - x) <= 1e-4 * scale)
-    linear = AugmentedSimulator(c, t, delta, v, germs).simulate(theta)
+    linear = AugmentedSimulator(Settings.from_config(c), t, delta, v, germs).simulate(theta)
     assert np.abs(linear - x)[1].max() > 1e-2 * scale[1, 0, 0]

@@ -17,6 +17,7 @@ from uqdrive.io import write_dataset
 from uqdrive.studies.discrepancy import benchmark_dataset, case_outcome, exact_set
 from uqdrive.studies.hidden_effects import HiddenEffectCase, case_label, generate, simulate_states
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+from uqdrive.settings import Settings
 
 
 def test_effect_set_chains_its_members_in_order():
@@ -75,7 +76,7 @@ def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing(config):
     zero size has a linear structure, and its chi2 on the wide scale is not the linear one's. The
     excess counts from the non-linear footing's own null level, and a comparison with a fit on
     that footing has its margin."""
-    f = DiscrepancyFinder(config, model_samples=1000, nonlinear_samples=250)
+    f = DiscrepancyFinder(Settings.from_config(config), model_samples=1000, nonlinear_samples=250)
     f.scale_, f._n = np.ones((2, 4, 10)), 1000
     f.band_ = SimpleNamespace(mean_square_null=1.0)
     z = np.zeros((2, 4, 10))  # 80 cells: the null level is 80
@@ -192,7 +193,7 @@ def test_two_hidden_effects_are_both_named_and_the_model_continues(combined, cap
 def test_a_non_linear_probe_is_finished_when_in_reach(config):
     """The short fit of a non-linear candidate is continued when it closed a quarter of what the
     best linear candidate closed, or when no linear candidate closed anything; else dropped."""
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.scale_, f._n = np.ones((2, 4, 10)), 1000
     f.band_ = SimpleNamespace(mean_square_null=1.0)
     fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, scale_=f.scale_)  # noqa: E731
@@ -227,7 +228,7 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     """The short fit is run from the current distributions and from the prior's and the better
     one kept: from a linear baseline's lowered mu a saturating tyre sits in a poor basin (the
     thesis' NLST data: chi2 5 times the baseline's), from the prior it reaches the truth."""
-    f = DiscrepancyFinder(config)
+    f = DiscrepancyFinder(Settings.from_config(config))
     f.scale_, f._n = np.ones((2, 4, 10)), 1000
     f.band_ = SimpleNamespace(mean_square_null=1.0)
     prior = f._start()[0]

@@ -12,6 +12,7 @@ from uqdrive.inference.discrepancy.separate import separation, suggest_input
 from uqdrive.studies.manoeuvres import steering_command
 from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS
+from uqdrive.settings import Settings
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
@@ -39,7 +40,7 @@ def setting(config):
         "chirp": steering_command("chirp", t, {"amplitude_deg": 2.0, "f1": 2.0, "duration": 6.0}),
         "fast_slalom": steering_command("slalom", t, {"amplitude_deg": 2.0, "period": 1.0}),
     }
-    sim = AugmentedSimulator.drawn(c, t, inputs["slow_step"], 70 / 3.6, 200, np.random.default_rng(2), stride=5, matched=True)
+    sim = AugmentedSimulator.drawn(Settings.from_config(c), t, inputs["slow_step"], 70 / 3.6, 200, np.random.default_rng(2), stride=5, matched=True)
     return sim, inputs
 
 
@@ -69,7 +70,7 @@ def test_the_finder_suggests_an_input_only_for_its_ambiguity_set(config, setting
     from uqdrive.inference.discrepancy import DiscrepancyFinder
 
     sim, inputs = setting
-    finder = DiscrepancyFinder(config, inputs={k: v for k, v in inputs.items() if k != "slow_step"})
+    finder = DiscrepancyFinder(Settings.from_config(config), inputs={k: v for k, v in inputs.items() if k != "slow_step"})
     finder.fits_ = {"actuator_lag": _fitted(sim, "actuator_lag", 0.15), "actuator_delay": _fitted(sim, "actuator_delay", 0.15),
                     "road_bank": _fitted(sim, "road_bank", 0.0)}
     finder.verdict_ = {"evidence": {"registry_name": "actuator_lag"}, "ambiguous_with": ["actuator_delay"]}

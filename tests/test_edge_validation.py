@@ -237,7 +237,7 @@ def test_out_in_a_read_only_folder(tiny, tmp_path, capsys, monkeypatch, command)
     folder.chmod(0o555)
     if os.geteuid() == 0:
         real = os.access
-        monkeypatch.setattr("uqdrive.io.os.access", lambda p, mode: False if Path(p) == folder else real(p, mode))
+        monkeypatch.setattr("uqdrive.outputs.os.access", lambda p, mode: False if Path(p) == folder else real(p, mode))
     out = folder / ("x.nc" if command == "simulate" else "est")
     argv = (["simulate", "--model", "lst", "--samples", "3"] if command == "simulate" else ["identify", str(tiny[1])])
     try:

@@ -8,6 +8,7 @@ from scipy.integrate import solve_ivp
 from uqdrive.vehicle.augmented import AugmentedSimulator, Germs, actual_steering
 from uqdrive.vehicle.effects import EFFECTS, FAMILIES, ModelStructure, effect, expand_names, structure_from_effects
 from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.settings import Settings
 
 THETA = [1.0, 0.2, 1.55, 0.2, -400.0, 400.0]
 
@@ -21,7 +22,7 @@ def _germs_of(ds, config):
 
 @pytest.fixture(scope="module")
 def ensembles(config):
-    return {m: simulate_ensemble(config, m, samples=40) for m in ("lst", "nlst")}
+    return {m: simulate_ensemble(Settings.from_config(config), m, samples=40) for m in ("lst", "nlst")}
 
 
 def _states(ds):
@@ -34,7 +35,7 @@ def test_baseline_and_tyre_saturation_equal_uqdrives_ensembles_on_the_same_draws
     FOH ensemble to the steering's linear-interpolation error (< 1e-4 of each state's range);
     the Magic-Formula model by RK4 at 10 ms with the 5 ms NLST to RK4's error (< 2e-3)."""
     ds = ensembles[model]
-    sim = AugmentedSimulator(config, ds.time.values, ds.delta.values, ds.attrs["v_c"], _germs_of(ds, config))
+    sim = AugmentedSimulator(Settings.from_config(config), ds.time.values, ds.delta.values, ds.attrs["v_c"], _germs_of(ds, config))
     s = ModelStructure() if model == "lst" else effect("tyre_saturation").augment(ModelStructure(), [config["tyre"]["E"]])
     x, X = sim.simulate(THETA, s), _states(ds)
     err = np.abs(x - X).max(axis=(1, 2)) / np.abs(X).max(axis=(1, 2))
@@ -58,7 +59,7 @@ def test_actual_steering_lag_is_exact_and_delay_is_a_shift():
 
 def test_output_effects_touch_only_their_channel(config):
     t = np.arange(301) * 0.01
-    sim = AugmentedSimulator.drawn(config, t, 0.05 * np.sin(t), 19.4, 20, np.random.default_rng(3))
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, 0.05 * np.sin(t), 19.4, 20, np.random.default_rng(3))
     base = sim.simulate(THETA)
     biased = sim.simulate(THETA, effect("sensor_bias_psi_dot").augment(ModelStructure(), [0.01]))
     scaled = sim.simulate(THETA, effect("sensor_scale_beta").augment(ModelStructure(), [1.2]))
@@ -70,14 +71,14 @@ def test_road_bank_and_course_kinematics_enter_as_physics_says(config):
     """A bank adds g sin(phi) / v to beta_dot (a lateral drift of y growing with time); the
     course-angle kinematics changes y only, to v * integral(sin(psi + k beta))."""
     t = np.arange(501) * 0.01
-    sim = AugmentedSimulator.drawn(config, t, np.zeros_like(t), 19.4, 10, np.random.default_rng(4))
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.zeros_like(t), 19.4, 10, np.random.default_rng(4))
     theta = [1.0, 0.0, 1.55, 0.0, 0.0, 0.0]
     cfg_sigma = sim.sigma
     sim.sigma = 0.0
     banked = sim.simulate(theta, effect("road_bank").augment(ModelStructure(), [2.0]))
     assert banked[3, :, -1].mean() > 0.1 and banked[2, :, -1].mean() > 0  # drifts to +y
     d = 0.05 * np.sin(2 * t)
-    sim2 = AugmentedSimulator.drawn(config, t, d, 19.4, 10, np.random.default_rng(4))
+    sim2 = AugmentedSimulator.drawn(Settings.from_config(config), t, d, 19.4, 10, np.random.default_rng(4))
     base = sim2.simulate(theta)
     course = sim2.simulate(theta, effect("lateral_kinematics").augment(ModelStructure(), [1.0]))
     assert np.allclose(course[:3], base[:3])
@@ -89,7 +90,7 @@ def test_road_bank_and_course_kinematics_enter_as_physics_says(config):
 
 def test_gust_scale_multiplies_the_gust_response(config):
     t = np.arange(301) * 0.01
-    sim = AugmentedSimulator.drawn(config, t, np.zeros_like(t), 19.4, 15, np.random.default_rng(5))
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.zeros_like(t), 19.4, 15, np.random.default_rng(5))
     theta = [1.0, 0.1, 1.55, 0.1, 0.0, 0.0]  # no mean wind: the response is the gusts' alone
     one, three = sim.simulate(theta), sim.simulate(theta, effect("wind_gust").augment(ModelStructure(), [3.0]))
     assert np.allclose(three, 3.0 * one, atol=1e-12)
@@ -118,8 +119,8 @@ def test_strided_output_equals_the_full_grid_subsampled(config, structure):
     t = np.arange(301) * 0.01
     d = 0.06 * np.sin(2.5 * t)
     germs = Germs.draw(np.random.default_rng(6), 12, 5)
-    full = AugmentedSimulator(config, t, d, 19.4, germs).simulate(THETA, structure)
-    strided = AugmentedSimulator(config, t, d, 19.4, germs, stride=7)
+    full = AugmentedSimulator(Settings.from_config(config), t, d, 19.4, germs).simulate(THETA, structure)
+    strided = AugmentedSimulator(Settings.from_config(config), t, d, 19.4, germs, stride=7)
     assert np.allclose(strided.simulate(THETA, structure), full[:, :, : strided.time.size : 7], rtol=1e-9, atol=1e-12)
     assert strided.output_time[-1] == pytest.approx(294 * 0.01)
 
@@ -141,7 +142,7 @@ def test_moment_matched_germs_have_the_populations_mean_and_covariance():
 
 def test_with_input_steers_the_same_germs_by_another_command(config):
     t = np.arange(201) * 0.01
-    sim = AugmentedSimulator.drawn(config, t, np.zeros_like(t), 70 / 3.6, 20, np.random.default_rng(1))
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.zeros_like(t), 70 / 3.6, 20, np.random.default_rng(1))
     steered = sim.with_input(np.deg2rad(2.0) * np.ones_like(t))
     assert steered.germs is sim.germs and np.allclose(steered.delta, np.deg2rad(2.0))
     assert np.abs(steered.simulate(THETA)[1] - sim.simulate(THETA)[1]).max() > 1e-3  # yaw rate answers the step

@@ -2,6 +2,8 @@
 each test derives the steady state (or the step response) from the effect's equation on its own
 and fails when the term is removed from the model or its sign is flipped."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from uqdrive.config import ConfigError
 from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
+from uqdrive.settings import Settings
 
 THETA = [0.8, 0.0, 1.55, 0.0, 0.0, 0.0]  # one car: no spread, no mean wind
 V = 70.0 / 3.6
@@ -19,7 +22,7 @@ DT = 0.01
 def _simulator(config, delta, t_end=8.0, v=V):
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
     t = np.arange(int(round(t_end / DT)) + 1) * DT
-    sim = AugmentedSimulator.drawn(cfg, t, delta(t), v, 2, np.random.default_rng(0))
+    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta(t), v, 2, np.random.default_rng(0))
     sim.sigma = 0.0  # no gusts: a steady state
     return sim, t
 
@@ -58,7 +61,7 @@ def _equilibrium_residual(config, r, beta, delta, loads, v=V):
     """Yaw-moment and lateral-force balance of (5.3) at the steady state (r, beta) with axle
     loads ``loads(p, r, beta)`` (effective peak loads, N), relative to the front force."""
     V = v
-    p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=THETA[0], l_f=THETA[2], v_c=V)
     P_f, P_r = loads(p, r, beta)
     a_f = delta - np.arctan((V * np.sin(beta) + p.l_f * r) / (V * np.cos(beta)))
     a_r = -np.arctan((V * np.sin(beta) - p.l_r * r) / (V * np.cos(beta)))
@@ -101,7 +104,7 @@ def test_longitudinal_load_transfer_moves_load_by_m_a_x_h_over_L(config):
     assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(h), v) < 1e-6
     assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(0.0), v) > 1e-3
     assert _equilibrium_residual(config, r, beta, delta, _longitudinal_loads(h, -1.0), v) > 1e-3
-    assert EFFECTS["longitudinal_load_transfer"].prior_start({"vehicle": {"cg_height": 0.61}}) == (0.61,)
+    assert EFFECTS["longitudinal_load_transfer"].prior_start(replace(Settings.from_config(config).vehicle, cg_height=0.61)) == (0.61,)
 
 
 def test_lateral_load_transfer_with_load_sensitivity(config):
@@ -121,7 +124,7 @@ def test_lateral_load_transfer_with_load_sensitivity(config):
 
 def test_lateral_load_transfer_needs_the_vehicle_geometry(config):
     sim, _ = _simulator(config, lambda t: 0.01 * np.ones_like(t), t_end=0.5)
-    sim.config = {**sim.config, "vehicle": {k: v for k, v in sim.config["vehicle"].items() if k != "track_width"}}
+    sim.car = replace(sim.car, track_width=None)
     with pytest.raises(ConfigError, match="track_width"):
         sim.simulate(THETA, _saturating(lateral_load_transfer=[0.5, -0.1]))
 
@@ -141,7 +144,7 @@ def test_compliance_steer_turns_the_wheels_by_minus_K_a_y(config, tyre):
     r0, _, delta = _steady(config, base, delta_deg=1.0)
     r, beta, _ = _steady(config, comp, delta_deg=1.0)
     if tyre == "magic_formula":  # non-linear: the gain at the smaller actual steer angle
-        p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+        p = VehicleParameters.from_settings(Settings.from_config(config), mu=THETA[0], l_f=THETA[2], v_c=V)
         d_f = delta
         for _ in range(5):  # delta_f = delta - kappa F_f(delta_f): a contraction (kappa dF/d delta ~ 0.01)
             d_f = delta - np.deg2rad(K) / p.F_fz * p.m * V * r * p.l_r / (p.wheelbase * np.cos(d_f) * np.cos(beta))
@@ -163,7 +166,7 @@ def test_compliance_steer_is_a_softer_front_axle_in_transients_too(config):
     K, d = 1.0, np.deg2rad(2.0)
     sim, t = _simulator(config, lambda t: d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0), t_end=5.0)
     x = sim.simulate(THETA, effect("compliance_steer").augment(ModelStructure(), [K]))[:, 0]
-    p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=THETA[0], l_f=THETA[2], v_c=V)
     k = np.deg2rad(K)
 
     def response(c_f, feedback=0.0):
@@ -203,7 +206,7 @@ def test_compliant_front_wheels_carry_the_force_they_yield_to(config, tyre, rela
     if tyre == "linear":
         for name, values in fields.items():
             s = effect(name).augment(s, values)
-    p = VehicleParameters.from_config(config, mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), np.zeros((3, n)), True, np.zeros(n), H, T_W)
     x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.3, n), rng.normal(0, 0.03, n), rng.normal(0, 1, n),
                    rng.normal(0, 0.05, (2, n))])[: rhs.n_states]
@@ -242,7 +245,7 @@ def test_roll_steer_turns_the_wheels_by_minus_K_a_y_after_the_roll(config):
     d = np.deg2rad(3.0)
     sim, t = _simulator(config, lambda t: d * np.sin(2 * np.pi * 0.5 * t) * (t < 3.0), t_end=5.0)
     # the first realisation's load (the LST's own response does not depend on the mass: c and I_z scale with it)
-    p = replace(VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V), m_load=float(sim.m_load[0]))
+    p = replace(VehicleParameters.from_settings(Settings.from_config(config), mu=THETA[0], l_f=THETA[2], v_c=V), m_load=float(sim.m_load[0]))
     r0, _, delta = _steady(config, base, delta_deg=1.0)
     r, _, _ = _steady(config, effect("roll_steer").augment(base, [K, f, zeta]), delta_deg=1.0)
     G, k = r0 / delta, np.deg2rad(K) / (p.m_base * p.g)  # rad per N
@@ -286,7 +289,7 @@ def test_tyre_relaxation_is_a_first_order_lag_of_the_slip_angles(config):
     sigma, d = 1.0, np.deg2rad(0.2)
     sim, t = _simulator(config, lambda t: d * (t >= 0.5), t_end=3.0)
     lagged = sim.simulate(THETA, effect("tyre_relaxation").augment(ModelStructure(), [sigma]))[:, 0]
-    p = VehicleParameters.from_config(config, mu=THETA[0], l_f=THETA[2], v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=THETA[0], l_f=THETA[2], v_c=V)
 
     def linear_response(s):
         A = np.zeros((6, 6))  # psi, r, beta, y, alpha_f, alpha_r
@@ -333,7 +336,7 @@ def test_chassis_loads_stay_physical_when_a_realisation_spins(config):
     from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
     s = _saturating(longitudinal_load_transfer=[1.5], lateral_load_transfer=[1.0, -1.0])
-    p = VehicleParameters.from_config(config, mu=1.0, l_f=1.55, v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=1.0, l_f=1.55, v_c=V)
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.zeros(3), np.zeros((3, 1)), True, np.zeros(1), H, T_W)
     P = rhs.axle_loads(np.array([p.m * V * 1.0]), np.array([0.5]))  # the tyres' force of v psi_dot = 19 m/s^2
     assert np.all(np.isfinite(P)) and np.all(P >= 0.0)
@@ -359,7 +362,7 @@ def test_the_loads_follow_the_force_the_tyres_carry(config, tyre, monkeypatch):
     if tyre == "linear":
         for name, values in fields.items():
             s = effect(name).augment(s, values)
-    p = VehicleParameters.from_config(config, mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
     F_w = rng.uniform(-300.0, 300.0, (3, n))
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), F_w, True, np.zeros(n), H, T_W)
     x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.2, n), rng.normal(0, 0.02, n), rng.normal(0, 1, n)])
@@ -394,7 +397,7 @@ def test_chassis_a_y_is_the_specific_force_of_the_lagged_tyres_and_the_wind(conf
     rng = np.random.default_rng(3)
     n = 50
     s = _saturating(lateral_load_transfer=[0.6, -0.3], tyre_relaxation=[0.5])
-    p = VehicleParameters.from_config(config, mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.full(n, 1.0), l_f=np.full(n, 1.55), v_c=V)
     F_w = rng.uniform(-800.0, 800.0, (3, n))
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), F_w, True, np.zeros(n), H, T_W)
     x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.3, n), rng.normal(0, 0.03, n), rng.normal(0, 1, n),
@@ -421,7 +424,7 @@ def test_a_chassis_model_records_a_y_beside_its_states(config):
     delta = lambda t: np.deg2rad(3.0) * np.sin(2 * np.pi * 0.5 * t)  # noqa: E731
     sim4, t = _simulator(config, delta, t_end=3.0)
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
-    sim5 = AugmentedSimulator.drawn(cfg, t, delta(t), V, 2, np.random.default_rng(0), channels=CHANNELS)
+    sim5 = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta(t), V, 2, np.random.default_rng(0), channels=CHANNELS)
     sim5.sigma = 0.0
     x4, x5 = sim4.simulate(THETA, s), sim5.simulate(THETA, s)
     assert x5.shape[0] == 5 and np.array_equal(x5[:4], x4)
@@ -448,7 +451,7 @@ def test_longitudinal_load_transfer_follows_the_brake_force_along_a_speed_profil
     from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
     h, v, v_dot = 0.55, 16.0, -3.0  # v away from the held speed V
-    p = VehicleParameters.from_config(config, mu=np.array([0.9]), l_f=np.array([1.4]), v_c=V)  # one realisation
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.array([0.9]), l_f=np.array([1.4]), v_c=V)  # one realisation
     s = effect("longitudinal_load_transfer").augment(ModelStructure(), [h])
     delta = np.deg2rad(3.0)
     rhs = ExtendedSingleTrackRHS(p, s, 0.97, np.full(3, delta), np.zeros((3, 1)), True, np.zeros(1),
@@ -482,7 +485,7 @@ def test_a_vanishing_chassis_effect_on_the_linear_tyre_is_the_lst(config):
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
     for speed in (None, _braking(t)):
         v_c = V if speed is None else float(np.mean(speed))
-        sim = AugmentedSimulator.drawn(cfg, t, delta, v_c, 2, np.random.default_rng(0), speed=speed)
+        sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta, v_c, 2, np.random.default_rng(0), speed=speed)
         sim.sigma = 0.0
         lst = sim.simulate(THETA, ModelStructure())
         chassis = sim.simulate(THETA, effect("longitudinal_load_transfer").augment(ModelStructure(), [1e-12]))
@@ -505,7 +508,7 @@ def test_the_chassis_model_along_a_speed_profile_is_the_single_track_model_when_
     delta = np.deg2rad(3.0) * np.clip(t - 0.5, 0.0, 1.0)
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": H, "track_width": T_W}}
     speed = _braking(t)
-    sim = AugmentedSimulator.drawn(cfg, t, delta, float(np.mean(speed)), 2, np.random.default_rng(0), speed=speed)
+    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta, float(np.mean(speed)), 2, np.random.default_rng(0), speed=speed)
     sim.sigma = 0.0
     plain = sim.simulate(THETA, _saturating())
     vanishing = sim.simulate(THETA, _saturating(longitudinal_load_transfer=[1e-12]))

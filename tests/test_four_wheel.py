@@ -10,6 +10,7 @@ import pytest
 from uqdrive.config import ConfigError
 from uqdrive.vehicle.four_wheel.model import PHI, R, TH, VX, VY, FourWheelCar, simulate_four_wheel
 from uqdrive.vehicle.four_wheel.tyre import cornering_stiffness, lateral_force, peak_force
+from uqdrive.settings import Settings
 
 V = 70.0 / 3.6
 M = 1884.0  # kg, m_base + the 100 kg load of every run below
@@ -121,8 +122,8 @@ def test_from_config_needs_cg_height(config):
     """The vehicle section's cg_height is required, with an error naming it."""
     cfg = {**config, "vehicle": {k: v for k, v in config["vehicle"].items() if k != "cg_height"}}
     with pytest.raises(ConfigError, match="cg_height"):
-        FourWheelCar.from_config(cfg)
-    car = FourWheelCar.from_config({**config, "vehicle": {**config["vehicle"], "cg_height": 0.5, "track_width": 1.5}})
+        FourWheelCar.from_vehicle(Settings.from_config(cfg).vehicle)
+    car = FourWheelCar.from_vehicle(Settings.from_config({**config, "vehicle": {**config["vehicle"], "cg_height": 0.5, "track_width": 1.5}}).vehicle)
     assert (car.cg_height, car.track_width, car.B_f) == (0.5, 1.5, config["vehicle"]["c_Sf"])
 
 

@@ -39,6 +39,7 @@ from uqdrive.vehicle.single_track import (
     lst_matrices,
     steering_input,
 )
+from uqdrive.settings import Settings
 
 THESIS_SLALOM = {"amplitude_deg": 5.0, "period": 4.0}
 N_SE = 5.0
@@ -131,8 +132,8 @@ def test_same_draws_reproduce_uqdrive_models(config, effect, magnitude, model):
     kle = wind_kle(config)
     d = draw_realisations(config, c, kle)
     _, _, x = simulate_states(config, c, d, kle)
-    p = VehicleParameters.from_config(config, mu=d["mu"], m_load=d["m_load"], l_f=d["l_f"])
-    grid = TimeGrid.from_config(config)
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=d["mu"], m_load=d["m_load"], l_f=d["l_f"])
+    grid = Settings.from_config(config).time
     t_fine = grid.fine(1 if model == "lst" else 2)
     coeffs = config["wind"]["sigma"] * d["xi_wind"] * np.sqrt(kle.eigenvalues)
     simulate = simulate_lst if model == "lst" else simulate_nlst
@@ -147,7 +148,7 @@ def test_none_agrees_with_uqdrive_lst_monte_carlo(cfg):
     practice. The same criterion rejects a 1 deg road bank (z ~ 12 on beta). Shifted mu and the inverted
     slalom check the distribution and manoeuvre plumbing."""
     cfg["uncertainty"]["mu"] = {"mean": 0.9, "std": 0.15}
-    mc = states(simulate_ensemble(cfg, "lst", steer="inverted", samples=300, seed=3, kle=wind_kle(cfg)))
+    mc = states(simulate_ensemble(Settings.from_config(cfg), "lst", steer="inverted", samples=300, seed=3, kle=wind_kle(cfg)))
     params = {"amplitude_deg": 5.0, "period": 4.0, "sign": -1.0}
     mine = states(generate(cfg, case(params=params, samples=300, noise=0.0, shift={"mu": (0.9, 0.15)})))
     for i, name in enumerate(STATES):
@@ -160,7 +161,7 @@ def test_thesis_nlst_agrees_with_uqdrive_nlst_in_mean(config):
     """tyre_saturation at the thesis slalom vs uqdrive's NLST ensemble (independent draws): means
     within N_SE standard errors; the LST reality is rejected by the same criterion."""
     thesis = next(c for c in benchmark_cases(config, samples=200) if c.name == "thesis_nlst")
-    mc = states(simulate_ensemble(config, "nlst", samples=200, seed=5, kle=wind_kle(config)))
+    mc = states(simulate_ensemble(Settings.from_config(config), "nlst", samples=200, seed=5, kle=wind_kle(config)))
     mine = states(generate(config, replace(thesis, noise=0.0)))
     for i, name in enumerate(STATES):
         assert z_scores(mine[i], mc[i])[0] < N_SE, name
@@ -175,7 +176,7 @@ def test_road_bank_shifts_beta_by_the_steady_state(cfg):
     config = short(cfg)
     base = generate(config, case(manoeuvre="step", params={"amplitude_deg": 2.0}, noise=0.0))
     bank = generate(config, case("road_bank", 3.0, manoeuvre="step", params={"amplitude_deg": 2.0}, noise=0.0))
-    A, _, _ = lst_matrices(VehicleParameters.from_config(config))
+    A, _, _ = lst_matrices(VehicleParameters.from_settings(Settings.from_config(config)))
     v = config["vehicle"]["speed_kmh"] / 3.6
     r_ss, beta_ss = np.linalg.solve(A[1:3, 1:3], -np.array([0.0, 9.81 * np.sin(np.deg2rad(3.0)) / v]))
     late = base["time"].values > 1.5

@@ -1,11 +1,12 @@
 import pytest
 
 from uqdrive.inference.identifiability import observability_analysis
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
 def result(config):
-    return observability_analysis(config)
+    return observability_analysis(Settings.from_config(config))
 
 
 def test_rank_7_of_8_as_the_thesis(result):
@@ -37,8 +38,8 @@ def test_matrix_equals_symbolic_lie_derivatives(config):
 
     from uqdrive.inference.identifiability import _lst_symbolic, observability_matrix
 
-    x, point, values = observability_matrix(config, n_lie=3)
-    xs, f, delta = _lst_symbolic(config)
+    x, point, values = observability_matrix(Settings.from_config(config), n_lie=3)
+    xs, f, delta = _lst_symbolic(Settings.from_config(config))
     lie, rows = xs[:4, :], [xs[:4, :].jacobian(xs)]
     for _ in range(2):
         lie = lie.jacobian(xs) * f

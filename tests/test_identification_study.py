@@ -10,6 +10,7 @@ from uqdrive.rng import rng_stream
 from uqdrive.vehicle.statistics import ensemble_statistics, noise_statistics
 
 from conftest import REPO
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
@@ -24,8 +25,8 @@ def data(small):
     stats = {}
     for model in ("lst", "nlst"):
         for steer in ("normal", "inverted"):
-            stats[f"{model}_{steer}"] = ensemble_statistics(simulate_ensemble(small, model, steer), "exclude")
-        e = simulate_ensemble(small, model)
+            stats[f"{model}_{steer}"] = ensemble_statistics(simulate_ensemble(Settings.from_config(small), model, steer), "exclude")
+        e = simulate_ensemble(Settings.from_config(small), model)
         stats[f"noise_{model}"] = noise_statistics(e, small["noise"]["levels"], [rng_stream(1, "noise", i) for i in range(2)])
     return measured_data_sets(small, stats)
 
@@ -70,12 +71,12 @@ def test_unit_free_residuals_reproduce_table_6_2(config):
     In SI units ([1 1 1 1]) the NLST mu comes out ~0.74 and l_f's std collapses, see docs/reproduction.md."""
     from uqdrive.studies.identification import Estimate, _fit
 
-    stats = {f"{m}_normal": ensemble_statistics(simulate_ensemble(config, m), "exclude") for m in ("lst", "nlst")}
+    stats = {f"{m}_normal": ensemble_statistics(simulate_ensemble(Settings.from_config(config), m), "exclude") for m in ("lst", "nlst")}
     data = measured_data_sets(config, stats)
     truth = true_theta(config)
     got = {}
     for key in ("lst_normal", "nlst_normal"):
-        out = _fit(config, data[key], Estimate("x", key, "std", state_scale="rms_mean"), truth, 100.0, np.random.default_rng(0), config["identification"])
+        out = _fit(Settings.from_config(config), data[key], Estimate("x", key, "std", state_scale="rms_mean"), truth, 100.0, np.random.default_rng(0))
         got[key] = out["theta"]
     lst, nlst = got["lst_normal"], got["nlst_normal"]
     ref_l, ref_n = THESIS_TABLE_6_2["LST-STD"], THESIS_TABLE_6_2["NLST-STD"]

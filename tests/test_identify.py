@@ -9,9 +9,9 @@ from scipy.optimize import OptimizeResult
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.inference.identify import (COSTS, OPTIMISERS, STATE_SCALES, DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale,
-                                       cost_weights, default_bounds, initial_guess, state_weights)
+from uqdrive.inference.identify import COSTS, OPTIMISERS, STATE_SCALES, DistributionEstimator, WeightContext, cost_weights, default_bounds, initial_guess, state_weights
 from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.settings import Settings
 
 TRUTH = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
 
@@ -300,8 +300,8 @@ def test_defaults_and_configured_choices(config):
     the config selects state scales and the optimiser; the physical boxes of default_bounds."""
     est = DistributionEstimator(LinearToy())
     assert (est.starts, est.optimiser, est.state_scale, est.cost) == (0, "lbfgsb", "none", "std")
-    assert configured_state_scale(config) == "none" and configured_state_scale(config, normalised=True) == "rms_mean"
-    assert configured_optimiser(config) == "lbfgsb"
+    assert Settings.from_config(config).identify.scale() == "none" and Settings.from_config(config).identify.scale(normalised=True) == "rms_mean"
+    assert Settings.from_config(config).identify.optimiser == "lbfgsb"
     names = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "m_load_mean", "m_load_std", "F_w_mean_low", "F_w_mean_high")
     assert np.array(default_bounds(names, 2.6)) == pytest.approx(np.array([(0.05, 3.0), (1e-4, 1.5), (0.05, 2.55), (1e-4, 1.5), (-500.0, 2000.0), (1e-2, 500.0), (-5000.0, 5000.0), (-5000.0, 5000.0)]), rel=1e-14)
     assert DistributionEstimator(LinearToy()).bounds == default_bounds(LinearToy.theta_names, 2.85)
@@ -351,7 +351,7 @@ def test_scale_values_and_non_finite_scales():
 
 @pytest.fixture(scope="module")
 def model(config):
-    return LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
+    return LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from uqdrive.studies.identification import Z95, binomial_band, coverage_study, coverage_table
+from uqdrive.settings import Settings
 
 REPLICATES, SAMPLES = 40, 300
 
@@ -57,15 +58,15 @@ def test_errors_that_ignore_the_sampling_structure_do_not_cover(results, config)
     from uqdrive.vehicle.single_track import STATES
 
     cfg = replicate_config(config, 0.1)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False)
-    ds = simulate_ensemble(cfg, "lst", samples=SAMPLES, seed=int(cfg["seed"]))
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False)
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=SAMPLES, seed=int(cfg["seed"]))
     runs = np.stack([ds[s].values for s in STATES]).astype(float)
     est = DistributionEstimator(model, "std", state_scale="rms_mean", optimiser="gauss_newton").fit(
-        runs.mean(axis=1), runs.std(axis=1, ddof=1), LSTChaosModel.theta_from_config(cfg, UNCERTAIN) * 1.1, runs=runs)
+        runs.mean(axis=1), runs.std(axis=1, ddof=1), Settings.from_config(cfg).uncertainty.theta(UNCERTAIN) * 1.1, runs=runs)
     first = results[results["replicate"] == 0].set_index("parameter")
     assert est.theta_std_ == pytest.approx(first["standard_error"].values, rel=1e-6)  # the study's numbers
     ratio = est.gauss_newton_std_ / est.theta_std_
     assert np.all(ratio < 0.3), ratio  # intervals a fraction as wide
-    truth = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    truth = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     covered = np.abs(results["estimate"].values - np.tile(truth, REPLICATES)) <= Z95 * np.tile(est.gauss_newton_std_, REPLICATES)
     assert covered.mean() < 0.5  # far below the band's 0.85

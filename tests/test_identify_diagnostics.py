@@ -157,15 +157,18 @@ def test_discover_baseline_at_the_mu_bound_is_a_warning(config):
 
     from uqdrive.cli.discover import baseline_warnings
 
-    def finder(theta, success=True):
-        return SimpleNamespace(baseline_=SimpleNamespace(theta_=np.array(theta, float), success_=success, message_="stopped"))
+    from uqdrive.settings import Settings
+
+    def finder(theta, cfg=config, success=True):
+        return SimpleNamespace(baseline_=SimpleNamespace(theta_=np.array(theta, float), success_=success, message_="stopped"),
+                               settings=Settings.from_config(cfg))
 
     inside = [1.1, 0.2, 1.5, 0.0, -380.0, 410.0]
-    assert baseline_warnings(finder(inside), config) == []
-    w = baseline_warnings(finder([3.0, 0.2, 1.5, 0.2, -380.0, 410.0]), config)
+    assert baseline_warnings(finder(inside)) == []
+    w = baseline_warnings(finder([3.0, 0.2, 1.5, 0.2, -380.0, 410.0]))
     assert len(w) == 1 and w[0].startswith("baseline fit: ") and "mu mean is at the upper bound 3 of the search" in w[0]
-    assert "without converging: stopped" in baseline_warnings(finder(inside, success=False), config)[0]
+    assert "without converging: stopped" in baseline_warnings(finder(inside, success=False))[0]
     known = copy.deepcopy(config)
     known["uncertainty"]["l_f"]["std"] = 0.0
-    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.0, -380.0, 410.0]), known) == []  # l_f at 2.5 = its bound, but known
-    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.1, -380.0, 410.0]), config) != []
+    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.0, -380.0, 410.0], known)) == []  # l_f at 2.5 = its bound, but known
+    assert baseline_warnings(finder([1.1, 0.2, 2.5, 0.1, -380.0, 410.0])) != []

@@ -4,11 +4,12 @@ import xarray as xr
 
 from uqdrive.io import DataError, OutputError, atomic_path, read_ensemble, validate_ensemble, write_dataset
 from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
 def ensemble(config):
-    return simulate_ensemble(config, "lst", samples=4)
+    return simulate_ensemble(Settings.from_config(config), "lst", samples=4)
 
 
 def test_roundtrip_keeps_schema_and_values(ensemble, tmp_path):

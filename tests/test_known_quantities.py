@@ -12,9 +12,9 @@ from uqdrive.cli.main import main
 from uqdrive.config import ConfigError, validate_config
 from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.montecarlo import simulate_ensemble
-from uqdrive.vehicle.uncertainty import known_quantities
 
 from conftest import REPO
+from uqdrive.settings import Settings
 
 
 def _coarse(l_f_std=0.2, wind=None, dt=0.05):
@@ -32,12 +32,12 @@ def test_config_accepts_known_quantities_and_still_refuses_negative_spreads(cfg)
         c = copy.deepcopy(cfg)
         c["uncertainty"][key]["std"] = 0.0
         validate_config(c)
-        assert known_quantities(c) == {key: c["uncertainty"][key]["mean"]}
+        assert Settings.from_config(c).uncertainty.known() == {key: c["uncertainty"][key]["mean"]}
     c = copy.deepcopy(cfg)
     c["uncertainty"]["F_w_mean"] = {"low": 120.0, "high": 120.0}
     validate_config(c)
-    assert known_quantities(c) == {"F_w_mean": 120.0}
-    assert known_quantities(cfg) == {}  # today's config: nothing known, every germ as before
+    assert Settings.from_config(c).uncertainty.known() == {"F_w_mean": 120.0}
+    assert Settings.from_config(cfg).uncertainty.known() == {}  # today's config: nothing known, every germ as before
     c["uncertainty"]["l_f"]["std"] = -0.01
     with pytest.raises(ConfigError, match="uncertainty.l_f.std"):
         validate_config(c)
@@ -48,23 +48,23 @@ def test_chaos_model_drops_the_germ_of_a_known_quantity(config):
     at that value explicitly (same numbers: the two are the same model)."""
     c = copy.deepcopy(config)
     c["time"].update(t_end=2.0, dt=0.05, step=0.025)
-    ref = LSTChaosModel(c, uncertain=("mu", "F_w_mean"), time_variant_wind=False)
+    ref = LSTChaosModel(Settings.from_config(c), uncertain=("mu", "F_w_mean"), time_variant_wind=False)
     c["uncertainty"]["l_f"]["std"] = 0.0
-    model = LSTChaosModel(c, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
+    model = LSTChaosModel(Settings.from_config(c), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
     assert model.uncertain == ("mu", "F_w_mean") and model.known == {"l_f": 1.55}
     assert model.theta_names == ("mu_mean", "mu_std", "F_w_mean_low", "F_w_mean_high")
-    theta = LSTChaosModel.theta_from_config(c, ("mu", "l_f", "F_w_mean"))
+    theta = Settings.from_config(c).uncertainty.theta(("mu", "l_f", "F_w_mean"))
     assert theta.tolist() == [1.0, 0.2, -400.0, 400.0]
     a, b = model.moments(theta), ref.moments(theta)
     assert np.array_equal(a.mean, b.mean) and np.array_equal(a.variance, b.variance)
     # a known mean wind (low == high) is a fixed input, not a degenerate interval
     c["uncertainty"]["F_w_mean"] = {"low": 150.0, "high": 150.0}
-    assert LSTChaosModel(c, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False).theta_names == ("mu_mean", "mu_std")
+    assert LSTChaosModel(Settings.from_config(c), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False).theta_names == ("mu_mean", "mu_std")
 
 
 def test_simulate_gives_a_known_quantity_its_value_in_every_realisation():
     cfg = validate_config(_coarse(l_f_std=0.0, wind={"low": 50.0, "high": 50.0}))
-    ds = simulate_ensemble(cfg, "lst", samples=20)
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=20)
     assert np.all(ds["l_f"].values == 1.55) and np.all(ds["F_w_mean"].values == 50.0) and ds["mu"].values.std() > 0.1
 
 
@@ -114,16 +114,16 @@ def test_discover_baseline_holds_a_known_quantity(config):
     realisations on common random numbers: exact to the optimiser's tolerance, 1e-3 relative)
     from 10 % away. Held at a wrong l_f (1.45 m), the fit stays there and the misfit grows."""
     from uqdrive.inference.discrepancy.band import statistic_scale
-    from uqdrive.inference.discrepancy.fit import StructureFit, known_theta
+    from uqdrive.inference.discrepancy.fit import StructureFit
     from uqdrive.vehicle.augmented import AugmentedSimulator
     from uqdrive.vehicle.effects import ModelStructure
 
     c = copy.deepcopy(config)
     c["uncertainty"]["l_f"]["std"] = 0.0
-    assert known_theta(c) == {2: 1.55, 3: 0.0}
+    assert dict(Settings.from_config(c).layout.known) == {2: 1.55, 3: 0.0}
     t = np.arange(301) * 0.01
     delta = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 2.0)
-    sim = AugmentedSimulator.drawn(c, t, delta, 25.0, 24, np.random.default_rng(11), stride=4)
+    sim = AugmentedSimulator.drawn(Settings.from_config(c), t, delta, 25.0, 24, np.random.default_rng(11), stride=4)
     index = np.arange(1, sim.output_time.size)
     truth = np.array([1.0, 0.2, 1.55, 0.0, -400.0, 400.0])
     noise = np.full(4, 1e-8)
@@ -131,7 +131,7 @@ def test_discover_baseline_holds_a_known_quantity(config):
     x = sim.simulate(truth, ModelStructure())
     scale = statistic_scale(x, index) + 1e-6
     start = truth * [1.1, 1.1, 1.0, 1.0, 1.1, 0.9]
-    fit = StructureFit(sim, index, noise, fixed=known_theta(c)).fit(measured, scale, start)
+    fit = StructureFit(sim, index, noise, fixed=dict(Settings.from_config(c).layout.known)).fit(measured, scale, start)
     assert fit.theta_[2] == 1.55 and fit.theta_[3] == 0.0
     assert np.all(fit.jacobian_[:, 2:4] == 0.0) and np.all(np.any(fit.jacobian_[:, [0, 1, 4, 5]] != 0.0, axis=0))
     assert fit.theta_[[0, 1, 4, 5]] == pytest.approx(truth[[0, 1, 4, 5]], rel=1e-3)

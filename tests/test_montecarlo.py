@@ -5,15 +5,16 @@ import copy
 import numpy as np
 import pytest
 
-from uqdrive.vehicle.montecarlo import TimeGrid, kle_from_config, simulate_ensemble, spin_mask
+from uqdrive.vehicle.montecarlo import simulate_ensemble, spin_mask, wind_kle
 from uqdrive.io import validate_ensemble
 from uqdrive.vehicle.reference import solve_realisations
 from uqdrive.vehicle.statistics import ensemble_statistics
 from uqdrive.vehicle.single_track import STATES
+from uqdrive.settings import Settings
 
 
 def test_ensemble_follows_schema_and_carries_provenance(config):
-    ds = simulate_ensemble(config, "nlst", "inverted", samples=8)
+    ds = simulate_ensemble(Settings.from_config(config), "nlst", "inverted", samples=8)
     validate_ensemble(ds)
     assert ds.sizes["sample"] == 8 and ds.sizes["time"] == 1001
     for key in ("config_hash", "uqdrive_version", "seed", "v_c", "n_spun"):
@@ -24,13 +25,13 @@ def test_ensemble_follows_schema_and_carries_provenance(config):
 
 
 def test_same_seed_same_numbers_and_shared_draws(config):
-    a = simulate_ensemble(config, "nlst", samples=16)
-    b = simulate_ensemble(config, "nlst", samples=16)
+    a = simulate_ensemble(Settings.from_config(config), "nlst", samples=16)
+    b = simulate_ensemble(Settings.from_config(config), "nlst", samples=16)
     for name in STATES:
         np.testing.assert_array_equal(a[name].values, b[name].values)
-    lst = simulate_ensemble(config, "lst", samples=16)
+    lst = simulate_ensemble(Settings.from_config(config), "lst", samples=16)
     np.testing.assert_array_equal(lst["mu"].values, a["mu"].values)  # LST and NLST share draws
-    other = simulate_ensemble(config, "nlst", samples=16, seed=config["seed"] + 1)
+    other = simulate_ensemble(Settings.from_config(config), "nlst", samples=16, seed=config["seed"] + 1)
     assert not np.array_equal(other["mu"].values, a["mu"].values)
 
 
@@ -42,11 +43,11 @@ def test_nlst_accuracy_beats_ode45_on_the_thesis_grid(config):
     """
     # Two realisations: each costs a scalar DOP853 solve at rtol 1e-10 (seconds); the errors are
     # three orders of magnitude apart, so more realisations would not change the verdict.
-    ds = simulate_ensemble(config, "nlst", samples=2)
+    ds = simulate_ensemble(Settings.from_config(config), "nlst", samples=2)
     ours = np.stack([ds[s].values for s in STATES], axis=-1)
-    kle = kle_from_config(config)
-    ref = solve_realisations(config, ds, kle, range(2), "DOP853", 1e-10, 1e-12)
-    ode45 = solve_realisations(config, ds, kle, range(2), "RK45", 1e-3, 1e-6)
+    kle = wind_kle(Settings.from_config(config))
+    ref = solve_realisations(Settings.from_config(config), ds, kle, range(2), "DOP853", 1e-10, 1e-12)
+    ode45 = solve_realisations(Settings.from_config(config), ds, kle, range(2), "RK45", 1e-3, 1e-6)
     scale = np.abs(ref).max(axis=(0, 1))
     err_ours = np.abs(ours - ref).max(axis=(0, 1)) / scale
     err_ode45 = np.abs(ode45 - ref).max(axis=(0, 1)) / scale
@@ -57,8 +58,8 @@ def test_nlst_accuracy_beats_ode45_on_the_thesis_grid(config):
 def test_lst_exact_discretisation_accuracy(config):
     """The LST (first-order hold on the 5 ms grid) against DOP853 on the same linear model:
     max relative error below 1e-5 (measured ~1e-6; ode45's defaults give ~1e-3)."""
-    ds = simulate_ensemble(config, "lst", samples=2)
-    ref = solve_realisations(config, ds, kle_from_config(config), range(2), "DOP853", 1e-11, 1e-13)
+    ds = simulate_ensemble(Settings.from_config(config), "lst", samples=2)
+    ref = solve_realisations(Settings.from_config(config), ds, wind_kle(Settings.from_config(config)), range(2), "DOP853", 1e-11, 1e-13)
     ours = np.stack([ds[s].values for s in STATES], axis=-1)
     assert np.all(np.abs(ours - ref).max(axis=(0, 1)) / np.abs(ref).max(axis=(0, 1)) < 1e-5)
 
@@ -66,7 +67,7 @@ def test_lst_exact_discretisation_accuracy(config):
 def _amplitude(cfg, deg, samples=200):
     cfg = copy.deepcopy(cfg)
     cfg["steering"]["delta_max_deg"] = deg
-    s = {m: ensemble_statistics(simulate_ensemble(cfg, m, samples=samples), "keep") for m in ("lst", "nlst")}
+    s = {m: ensemble_statistics(simulate_ensemble(Settings.from_config(cfg), m, samples=samples), "keep") for m in ("lst", "nlst")}
     scale = np.abs(s["lst"]["mean"]).max("time")
     return (np.abs(s["lst"]["mean"] - s["nlst"]["mean"]).max("time") / scale).values
 
@@ -92,10 +93,10 @@ def test_ensemble_mean_equals_nominal_response_only_where_linear(cfg):
     nominal = copy.deepcopy(wind_only)
     nominal["uncertainty"]["F_w_mean"] = {"low": 0.0, "high": 0.0}
     nominal["wind"]["sigma"] = 0.0
-    x_nom = ensemble_statistics(simulate_ensemble(nominal, "lst", samples=2), "keep")["mean"]
+    x_nom = ensemble_statistics(simulate_ensemble(Settings.from_config(nominal), "lst", samples=2), "keep")["mean"]
 
     def z_max(config):
-        s = ensemble_statistics(simulate_ensemble(config, "lst", samples=n), "keep")
+        s = ensemble_statistics(simulate_ensemble(Settings.from_config(config), "lst", samples=n), "keep")
         z = np.abs(s["mean"] - x_nom) / (s["std"] / np.sqrt(n))
         return z.isel(time=slice(1, None)).max("time").values
 
@@ -105,13 +106,13 @@ def test_ensemble_mean_equals_nominal_response_only_where_linear(cfg):
 
 def test_spin_detection_counts_low_friction_realisations(config):
     """FACTS: under (5.5) about 0.5-1 % of NLST realisations (mu below about 0.5) spin."""
-    ds = simulate_ensemble(config, "nlst", samples=2000)
+    ds = simulate_ensemble(Settings.from_config(config), "nlst", samples=2000)
     spun = ds["spun"].values.astype(bool)
     assert ds.attrs["n_spun"] == spun.sum()
     assert 0.001 <= spun.mean() <= 0.015
     assert ds["mu"].values[spun].max() < 0.6
     assert np.abs(ds["beta"].values[~spun]).max() <= config["montecarlo"]["spin_threshold"]
-    lst = simulate_ensemble(config, "lst", samples=2000)
+    lst = simulate_ensemble(Settings.from_config(config), "lst", samples=2000)
     assert lst.attrs["n_spun"] == 0
 
 
@@ -121,11 +122,11 @@ def test_spin_mask():
 
 
 def test_time_grid(config):
-    g = TimeGrid.from_config(config)
+    g = Settings.from_config(config).time
     assert g.n_out == 1000 and g.substeps == 2
     assert g.fine(2)[-1] == pytest.approx(10.0)
 
 
 def test_unknown_model_is_rejected(config):
     with pytest.raises(ValueError, match="unknown model"):
-        simulate_ensemble(config, "bicycle", samples=2)
+        simulate_ensemble(Settings.from_config(config), "bicycle", samples=2)

@@ -4,11 +4,12 @@ import pytest
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.noise import add_noise, added_noise_variance, noise_scale, noisy_ensemble
 from uqdrive.vehicle.single_track import STATES
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
 def clean(config):
-    return simulate_ensemble(config, "lst", samples=500)
+    return simulate_ensemble(Settings.from_config(config), "lst", samples=500)
 
 
 def test_noise_scale_is_A_times_max_abs():

@@ -4,11 +4,12 @@ import pytest
 from uqdrive.vehicle.montecarlo import monte_carlo_moments
 from uqdrive.studies.pce import convergence_study, pce_dataset
 from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.settings import Settings
 
 
 def test_pce_dataset_contents(config):
-    model = LSTChaosModel(config)
-    ds = pce_dataset(config, model, model.moments(model.theta_from_config(config, model.uncertain)))
+    model = LSTChaosModel(Settings.from_config(config))
+    ds = pce_dataset(config, model, model.moments(Settings.from_config(config).uncertainty.theta(model.uncertain)))
     assert ds["sobol_first"].sizes == {"group": 5, "state": 4, "time": 1001}
     assert ds.attrs["n_terms"] == 55 and "config_hash" in ds.attrs
 
@@ -18,8 +19,8 @@ def test_monte_carlo_moments_merge_chunks_exactly(config):
     from uqdrive.vehicle.montecarlo import simulate_ensemble
     from uqdrive.vehicle.single_track import STATES
 
-    mean, std, n = monte_carlo_moments(config, "lst", 30, 10)
-    blocks = [simulate_ensemble(config, "lst", samples=10, chunk=c) for c in range(3)]
+    mean, std, n = monte_carlo_moments(Settings.from_config(config), "lst", 30, 10)
+    blocks = [simulate_ensemble(Settings.from_config(config), "lst", samples=10, chunk=c) for c in range(3)]
     x = np.concatenate([np.stack([b[s].values for s in STATES]) for b in blocks], axis=1)
     assert n == 30
     assert mean == pytest.approx(x.mean(axis=1), rel=1e-12, abs=1e-15)
@@ -27,7 +28,7 @@ def test_monte_carlo_moments_merge_chunks_exactly(config):
 
 
 def test_convergence_study_shapes_and_improvement(config):
-    mean, std, n = monte_carlo_moments(config, "lst", 20000, 10000)
+    mean, std, n = monte_carlo_moments(Settings.from_config(config), "lst", 20000, 10000)
     ds = convergence_study(config, [1, 2], [4], mean, std, n)
     assert ds["std_error"].sizes == {"order": 2, "quadrature_points": 1, "state": 4}
     worst = ds["std_error"].max("state").values[:, 0]

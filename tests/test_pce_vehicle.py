@@ -6,16 +6,17 @@ import pytest
 from uqdrive.vehicle.montecarlo import lst_response, simulate_ensemble
 from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.statistics import ensemble_statistics
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
 def full_model(config):
-    return LSTChaosModel(config)
+    return LSTChaosModel(Settings.from_config(config))
 
 
 @pytest.fixture(scope="module")
 def ident_model(config):
-    return LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, fixed={"m_load": 110.0})
+    return LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, fixed={"m_load": 110.0})
 
 
 def test_pce_agrees_with_2000_run_monte_carlo(config, full_model):
@@ -24,8 +25,8 @@ def test_pce_agrees_with_2000_run_monte_carlo(config, full_model):
     for the std, at every time after t = 0. Measured: |z| <= 1.6 (mean), <= 4.3 (std; the
     order-2 truncation contributes about 1 % of sigma, see the convergence figure)."""
     N = 2000
-    mc = ensemble_statistics(simulate_ensemble(config, "lst", samples=N), "keep")
-    r = full_model.moments(full_model.theta_from_config(config, full_model.uncertain))
+    mc = ensemble_statistics(simulate_ensemble(Settings.from_config(config), "lst", samples=N), "keep")
+    r = full_model.moments(Settings.from_config(config).uncertainty.theta(full_model.uncertain))
     s = mc["std"].values[:, 1:]
     z_mean = np.abs(r.mean[:, 1:] - mc["mean"].values[:, 1:]) / (s / np.sqrt(N))
     z_std = np.abs(r.std[:, 1:] - s) / (s / np.sqrt(2 * (N - 1)))
@@ -59,15 +60,15 @@ def test_against_chaospy_pseudo_spectral(config):
         "l_f": unc["l_f"]["mean"] + unc["l_f"]["std"] * nodes[1],
         "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"] + nodes[2] * (unc["F_w_mean"]["high"] - unc["F_w_mean"]["low"])),
     }
-    y = lst_response(config, draws)  # (4, Q, T)
+    y = lst_response(Settings.from_config(config), draws)  # (4, Q, T)
     expansion = cp.generate_expansion(4, germs, normed=True)
     T = y.shape[-1]
     evals = y.transpose(1, 0, 2).reshape(y.shape[1], -1)
     approx = cp.fit_quadrature(expansion, nodes, weights, evals)
     mean_cp = cp.E(approx, germs).reshape(4, T)
     std_cp = cp.Std(approx, germs).reshape(4, T)
-    model = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, order=4, quadrature_points=5)
-    r = model.moments(model.theta_from_config(config, model.uncertain))
+    model = LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, order=4, quadrature_points=5)
+    r = model.moments(Settings.from_config(config).uncertainty.theta(model.uncertain))
     scale = std_cp.max(axis=1, keepdims=True)
     assert np.abs(r.mean - mean_cp).max() < 2e-3 * scale.max()
     assert np.all(np.abs(r.std - std_cp) < 2e-3 * scale)
@@ -89,9 +90,9 @@ def test_first_order_sobol_against_salib(config):
         "dists": ["norm", "norm", "unif"],
     }
     X = sobol_sample.sample(problem, 2048, calc_second_order=False, seed=7)
-    y = lst_response(config, {"mu": X[:, 0], "l_f": X[:, 1], "F_w_mean": X[:, 2]})
-    model = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, order=3)
-    r = model.moments(model.theta_from_config(config, model.uncertain))
+    y = lst_response(Settings.from_config(config), {"mu": X[:, 0], "l_f": X[:, 1], "F_w_mean": X[:, 2]})
+    model = LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False, order=3)
+    r = model.moments(Settings.from_config(config).uncertainty.theta(model.uncertain))
     names, S1 = model.sobol(r)
     dt = config["time"]["dt"]
     for state, t in ((3, 5.0), (2, 2.0), (1, 7.5)):
@@ -101,7 +102,7 @@ def test_first_order_sobol_against_salib(config):
 
 
 def test_sobol_groups_sum_below_one(config, full_model):
-    r = full_model.moments(full_model.theta_from_config(config, full_model.uncertain))
+    r = full_model.moments(Settings.from_config(config).uncertainty.theta(full_model.uncertain))
     names, S1 = full_model.sobol(r)
     _, ST = full_model.sobol(r, total=True)
     assert names == ["mu", "m_load", "l_f", "F_w_mean", "wind (time-variant)"]
@@ -125,7 +126,7 @@ def test_bad_parameters_are_named(ident_model, theta, message):
 
 def test_unknown_uncertain_parameter(config):
     with pytest.raises(ValueError, match="unknown uncertain parameter"):
-        LSTChaosModel(config, uncertain=("mu", "tyre_pressure"))
+        LSTChaosModel(Settings.from_config(config), uncertain=("mu", "tyre_pressure"))
 
 
 def test_adjoint_gradient_equals_forward_sensitivities(config):
@@ -134,7 +135,7 @@ def test_adjoint_gradient_equals_forward_sensitivities(config):
     sensitivities, to 1e-10 relative (round-off of two exact derivatives)."""
     from uqdrive.vehicle.chaos import LSTChaosModel
 
-    model = LSTChaosModel(config, uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
+    model = LSTChaosModel(Settings.from_config(config), uncertain=("mu", "l_f", "F_w_mean"), time_variant_wind=False)
     theta = np.array([0.9, 0.25, 1.5, 0.15, -300.0, 500.0])
     rng = np.random.default_rng(0)
     w_mean, w_var = rng.normal(size=(2, 4, model.time.size))
@@ -149,7 +150,7 @@ def test_adjoint_gradient_equals_forward_sensitivities(config):
 def test_moments_are_those_of_the_coefficients(config, full_model):
     """Mean and variance read from the block-ordered states equal (4.51) on the full coefficient
     array (zero for never-excited terms), to round-off."""
-    r = full_model.moments(full_model.theta_from_config(config, full_model.uncertain))
+    r = full_model.moments(Settings.from_config(config).uncertainty.theta(full_model.uncertain))
     c = r.coefficients
     assert c.shape == (4, full_model.projector.n_terms, full_model.time.size)
     assert r.mean == pytest.approx(c[:, 0], rel=1e-14, abs=0.0)

@@ -10,10 +10,11 @@ import pytest
 
 from uqdrive.plots import data as plots
 from uqdrive.plots import pce as pce_plots
-from uqdrive.vehicle.montecarlo import kle_from_config, simulate_ensemble
+from uqdrive.vehicle.montecarlo import simulate_ensemble, wind_kle
 from uqdrive.vehicle.single_track import STATES, STATE_UNITS
 from uqdrive.vehicle.statistics import ensemble_statistics, kl_divergence_series, noise_statistics
 from uqdrive.studies.kle import kle_dataset
+from uqdrive.settings import Settings
 
 UNIT = re.compile(r"\[[^\]]+\]")
 
@@ -22,7 +23,7 @@ UNIT = re.compile(r"\[[^\]]+\]")
 def stats(config):
     out = {}
     for model in ("lst", "nlst"):
-        ds = simulate_ensemble(config, model, samples=6)
+        ds = simulate_ensemble(Settings.from_config(config), model, samples=6)
         out[model] = ensemble_statistics(ds, "keep")
         out[f"{model}_noise"] = noise_statistics(ds, [0.0, 0.1], [np.random.default_rng(i) for i in range(2)], "keep")
     return out
@@ -74,7 +75,7 @@ def test_save_figure_writes_the_canvas_of_a_laid_out_figure_and_crops_one_withou
 
 @pytest.mark.long(4)
 def test_data_figures_draw_the_datasets(config, stats, tmp_path):
-    kle = kle_dataset(config, kle_from_config(config), np.linspace(0, 10, 101), 3, np.random.default_rng(0))
+    kle = kle_dataset(config, wind_kle(Settings.from_config(config)), np.linspace(0, 10, 101), 3, np.random.default_rng(0))
     surfaces = config["figures"]["tyre_surfaces"]
     ax_x, ax_y = _drawn(plots.tyre_curves(surfaces), 2)
     assert len(ax_x.lines) == len(ax_y.lines) == len(surfaces)
@@ -112,12 +113,12 @@ def test_pce_figures(config, stats, tmp_path):
     from uqdrive.studies.pce import convergence_study, pce_dataset
     from uqdrive.vehicle.chaos import LSTChaosModel
 
-    model = LSTChaosModel(config, order=1, quadrature_points=2)
-    pce = pce_dataset(config, model, model.moments(model.theta_from_config(config, model.uncertain)))
+    model = LSTChaosModel(Settings.from_config(config), order=1, quadrature_points=2)
+    pce = pce_dataset(config, model, model.moments(Settings.from_config(config).uncertainty.theta(model.uncertain)))
     axes = _drawn(pce_plots.pce_vs_monte_carlo(pce, stats["lst"]), 4)
     assert [ax.get_ylabel() for ax in axes] == [f"{s} [{STATE_UNITS[s]}]" for s in STATES]
     assert all(ax.get_ylabel() == "S_1 [-]" for ax in _drawn(pce_plots.sobol_indices(pce), 4))
-    mean, std, n = monte_carlo_moments(config, "lst", 20, 10)
+    mean, std, n = monte_carlo_moments(Settings.from_config(config), "lst", 20, 10)
     _drawn(pce_plots.pce_convergence(convergence_study(config, [1], [2, 3], mean, std, n)), 2, units=False)  # N_PCE, relative errors
 
 
@@ -131,7 +132,7 @@ def test_wheelslip_figures(tmp_path):
     from conftest import REPO
 
     small = load_config(REPO / "config" / "test.yaml")
-    car = QuarterCar.from_config(small)
+    car = QuarterCar.from_settings(Settings.from_config(small).wheelslip)
     gp = gp_dataset(small, 10, np.random.default_rng(0))
     hyper = {"v1": gp.attrs["v1"], "g": np.atleast_1d(gp.attrs["g"]), "v0": gp.attrs["v0"]}
     cal = calibration_dataset(small, 10, 1, hyper, np.random.default_rng(1))
@@ -191,7 +192,7 @@ def test_bayes_figures(tmp_path):
     from conftest import REPO
 
     small = load_config(REPO / "config" / "test.yaml")
-    x, nv = prepare_data(small, simulate_ensemble(small, "lst"))
+    x, nv = prepare_data(small, simulate_ensemble(Settings.from_config(small), "lst"))
     ds = posterior_case(small, x, nv, np.random.default_rng(0), ensembles=2, max_steps=60)
     p = ds.sizes["parameter"]
     assert len(_drawn(pbay.corner_plot(ds, "t"), p * (p + 1) // 2, units=False)) == p * (p + 1) // 2  # parameter names, no units

@@ -2,12 +2,13 @@ import csv
 
 import pytest
 
-from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.vehicle.montecarlo import wind_kle
 from uqdrive.studies.scorecard import COLUMNS, KNOWN_DEVIATIONS, compare, foundation_rows, read_scorecard, write_scorecard
+from uqdrive.settings import Settings
 
 
 def test_foundation_rows_pass(config):
-    rows = foundation_rows(config, kle_from_config(config))
+    rows = foundation_rows(config, wind_kle(Settings.from_config(config)))
     assert len(rows) == 11  # 4 gains, the mode count, 5 eigenvalues, the captured share
     assert all(r.status == "pass" and r.reason == "" for r in rows), rows
 
@@ -38,7 +39,7 @@ def test_compare_deviates_only_for_a_registered_row_whose_condition_holds():
 
 
 def test_csv_columns_and_roundtrip(config, tmp_path):
-    rows = foundation_rows(config, kle_from_config(config))
+    rows = foundation_rows(config, wind_kle(Settings.from_config(config)))
     rows.append(compare("SLQR gain K[1]", "thesis eq. (6.2)", -1.81, -1.5, 0.005, deviation="slqr_grid"))
     path = tmp_path / "scorecard.csv"
     write_scorecard(rows, path)

@@ -20,7 +20,8 @@ from uqdrive.studies.scorecard import (
     foundation_rows, gp_estimate_rows, read_scorecard, scorecard_problems, wheelslip_rows, write_scorecard,
 )
 from uqdrive.studies.tables import table_scorecard_rows
-from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.vehicle.montecarlo import wind_kle
+from uqdrive.settings import Settings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -43,7 +44,7 @@ def _by_quantity(rows):
 # --- foundation --------------------------------------------------------------------------------
 
 def test_foundation_published_tolerances_and_values(config):
-    rows = foundation_rows(config, kle_from_config(config))
+    rows = foundation_rows(config, wind_kle(Settings.from_config(config)))
     assert [r.published for r in rows] == [*SEED_LQR, 5, *SEED_KLE, 0.953]
     assert [r.tolerance for r in rows] == [0.005] * 4 + [0.0] + [5e-4] * 6
     assert [r.source for r in rows] == ["thesis eq. (6.1)"] * 4 + ["thesis sec. 7.3, Fig. 7.1"] * 7
@@ -57,8 +58,8 @@ def test_foundation_published_tolerances_and_values(config):
 def test_foundation_rows_fail_outside_the_printed_digits(config):
     cfg = copy.deepcopy(config)
     cfg["control"]["R"] = 80.0  # K scales roughly with R^-1/2: every gain moves by more than 0.005
-    assert {r.status for r in foundation_rows(cfg, kle_from_config(config))[:4]} == {"fail"}
-    kle = kle_from_config(config)
+    assert {r.status for r in foundation_rows(cfg, wind_kle(Settings.from_config(config)))[:4]} == {"fail"}
+    kle = wind_kle(Settings.from_config(config))
     inside = SimpleNamespace(n_modes=5, eigenvalues=np.array(SEED_KLE) + 4e-4, captured_variance=0.953 - 4e-4)
     outside = SimpleNamespace(n_modes=5, eigenvalues=np.array(SEED_KLE) + 6e-4, captured_variance=0.953 + 6e-4)
     assert all(r.status == "pass" for r in foundation_rows(config, inside)[4:])
@@ -171,7 +172,7 @@ def test_gp_slope_estimate_depends_on_the_training_region(config):
     from uqdrive.wheelslip.calibration import fit_friction_gp, slope_interval_ml
     from uqdrive.wheelslip.quarter_car import QuarterCar
 
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     var = {}
     for region in ((0.0, 0.1), (0.0, 0.3)):
         rng = np.random.default_rng(1)

@@ -7,16 +7,17 @@ import pytest
 from uqdrive.control.lqr import lqr_gain
 from uqdrive.control.slqr import ClosedLoopChaos, LaneKeepingCase, mean_variance_weights
 from uqdrive.numerics.threads import single_blas_thread
-from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.vehicle.montecarlo import wind_kle
 from uqdrive.vehicle.uncertainty import ParameterDistribution
 from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices
+from uqdrive.settings import Settings
 
 Q, R = np.diag([1.0, 1.0, 1.0, 10.0]), 100.0
 
 
 @pytest.fixture(scope="module")
 def k_lqr(config):
-    A, B, _ = lst_matrices(VehicleParameters.from_config(config))
+    A, B, _ = lst_matrices(VehicleParameters.from_settings(Settings.from_config(config)))
     return lqr_gain(A, B, Q, R)[0]
 
 
@@ -31,9 +32,9 @@ def deterministic(config):
     assert cfg["wind"]["sigma"] > 0
     dist = ParameterDistribution(mu=(1.0, 0.0), m_load=(100.0, 0.0), l_f=(1.55, 0.0), F_w_mean=(150.0, 150.0))
     lane = LaneKeepingCase(y_low=0.25, y_high=1.75, psi_deg=4.0, horizon=2.0, dt=0.01)
-    model = ClosedLoopChaos(cfg, lane, dist, order=1, quadrature_points=1, time_variant_wind=False)
+    model = ClosedLoopChaos(Settings.from_config(cfg), lane, dist, order=1, quadrature_points=1, time_variant_wind=False)
     assert model.projector.n_linear == 2  # the two initial-condition germs only
-    A, B, W = lst_matrices(VehicleParameters.from_config(cfg, mu=1.0, m_load=100.0, l_f=1.55))
+    A, B, W = lst_matrices(VehicleParameters.from_settings(Settings.from_config(cfg), mu=1.0, m_load=100.0, l_f=1.55))
     return model, A, B, W
 
 
@@ -62,9 +63,9 @@ def test_lane_keeping_case_defaults_and_config(config):
     case = LaneKeepingCase()
     assert (case.y_low, case.y_high, case.psi_deg, case.horizon, case.dt) == (0.0, 1.75, 5.0, 2.0, 0.01)
     c = dict(config, control=dict(config["control"], y0=[0.1, 1.5], psi0_deg=3.0, horizon=4.0), time=dict(config["time"], dt=0.02))
-    assert LaneKeepingCase.from_config(c) == LaneKeepingCase(0.1, 1.5, 3.0, 4.0, 0.02)
-    assert LaneKeepingCase.from_config(c, horizon=1.0).horizon == 1.0
-    assert LaneKeepingCase.from_config(config) == case
+    assert LaneKeepingCase.from_settings(Settings.from_config(c)) == LaneKeepingCase(0.1, 1.5, 3.0, 4.0, 0.02)
+    assert LaneKeepingCase.from_settings(Settings.from_config(c), horizon=1.0).horizon == 1.0
+    assert LaneKeepingCase.from_settings(Settings.from_config(config)) == case
     with pytest.raises(dataclasses.FrozenInstanceError):
         case.dt = 0.02  # a case is a value: hashable, shared safely between models
 
@@ -144,9 +145,9 @@ def test_gust_variance_equals_the_sum_of_the_kle_modes_responses(config, k_lqr):
     cfg = copy.deepcopy(config)
     cfg["wind"]["kle_quadrature"] = 80  # any KLE will do (model and reference share it); 80 points keep it cheap
     dist = ParameterDistribution(mu=(1.0, 0.0), m_load=(100.0, 0.0), l_f=(1.55, 0.0), F_w_mean=(0.0, 0.0))
-    model = ClosedLoopChaos(cfg, LaneKeepingCase(1.0, 1.0, 0.0, 2.0, 0.01), dist, order=1, quadrature_points=1)
-    A, B, W = lst_matrices(VehicleParameters.from_config(cfg, mu=1.0, m_load=100.0, l_f=1.55))
-    kle = kle_from_config(cfg)
+    model = ClosedLoopChaos(Settings.from_config(cfg), LaneKeepingCase(1.0, 1.0, 0.0, 2.0, 0.01), dist, order=1, quadrature_points=1)
+    A, B, W = lst_matrices(VehicleParameters.from_settings(Settings.from_config(cfg), mu=1.0, m_load=100.0, l_f=1.55))
+    kle = wind_kle(Settings.from_config(cfg))
     assert model.projector.n_linear == kle.n_modes + 2  # gusts on by default
     Acl, t = A + np.outer(B, k_lqr), model.time
     column = gust_input_column(W, cfg["wind"]["gust_yaw_moment"])
@@ -169,7 +170,7 @@ def test_weights_5_35():
 @pytest.fixture(scope="module")
 def uncertain_order1(config):
     """Every parameter uncertain, gusts on, order 1, 1 s."""
-    return ClosedLoopChaos(config, LaneKeepingCase(horizon=1.0), order=1)
+    return ClosedLoopChaos(Settings.from_config(config), LaneKeepingCase(horizon=1.0), order=1)
 
 
 def test_moments_are_the_chaos_moments_of_the_response(uncertain_order1, k_lqr):
@@ -206,11 +207,11 @@ def test_pce_closed_loop_matches_monte_carlo(config, k_lqr):
 
     cfg = copy.deepcopy(config)
     cfg["control"]["simulation_time"] = 3.0
-    model = ClosedLoopChaos(cfg, LaneKeepingCase(horizon=3.0, dt=cfg["time"]["dt"]))  # defaults: order 2, 4 points, gusts
+    model = ClosedLoopChaos(Settings.from_config(cfg), LaneKeepingCase(horizon=3.0, dt=cfg["time"]["dt"]))  # defaults: order 2, 4 points, gusts
     mean, var, u_mean, u_var = model.moments(k_lqr)
     mc = closed_loop_monte_carlo(cfg, {"LQR": k_lqr}, "lst", 2000, 3)
     assert model.projector.chaos.order == 2 and model.projector.nodes.shape == (4**4, 4)
-    assert model.projector.n_linear == kle_from_config(cfg).n_modes + 2
+    assert model.projector.n_linear == wind_kle(Settings.from_config(cfg)).n_modes + 2
     for i, s in enumerate(("psi", "psi_dot", "beta", "y")):
         x = mc[s].sel(controller="LQR").values
         se = x.std(axis=0, ddof=1) / np.sqrt(x.shape[0]) + 1e-12
@@ -235,7 +236,7 @@ def test_slqr_without_uncertainty_tends_to_the_lqr(config, k_lqr):
     dist = ParameterDistribution(mu=(1.0, 0.0), m_load=(100.0, 0.0), l_f=(1.55, 0.0), F_w_mean=(0.0, 0.0))
     errors = []
     for dt in (0.004, 0.002):
-        model = ClosedLoopChaos(cfg, LaneKeepingCase(horizon=6.0, dt=dt), dist, order=1, quadrature_points=1, time_variant_wind=False)
+        model = ClosedLoopChaos(Settings.from_config(cfg), LaneKeepingCase(horizon=6.0, dt=dt), dist, order=1, quadrature_points=1, time_variant_wind=False)
         K, _ = model.synthesise(k_lqr * 1.05, Q, R, 0.5)
         errors.append(np.linalg.norm(K - k_lqr))
     assert errors[1] < 0.7 * errors[0]

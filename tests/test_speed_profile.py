@@ -19,6 +19,7 @@ from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, lst_ma
 from uqdrive.vehicle.channels import speed_ramp
 
 from test_channels import assert_moment_gradients
+from uqdrive.settings import Settings
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 RAMP = {"start_kmh": 70.0, "end_kmh": 50.0, "t_start": 0.5, "duration": 3.0}  # 29 % slower
@@ -54,15 +55,15 @@ def test_constant_speed_ensembles_are_unchanged(config):
     a "profile" that never changes gives the same states through the time-varying path to
     rounding (both are exact discretisations)."""
     cfg = coarse(config)
-    ds = simulate_ensemble(cfg, "lst", samples=50, seed=2)
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=50, seed=2)
     assert "v" not in ds and ds.attrs["v_c"] == pytest.approx(70 / 3.6)
-    flat = simulate_ensemble(coarse(config, ramp={"start_kmh": 70.0, "end_kmh": 70.0, "duration": 1.0}), "lst", samples=50, seed=2)
+    flat = simulate_ensemble(Settings.from_config(coarse(config, ramp={"start_kmh": 70.0, "end_kmh": 70.0, "duration": 1.0})), "lst", samples=50, seed=2)
     for s in ("psi", "psi_dot", "beta", "y", "a_y"):
         np.testing.assert_allclose(flat[s].values, ds[s].values, rtol=1e-9, atol=1e-12 * np.abs(ds[s].values).max())
 
 
 def test_ramp_ensemble_carries_v_and_validates(config):
-    ds = simulate_ensemble(coarse(config, ramp=RAMP), "nlst", samples=12, seed=2)
+    ds = simulate_ensemble(Settings.from_config(coarse(config, ramp=RAMP)), "nlst", samples=12, seed=2)
     assert "v_c" not in ds.attrs and ds["v"].attrs["units"] == "m/s"
     validate_ensemble(ds)
     np.testing.assert_allclose(ds["v"].values[[0, -1]], [70 / 3.6, 50 / 3.6])
@@ -77,7 +78,7 @@ def test_nlst_along_a_ramp_is_the_ltv_lst_for_small_steering(config):
     cfg["steering"]["delta_max_deg"] = 0.2
     cfg["uncertainty"]["F_w_mean"].update(low=0.0, high=1e-9)
     cfg["uncertainty"]["mu"]["std"] = 0.05  # no realisation near mu = 0, where the tyres saturate at once
-    lst, nlst = (simulate_ensemble(cfg, m, samples=20, seed=4) for m in ("lst", "nlst"))
+    lst, nlst = (simulate_ensemble(Settings.from_config(cfg), m, samples=20, seed=4) for m in ("lst", "nlst"))
     for s in ("psi_dot", "beta", "a_y"):
         scale = np.abs(lst[s].values).max()
         assert np.max(np.abs(nlst[s].values - lst[s].values)) < 0.01 * scale, s
@@ -87,24 +88,24 @@ def test_chaos_model_along_the_ramp_matches_monte_carlo(config):
     """Moments along the ramp against 2000 LTV LST runs: the mean within 4 Monte Carlo standard
     errors plus 1e-3 of the peak (PCE truncation), the std within 5 % (MC error 1.6 %)."""
     cfg = coarse(config, ramp=RAMP)
-    ds = simulate_ensemble(cfg, "lst", samples=2000, seed=9)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
-    r = ChannelChaosModel(model, ["psi_dot", "a_y", "y"], speed=ds["v"].values).moments(LSTChaosModel.theta_from_config(cfg, UNCERTAIN))
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=2000, seed=9)
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=2, quadrature_points=4, fixed={"m_load": 100.0})
+    r = ChannelChaosModel(model, ["psi_dot", "a_y", "y"], speed=ds["v"].values).moments(Settings.from_config(cfg).uncertainty.theta(UNCERTAIN))
     for i, c in enumerate(r.channels):
         x = ds[c].values
         se = x.std(0, ddof=1) / np.sqrt(x.shape[0])
         assert np.all(np.abs(r.mean[i] - x.mean(0)) <= 4 * se + 1e-3 * np.abs(x.mean(0)).max()), c
         assert np.max(np.abs(r.std[i] - x.std(0, ddof=1))) <= 0.05 * x.std(0).max(), c
     # the ramp matters: at constant speed the yaw rate's mean at the end differs by far more
-    const = ChannelChaosModel(model, ["psi_dot"]).moments(LSTChaosModel.theta_from_config(cfg, UNCERTAIN))
+    const = ChannelChaosModel(model, ["psi_dot"]).moments(Settings.from_config(cfg).uncertainty.theta(UNCERTAIN))
     assert abs(const.mean[0, -1] - r.mean[0, -1]) > 0.05 * np.abs(r.mean[0]).max()
 
 
 def test_ltv_gradient_is_the_derivative(config):
     cfg = coarse(config, dt=0.1)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=1, quadrature_points=2, fixed={"m_load": 100.0})
+    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=1, quadrature_points=2, fixed={"m_load": 100.0})
     cm = ChannelChaosModel(model, ["a_y", "beta"], speed=speed_ramp(model.time, **RAMP))
-    theta = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    theta = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     assert_moment_gradients(cm, theta, variance=False)
 
 
@@ -112,7 +113,7 @@ def test_identify_along_a_braking_ramp_recovers_mu(config, tmp_path):
     """psi_dot and a_y of 250 LST runs braking from 70 to 50 km/h (29 %) with 1 % noise: mu's mean
     and std within 0.05 of the runs' own, from a start 0.2 / 0.1 away."""
     cfg = coarse(config, dt=0.1, ramp=RAMP)
-    ds = simulate_ensemble(cfg, "lst", samples=250, seed=3)
+    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=250, seed=3)
     rng = np.random.default_rng(5)
     imu = ds.drop_vars(["psi", "beta", "y", "spun"])
     for c in ("psi_dot", "a_y"):

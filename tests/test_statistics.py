@@ -3,11 +3,12 @@ import pytest
 
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.statistics import ensemble_statistics, kl_divergence_series, noise_statistics, used_samples
+from uqdrive.settings import Settings
 
 
 @pytest.fixture(scope="module")
 def nlst(config):
-    ds = simulate_ensemble(config, "nlst", samples=40)
+    ds = simulate_ensemble(Settings.from_config(config), "nlst", samples=40)
     ds["spun"][:3] = 1  # mark three realisations as spun to exercise the policy
     return ds
 

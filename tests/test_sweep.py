@@ -24,7 +24,7 @@ from uqdrive.config import ConfigError, config_hash, load_config, parse_override
 from uqdrive.plots.sweep import sweep_figure
 from uqdrive.studies.sweep import COLLECTORS, SweepError, collect_targets, expand_points, load_sweep, parse_sweep
 from uqdrive.studies.sweep.summary import numeric_axis, point_metrics, summary_dataset, summary_rows
-from uqdrive.vehicle.montecarlo import ENSEMBLE_SETTINGS, ensemble_hash
+from uqdrive.settings import ENSEMBLE_SETTINGS, ensemble_hash
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile")]
 TEST_CONFIG = str(REPO / "config" / "test.yaml")

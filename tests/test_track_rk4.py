@@ -9,6 +9,7 @@ import pytest
 from uqdrive.numerics.integrate import rk4_fixed_step, rk4_fixed_step_into
 from uqdrive.vehicle.augmented import _RK4_MAX_STEP, AugmentedSimulator, actual_steering
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+from uqdrive.settings import Settings
 
 THETA = np.array([1.0, 0.25, 1.5, 0.2, -400.0, 400.0])
 
@@ -59,7 +60,7 @@ def _reference(sim, theta, s):
     t_half = np.arange(2 * n_steps + 1) * (h / 2)
     delta_half = np.interp(t_half, sim.time, delta)
     gust_half = coeffs @ sim.kle.eigenfunctions(t_half)
-    rhs = _reference_rhs(p, s, sim.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature)
+    rhs = _reference_rhs(p, s, sim.car.E if s.tyre_curvature is None else s.tyre_curvature)
 
     def f(x, j):
         F_w = wind + gust_half[:, j]
@@ -74,7 +75,7 @@ def _reference(sim, theta, s):
 def sim(config):
     t = np.arange(301) * 0.01
     delta = np.deg2rad(4.0) * np.sin(2 * np.pi * t / 2.0)
-    return AugmentedSimulator.drawn(config, t, delta, 25.0, 24, np.random.default_rng(7), stride=4)
+    return AugmentedSimulator.drawn(Settings.from_config(config), t, delta, 25.0, 24, np.random.default_rng(7), stride=4)
 
 
 def _tyre(E, **kw):
@@ -160,7 +161,7 @@ def test_chassis_pairs_batched_equal_their_own_simulation_bit_for_bit(config, ch
     cfg = {**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}}
     t = np.arange(201) * 0.01
     kw = {} if channels is None else {"channels": channels}
-    sim = AugmentedSimulator.drawn(cfg, t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 25.0, 12, np.random.default_rng(3), stride=4, **kw)
+    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 25.0, 12, np.random.default_rng(3), stride=4, **kw)
     thetas = [THETA, THETA + [1e-4, 0, 0, 0, 0, 0]] + [THETA] * 6
     structures = [_chassis(), _chassis(), _chassis(transfer=(0.5501, -0.3)), _chassis(sigma=0.1), _chassis(roll=None),
                   _chassis(transfer=None), _chassis(gain=1.02), _tyre(0.97)]

@@ -6,11 +6,12 @@ from hypothesis import strategies as st
 from conftest import REPO
 from uqdrive.config import load_config
 from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, magic_formula, make_nlst_rhs, nlst_rhs, steering_input
+from uqdrive.settings import Settings
 
 
 @pytest.fixture
 def nominal(config):
-    return VehicleParameters.from_config(config)
+    return VehicleParameters.from_settings(Settings.from_config(config))
 
 
 def test_derived_parameters_match_facts(nominal):
@@ -55,10 +56,10 @@ def test_nlst_linearisation_is_the_lst(nominal):
 
 
 def test_lst_matrices_broadcast_over_realisations(config):
-    p = VehicleParameters.from_config(config, mu=np.array([0.8, 1.0, 1.2]), l_f=np.array([1.4, 1.55, 1.7]))
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.array([0.8, 1.0, 1.2]), l_f=np.array([1.4, 1.55, 1.7]))
     A, B, W = lst_matrices(p)
     assert A.shape == (3, 4, 4) and B.shape == (3, 4) and W.shape == (3, 4)
-    single = lst_matrices(VehicleParameters.from_config(config, mu=1.2, l_f=1.7))
+    single = lst_matrices(VehicleParameters.from_settings(Settings.from_config(config), mu=1.2, l_f=1.7))
     assert A[2] == pytest.approx(single[0])
 
 
@@ -71,7 +72,7 @@ def test_lst_matrices_broadcast_over_realisations(config):
     l_f=st.floats(1.0, 2.0),
 )
 def test_fast_nlst_rhs_equals_reference(config, x, delta, wind, mu, l_f):
-    p = VehicleParameters.from_config(config, mu=np.array([mu, 1.0]), l_f=np.array([l_f, 1.55]))
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.array([mu, 1.0]), l_f=np.array([l_f, 1.55]))
     X = np.array([x, x]).T
     ref = nlst_rhs(X, delta, wind, p)
     fast = make_nlst_rhs(p)(X, delta, wind)
@@ -91,7 +92,7 @@ def test_nlst_is_odd_in_state_steering_and_wind(x, delta, F_w, mu):
     """(5.3) is odd: f(-x, -delta, -F_w) = -f(x, delta, F_w). So inverted steering (5.7) with
     mirrored wind gives the mirrored ensemble, and an estimate of the mean wind from inverted
     data must be the mirror of the normal-steering one (Table 6.3 discussion, docs/reproduction.md)."""
-    p = VehicleParameters.from_config(load_config(REPO / "config" / "config.yaml"), mu=np.array([mu]), m_load=np.array([100.0]), l_f=np.array([1.55]))
+    p = VehicleParameters.from_settings(Settings.from_config(load_config(REPO / "config" / "config.yaml")), mu=np.array([mu]), m_load=np.array([100.0]), l_f=np.array([1.55]))
     xs = np.array(x)[:, None]
     f = make_nlst_rhs(p)
     assert f(-xs, -delta, -np.array([F_w])) == pytest.approx(-f(xs, delta, np.array([F_w])), rel=1e-12, abs=1e-12)

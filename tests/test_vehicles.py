@@ -296,8 +296,8 @@ def test_discover_hands_the_data_speed_to_the_finder(tiny, monkeypatch):
     assert main(["simulate", "--model", "lst", "--samples", "50", "--config", str(tiny / "c.yaml"), "--out", str(data)]) == 0
 
     class Finder:
-        def __init__(self, config, **kwargs):
-            seen.append(config["vehicle"]["speed_kmh"])
+        def __init__(self, settings, **kwargs):
+            seen.append(settings.vehicle.speed_kmh)
             raise DataError("stopped here")
 
     monkeypatch.setattr(discover, "DiscrepancyFinder", Finder)

@@ -12,12 +12,13 @@ from uqdrive.wheelslip.quarter_car import (
     pid_schedule,
     simulate_closed_loop,
 )
+from uqdrive.settings import Settings
 
 CAR = QuarterCar()
 
 
 def test_constants_match_facts(config):
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     assert car.alpha == pytest.approx(0.5147, abs=5e-5)
     assert car.beta == pytest.approx(441.8, abs=0.05)
 

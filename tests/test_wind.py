@@ -1,9 +1,10 @@
 import numpy as np
 import pytest
 
-from uqdrive.vehicle.montecarlo import kle_from_config
+from uqdrive.vehicle.montecarlo import wind_kle
 from uqdrive.vehicle.uncertainty import squared_exponential_covariance
 from uqdrive.studies.kle import direct_samples, kle_dataset
+from uqdrive.settings import Settings
 
 
 def test_direct_samples_have_the_covariance():
@@ -14,7 +15,7 @@ def test_direct_samples_have_the_covariance():
 
 
 def test_kle_dataset_contents(config):
-    kle = kle_from_config(config)
+    kle = wind_kle(Settings.from_config(config))
     t = np.linspace(0, 10, 101)
     ds = kle_dataset(config, kle, t, 7, np.random.default_rng(0))
     assert ds.sizes["path"] == 7 and ds.sizes["kle_mode"] == 5

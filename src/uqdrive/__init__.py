@@ -15,6 +15,8 @@ if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .config import load_config  # noqa: F401
     from .inference.identify import DistributionEstimator  # noqa: F401
     from .io import read_ensemble  # noqa: F401
+    from .recordings.importer import import_runs  # noqa: F401
+    from .settings import Settings  # noqa: F401
     from .vehicle.chaos import LSTChaosModel  # noqa: F401
     from .vehicle.montecarlo import simulate_ensemble  # noqa: F401
     from .vehicle.statistics import ensemble_statistics  # noqa: F401
@@ -28,6 +30,8 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "load_config": ".config",
     "DistributionEstimator": ".inference.identify",
     "read_ensemble": ".io",
+    "import_runs": ".recordings.importer",
+    "Settings": ".settings",
     "LSTChaosModel": ".vehicle.chaos",
     "simulate_ensemble": ".vehicle.montecarlo",
     "ensemble_statistics": ".vehicle.statistics",
@@ -38,10 +42,12 @@ __all__ = [
     "Estimate",
     "LSTChaosModel",
     "Verdict",
+    "Settings",
     "__version__",
     "discover",
     "ensemble_statistics",
     "identify",
+    "import_runs",
     "load_config",
     "read_ensemble",
     "simulate",

@@ -24,7 +24,8 @@ from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
 from ._errors import ConfigError
-from .vehicle_spec import ENGINEERING_KEYS, apply_vehicle_file, normalise_vehicle, vehicle_names  # noqa: F401
+from ._yaml import load_yaml
+from .vehicle_spec import ENGINEERING_KEYS, FILE_KEY_HINTS, apply_vehicle_file, derived_from, normalise_vehicle, vehicle_names  # noqa: F401
 from .vehicle_spec import read_vehicle_file as _read_vehicle_file
 
 __all__ = ["ConfigError", "load_config", "validate_config", "read_vehicle_file", "vehicle_names", "config_hash", "load_schema", "default_config_text",
@@ -38,7 +39,7 @@ _MAX = 2**63 - 1  # largest seed netCDF attributes and numpy seed sequences shar
 #: Physical range of each value the models read: key -> (low, high, low inclusive, high
 #: inclusive, unit). Wider than any vehicle, so that only unit slips and typos land outside.
 #: A std of 0 (and a mean wind with low == high) declares the quantity known
-#: (:func:`uqdrive.vehicle.uncertainty.known_quantities`).
+#: (:meth:`uqdrive.settings.Uncertainty.known`).
 PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
     "seed": (0, _MAX, True, True, ""),
     "vehicle.m_base": (0.0, 1e5, False, True, "kg"),
@@ -71,11 +72,8 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
 _MAX_TIME_POINTS = 10**6  # t_end / step: beyond it one trajectory does not fit in memory
 
 
-_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml: the same result, 20x faster
-
-
 def _yaml(text: str):
-    return yaml.load(text, Loader=_Loader)
+    return load_yaml(text)
 
 
 def load_schema() -> dict:
@@ -121,7 +119,10 @@ _FIXES = {
     "exclusiveMinimum": lambda e: f"give a value > {e.validator_value}",
     "maximum": lambda e: f"give a value <= {e.validator_value}",
     "exclusiveMaximum": lambda e: f"give a value < {e.validator_value}",
-    "type": lambda e: f"give a value of type {e.validator_value}",
+    "type": lambda e: (f"write it as a mapping {{{', '.join(f'{k}: ...' for k in e.schema['properties'])}}}"
+                       if e.validator_value == "object" and e.schema.get("properties") else
+                       f"write a plain {e.validator_value} (digits and a decimal point, no unit or separators)"
+                       if e.validator_value in ("number", "integer") else f"give a value of type {e.validator_value}"),
     "enum": lambda e: "choose one of " + ", ".join(map(str, e.validator_value)),
     "minItems": lambda e: f"give at least {e.validator_value} item(s)",
     "maxItems": lambda e: f"give at most {e.validator_value} item(s)",
@@ -147,6 +148,10 @@ def _schema_error(error, where: str = "config key '{}'") -> ConfigError:
         return ConfigError(f"{name(path + extra[:1])} is not known; allowed keys under '{_key(path)}' are: {allowed}")
     if error.validator == "required":
         missing = [k for k in error.validator_value if isinstance(error.instance, Mapping) and k not in error.instance][:1]
+        if where.startswith("vehicle file") and missing:
+            unit = _unit("vehicle." + _key(path)) if path else ""
+            hint = FILE_KEY_HINTS.get(missing[0], f"{missing[0]}" + (f" ({unit})" if unit and unit != "-" else ""))
+            return ConfigError(f"{name(path + missing)} is missing; add {hint}")
         return ConfigError(f"{name(path + missing)} is missing; add it (the default: uqdrive config --dump -)")
     fix = _FIXES.get(error.validator)
     unit = _unit(_key(path) if where.startswith("config") else "vehicle." + _key(path))
@@ -172,8 +177,12 @@ def validate_config(config: Mapping[str, Any]) -> dict:
     if reference is not None:
         name, spec = read_vehicle_file(reference)
         cfg = apply_vehicle_file(cfg, spec, name)
+        origin = {k: f"vehicle file '{reference}': {v}" for k, v in derived_from(spec).items()}
+        origin["vehicle.wheelbase"] = f"vehicle file '{reference}': wheelbase"
+    else:
+        origin = {k: f"the config's vehicle section ({v})" for k, v in derived_from(cfg["vehicle"]).items()}
     cfg = normalise_vehicle(cfg)
-    _check_ranges(cfg)
+    _check_ranges(cfg, origin)
     _check_semantics(cfg)
     return cfg
 
@@ -185,12 +194,17 @@ def _get(cfg: Mapping, key: str):
     return node
 
 
-def _check_ranges(cfg: dict) -> None:
+def _check_ranges(cfg: dict, origin: Mapping[str, str] = {}) -> None:  # noqa: B006 - read only
+    """Every value in :data:`PHYSICAL_RANGES`; a value derived from the car's engineering keys
+    (``origin``: config key -> the user's keys in words) is named by the keys the user wrote."""
     for key, (lo, hi, lo_in, hi_in, unit) in PHYSICAL_RANGES.items():
         value = _get(cfg, key)
         ok = (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
         if not ok:
             span = f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
+            if key in origin:
+                raise ConfigError(f"{origin[key]} gives the model's {key.split('.')[-1]} = {value:g}{' ' + unit if unit else ''}, "
+                                  f"outside its range {span}; check those values and their units")
             raise ConfigError(f"config key '{key}' = {value:g} is outside the physical range {span}{' ' + unit if unit else ''}; "
                               "give a value in that range")
 
@@ -270,7 +284,19 @@ def load_config(path: str | Path | None = None, vehicle: str | Path | None = Non
         raise ConfigError(f"config file '{name}' must hold a mapping of keys (start from: uqdrive config --dump FILE)")
     if vehicle is not None:
         data["vehicle_file"] = str(vehicle)
+    elif path is not None and isinstance(data.get("vehicle_file"), str):
+        data["vehicle_file"] = _beside(Path(path), data["vehicle_file"])
     return validate_config(data)
+
+
+def _beside(config_path: Path, reference: str) -> str:
+    """A config's ``vehicle_file`` path, relative to the config file's folder; a packaged name, an
+    absolute path, and a path found only from the working directory (a workflow's) stay as given."""
+    ref = Path(reference)
+    if ref.is_absolute() or not (reference.endswith((".yaml", ".yml")) or "/" in reference):
+        return reference
+    beside = config_path.parent / ref
+    return str(beside) if beside.exists() or not ref.exists() else reference
 
 
 def config_value(config: Mapping[str, Any], key: str) -> Any:
@@ -349,7 +375,7 @@ def parse_overrides(entries) -> dict:
         if not sep or not key:
             raise ConfigError(f"config override '{entry}' must read key=value")
         try:
-            value = yaml.safe_load(text) if text else None
+            value = load_yaml(text) if text else None
         except yaml.YAMLError as exc:
             raise ConfigError(f"config override '{key}': the value is not YAML: {exc}") from exc
         for part in reversed(key.split(".")):

@@ -1,29 +1,23 @@
-"""Files at the edge of uqdrive: atomic writes (no half-written output survives a failure, an
-existing output is replaced only by intent), CSV tables from lists of rows, and validation of
-ensembles in the shared data schema (dims, units, dtypes, finite and physical values, spread)
-with messages that name the field and the fix.
+"""Files at the edge of uqdrive: validation of ensembles in the shared data schema (dims, units,
+dtypes, finite and physical values, spread, the car's speed) with messages that name the field and
+the fix; the output side (paths checked before any work, atomic writes) is :mod:`uqdrive.outputs`.
 """
 
 from __future__ import annotations
 
-import csv
 import math
 import numbers
-import os
-import re
-import socket
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import xarray as xr
 
+from .outputs import _HOST, OutputError, atomic_path, check_output_folder, check_replaced_folder, check_writable  # noqa: F401
+from .outputs import write_csv_rows, write_dataset  # noqa: F401
 from .vehicle.channels import CHANNEL_UNITS, CHANNELS
 
-__all__ = ["DataError", "OutputError", "check_writable", "check_output_folder", "atomic_path", "write_csv_rows", "write_dataset",
-           "read_ensemble", "validate_ensemble", "check_spread", "check_run_count", "present_channels", "speed_profile",
+__all__ = ["DataError", "OutputError", "check_writable", "check_output_folder", "check_replaced_folder", "atomic_path", "write_csv_rows", "write_dataset",
+           "read_ensemble", "validate_ensemble", "check_spread", "check_run_count", "present_channels", "speed_profile", "data_speed",
            "V_C_RANGE", "VALUE_LIMITS", "MIN_TIME_POINTS", "MIN_RUNS", "STANDARD_GRAVITY", "A_Y_UNITS"]
 
 #: Vehicle speeds (m/s) a measured ensemble may carry in its ``v_c`` attribute.
@@ -44,157 +38,6 @@ A_Y_UNITS = ("m/s^2", "m/s2", "m s-2", "m/s**2", "m.s-2")
 
 class DataError(ValueError):
     """A data file does not follow the uqdrive ensemble schema."""
-
-
-class OutputError(OSError):
-    """An output path cannot be written."""
-
-
-def _existing_ancestor(path: Path) -> Path:
-    """The nearest ancestor of ``path`` (itself excluded) that exists."""
-    for parent in path.absolute().parents:
-        if parent.exists():
-            return parent
-    return Path("/")
-
-
-def check_writable(path: str | Path, overwrite: bool = True) -> Path:
-    """Fail early, before any work, if ``path`` cannot be created in its folder.
-
-    With ``overwrite=False`` an existing ``path`` is refused too (pass ``--force`` to replace it).
-    """
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise OutputError(f"output path '{path}' is a directory; give a file name")
-    if not parent.is_dir():
-        if parent.exists() or not _existing_ancestor(parent).is_dir():
-            raise OutputError(f"output folder '{parent}' lies under a regular file, not a folder; choose another path")
-        raise OutputError(f"output folder '{parent}' does not exist; create it first")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"output folder '{parent}' is not writable; choose another path or fix its permissions")
-    if not overwrite and path.exists():
-        raise OutputError(f"output '{path}' exists; pass --force to replace it (atomically) or choose another path")
-    return path
-
-
-def check_output_folder(folder: str | Path, names: Sequence[str] = (), overwrite: bool = True) -> Path:
-    """Check, without creating anything, that ``folder`` (created later if missing) can hold ``names``."""
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise OutputError(f"output folder '{folder}' exists and is a regular file; choose another path")
-    base = folder if folder.is_dir() else _existing_ancestor(folder)
-    if not base.is_dir():
-        raise OutputError(f"output folder '{folder}' lies under a regular file ('{base}'); choose another path")
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise OutputError(f"folder '{base}' is not writable, so '{folder}' cannot be written; choose another path or fix its permissions")
-    if not overwrite:
-        for name in names:
-            if (folder / name).exists():
-                raise OutputError(f"output '{folder / name}' exists; pass --force to replace it (atomically) or choose another --out")
-    return folder
-
-
-_HOST = re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname()) or "host"
-
-
-def _remove_stale_temporaries(path: Path) -> None:
-    """Delete temporaries of ``path`` left by a killed writer on this host (its pid is gone)."""
-    pattern = re.compile(rf"^\.{re.escape(path.name)}\.{re.escape(_HOST)}\.(\d+)\..*\.tmp$")
-    try:
-        entries = list(path.parent.iterdir())
-    except OSError:
-        return
-    for entry in entries:
-        match = pattern.match(entry.name)
-        if not match:
-            continue
-        try:
-            os.kill(int(match.group(1)), 0)
-        except ProcessLookupError:
-            entry.unlink(missing_ok=True)
-        except (OSError, OverflowError):
-            pass  # alive (or not ours to probe): leave it
-
-
-@contextmanager
-def atomic_path(path: str | Path, overwrite: bool = True):
-    """Yield a temporary path beside ``path``; move it onto ``path`` only if the block succeeds.
-
-    The temporary is removed on any exception (including KeyboardInterrupt and the CLI's signal
-    exit). With ``overwrite=False`` the move fails if ``path`` appeared meanwhile (a hard link,
-    atomic), so two runs writing the same output cannot both succeed silently.
-    """
-    path = check_writable(path, overwrite)
-    _remove_stale_temporaries(path)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_HOST}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise OutputError(f"cannot write in '{path.parent}': {exc.strerror or exc}") from exc
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
-    try:
-        yield Path(tmp)
-        if overwrite:
-            os.replace(tmp, path)
-        else:
-            try:
-                os.link(tmp, path)
-            except FileExistsError:
-                raise OutputError(f"output '{path}' was created by another run meanwhile; pass --force to replace it") from None
-            except OSError:  # no hard links on this file system: check, then rename
-                if path.exists():
-                    raise OutputError(f"output '{path}' was created by another run meanwhile; pass --force to replace it") from None
-                os.replace(tmp, path)
-    except OutputError:
-        raise
-    except OSError as exc:
-        raise OutputError(f"cannot write '{path}': {exc.strerror or exc}") from exc
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def write_csv_rows(rows: Sequence[Mapping[str, object]], path: str | Path) -> None:
-    """Write a table given as rows (dicts) to a CSV file atomically.
-
-    Parameters
-    ----------
-    rows : sequence of mapping
-        The table's rows, at least one. The keys of the first row are the columns, in their
-        order; a later row lacking one of them gets an empty cell there.
-    path : str or Path
-        CSV file to write; replaced only once the whole table is written.
-
-    Raises
-    ------
-    ValueError
-        If ``rows`` is empty (there would be no header) or a row has a key the first lacks.
-    OutputError
-        If ``path`` cannot be written.
-
-    Notes
-    -----
-    The dialect is :mod:`csv`'s default ("excel": comma separated, ``\\r\\n`` line ends,
-    minimal quoting); ``None`` is written empty and any other value as ``str(value)``.
-    """
-    rows = list(rows)
-    if not rows:
-        raise ValueError(f"no rows to write to '{path}': a CSV table needs at least one row for its header")
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-
-
-def write_dataset(ds: xr.Dataset, path: str | Path, overwrite: bool = True) -> None:
-    """Write a dataset as netCDF4 (zlib-compressed variables) atomically (see :func:`atomic_path`)."""
-    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars if ds[name].dtype.kind in "fiu"}
-    with atomic_path(path, overwrite) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
 
 
 def _check_time(ds: xr.Dataset, source: str) -> None:
@@ -302,6 +145,37 @@ def speed_profile(ds: xr.Dataset) -> np.ndarray | None:
     return None if np.all(v == v[0]) else v
 
 
+def data_speed(ds: xr.Dataset) -> tuple[float | None, str | None]:
+    """The car's speed of an ensemble by the one rule every command follows: a variable ``v``
+    (the speed as recorded) is the speed and a global attribute ``v_c`` beside it is ignored;
+    without ``v``, ``v_c`` is the speed.
+
+    Returns
+    -------
+    speed : float or None
+        The constant speed (m/s): ``v_c``, or the value of a ``v`` that never changes; None for a
+        ``v`` that changes over time (a profile, see :func:`speed_profile`).
+    ignored : str or None
+        A note naming the ``v_c`` that was ignored because it differs from ``v``, else None.
+    """
+    if "v" not in ds:
+        return float(ds.attrs["v_c"]), None
+    v = np.asarray(ds["v"].values, float)
+    profile = speed_profile(ds)
+    speed = None if profile is not None else float(np.ravel(v)[0])
+    v_c = ds.attrs.get("v_c")
+    try:
+        differs = v_c is not None and (speed is None or float(v_c) != speed)
+    except (TypeError, ValueError):
+        differs = True
+    if not differs:
+        return speed, None
+    said = f"{float(v_c):.6g} m/s" if isinstance(v_c, numbers.Real) else repr(v_c)
+    what = f"constant {speed:.6g} m/s" if speed is not None else f"a profile {float(v.min()):.4g}-{float(v.max()):.4g} m/s"
+    ignored = f"the file's attribute v_c = {said} is ignored: its variable v ({what}) is the car's speed, for every command"
+    return speed, ignored
+
+
 def _check_v_c(ds: xr.Dataset, source: str) -> None:
     if "v_c" not in ds.attrs:
         raise DataError(f"{source}: missing global attribute 'v_c' (vehicle speed in m/s); set ds.attrs['v_c']")
@@ -364,6 +238,9 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     check_spread(ds, source)
     if "v" in ds:
         _check_speed(ds, source)
+        speed, _ = data_speed(ds)
+        ds = ds.copy(deep=False)  # the speed of every reader: v_c is v's constant value, or absent for a profile
+        ds.attrs = {**{k: a for k, a in ds.attrs.items() if k != "v_c"}, **({} if speed is None else {"v_c": speed})}
     else:
         _check_v_c(ds, source)
     if "spun" in ds:

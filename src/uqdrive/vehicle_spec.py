@@ -47,8 +47,9 @@ from typing import Any, Callable, Mapping
 import yaml
 
 from ._errors import ConfigError
+from ._yaml import load_yaml
 
-__all__ = ["OPTIONAL_QUANTITIES", "require", "ENGINEERING_KEYS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "apply_vehicle_file",
+__all__ = ["OPTIONAL_QUANTITIES", "require", "ENGINEERING_KEYS", "PLAUSIBLE", "FILE_KEY_HINTS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "derived_from", "apply_vehicle_file",
            "normalise_vehicle"]
 
 #: Engineering keys of the vehicle section: key -> (unit, meaning).
@@ -63,6 +64,14 @@ ENGINEERING_KEYS = {
 }
 #: Keys of a vehicle file that are no car quantities.
 FILE_ONLY_KEYS = ("description", "source")
+#: What each required key of a vehicle file holds, for the message when it is missing.
+FILE_KEY_HINTS = {
+    "description": "a line naming the car, e.g. 'description: my test car, summer tyres' (uqdrive vehicles lists it)",
+    "source": "where the numbers come from, e.g. 'source: data sheet of 2024-03' or 'source: own measurement' (provenance)",
+    "mass": "'mass:' the mass of the car without load in kg",
+    "yaw_inertia": "'yaw_inertia:' the yaw moment of inertia in kg m^2",
+    "wheelbase": "'wheelbase:' the distance between the axles in m",
+}
 #: Keys of the vehicle section a vehicle file leaves to the config (operating conditions).
 OPERATING_KEYS = ("speed_kmh", "g", "M_c")
 #: Physical range of each engineering number: key -> (low, high, unit); low exclusive, high inclusive.
@@ -74,6 +83,19 @@ _RANGES = {
     "cornering_stiffness.front": (0.0, 1e7, "N/rad"),
     "cornering_stiffness.rear": (0.0, 1e7, "N/rad"),
     **{f"magic_formula.{axle}.{f}": (lo, hi, "-") for axle in ("front", "rear") for f, lo, hi in (("B", 0.0, 1e3), ("C", 0.0, 10.0))},
+}
+#: What a car's engineering numbers plausibly are (road vehicles from a small car to a loaded
+#: truck): key -> (low, high, unit, the likely slip below, the likely slip above); a value outside
+#: is refused with the slip that would explain it (a mass in tonnes, a stiffness in kN/rad).
+PLAUSIBLE = {
+    "mass": (100.0, 6e4, "kg", ("tonnes", 1e3), None),
+    "yaw_inertia": (50.0, 1e6, "kg m^2", ("t m^2", 1e3), ("g m^2", 1e-3)),
+    "wheelbase": (1.0, 12.0, "m", None, ("mm", 1e-3)),
+    "cg_to_front_axle": (0.1, 10.0, "m", None, ("mm", 1e-3)),
+    "cg_height": (0.1, 3.0, "m", None, ("mm", 1e-3)),
+    "track_width": (0.5, 3.5, "m", None, ("mm", 1e-3)),
+    "cornering_stiffness.front": (1e4, 5e6, "N/rad", ("kN/rad", 1e3), None),
+    "cornering_stiffness.rear": (1e4, 5e6, "N/rad", ("kN/rad", 1e3), None),
 }
 #: One physical quantity per entry, with the keys that can give it (dotted, from the config root).
 _FORMS = (
@@ -165,7 +187,9 @@ def engineering_terms(config: Mapping[str, Any]) -> dict:
 
 def check_car(vehicle: Mapping[str, Any], name=lambda key: f"config key 'vehicle.{key}'") -> None:
     """Physical checks of the engineering keys of ``vehicle`` (a vehicle section or file):
-    ranges with units, the centre of gravity inside the wheelbase, one C and one E for both axles.
+    ranges with units, a car's plausible numbers (:data:`PLAUSIBLE`, naming the unit slip that
+    would explain a value outside them), the centre of gravity inside the wheelbase, one C and
+    one E for both axles.
     ``name(key)`` names a key in the messages."""
     for key, (lo, hi, unit) in _RANGES.items():
         if not _has(vehicle, key):
@@ -174,6 +198,13 @@ def check_car(vehicle: Mapping[str, Any], name=lambda key: f"config key 'vehicle
         if not lo < value <= hi:
             raise ConfigError(f"{name(key)} = {value:g} {unit} is outside the physical range ({lo:g}, {hi:g}] {unit}; "
                               f"give {ENGINEERING_KEYS[key.split('.')[0]][1]} in {unit}")
+    for key, (lo, hi, unit, below, above) in PLAUSIBLE.items():
+        value = _get(vehicle, key) if _has(vehicle, key) else None
+        if value is None or lo <= value <= hi:
+            continue
+        slip = below if value < lo else above
+        guess = f"; {slip[0]}? give it in {unit} ({value * slip[1]:g} {unit})" if slip and lo <= value * slip[1] <= hi else ""
+        raise ConfigError(f"{name(key)} = {value:g} {unit} is not a car's (cars: {lo:g} to {hi:g} {unit}){guess or f'; give it in {unit}'}")
     L, l_f, share = vehicle.get("wheelbase"), vehicle.get("cg_to_front_axle"), vehicle.get("front_axle_load_share")
     if l_f is not None and L is not None and not 0.0 < l_f < L:
         raise ConfigError(f"{name('cg_to_front_axle')} = {l_f:g} m lies outside the wheelbase: give the distance from the centre of "
@@ -187,6 +218,28 @@ def check_car(vehicle: Mapping[str, Any], name=lambda key: f"config key 'vehicle
             raise ConfigError(f"{name(f'magic_formula.front.{factor}')} = {mf['front'][factor]:g} differs from "
                               f"{name(f'magic_formula.rear.{factor}')} = {mf['rear'][factor]:g}; the single-track model has one "
                               f"{factor} for both axles: give equal values (or the cornering stiffness in N/rad)")
+
+
+def derived_from(vehicle: Mapping[str, Any]) -> dict:
+    """Which engineering keys of the vehicle section (or file) ``vehicle`` give each internal
+    constant: dotted config key -> the user's key(s) in words (e.g. ``vehicle.J0`` ->
+    ``yaw_inertia / mass``), for messages about a derived value in the user's own terms."""
+    out = {}
+    if "mass" in vehicle:
+        out["vehicle.m_base"] = "mass"
+    if "yaw_inertia" in vehicle:
+        out["vehicle.J0"] = "yaw_inertia / mass" if "mass" in vehicle else "yaw_inertia / m_base"
+    for axle, key in (("front", "vehicle.c_Sf"), ("rear", "vehicle.c_Sr")):
+        if "cornering_stiffness" in vehicle:
+            out[key] = f"cornering_stiffness.{axle} over the static axle load and tyre C"
+        elif "magic_formula" in vehicle:
+            out[key] = f"magic_formula.{axle}.B"
+    if "magic_formula" in vehicle:
+        out.update({"tyre.C": "magic_formula C", "tyre.E": "magic_formula E"})
+    for key in ("cg_to_front_axle", "front_axle_load_share"):
+        if key in vehicle:
+            out["uncertainty.l_f.mean"] = key
+    return out
 
 
 def _one_form(cfg: Mapping[str, Any]) -> None:
@@ -269,7 +322,7 @@ def read_vehicle_file(reference: str | Path, check_schema: Callable[[dict, str],
         raise ConfigError(f"unknown vehicle '{ref}'; choose one of {', '.join(vehicle_names())} (uqdrive vehicles lists them) "
                           "or give the path of a vehicle file (NAME.yaml)")
     try:
-        spec = yaml.safe_load(text)
+        spec = load_yaml(text)
     except (yaml.YAMLError, RecursionError) as exc:
         raise ConfigError(f"vehicle file '{where}' is not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(spec, dict):

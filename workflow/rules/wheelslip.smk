@@ -1,7 +1,7 @@
 # The GP wheel-slip paper: GP of the friction curve, PID tuning, calibration, closed loop.
 
 WS_SIZES = config["wheelslip"]["gp"]["training_sizes"]
-#: The quarter car and the design constants (uqdrive.wheelslip.quarter_car.QuarterCar.from_config).
+#: The quarter car and the design constants (uqdrive.wheelslip.quarter_car.QuarterCar.from_settings).
 WS_CAR_KEYS = ("wheelslip.r", "wheelslip.F_z", "wheelslip.mass", "wheelslip.J", "wheelslip.T_a", "wheelslip.k", "wheelslip.mu_H",
                "wheelslip.lambda_star", "wheelslip.zeta_d", "wheelslip.omega_0d")
 #: How the GP is fitted to noisy friction measurements (uqdrive.wheelslip.calibration.fit_friction_gp).

@@ -8,9 +8,10 @@ import xarray as xr
 from uqdrive.plots import wheelslip as pw
 from uqdrive.plots.figure import save_figure
 from uqdrive.wheelslip.quarter_car import QuarterCar
+from uqdrive.settings import Settings
 
 i, o, config = snakemake.input, snakemake.output, snakemake.params.config  # noqa: F821
-car = QuarterCar.from_config(config)
+car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
 gps = [xr.load_dataset(p) for p in i.gp]
 save_figure(pw.friction_curves(car, config["wheelslip"]["curves_mu_H"]), o.curves)
 save_figure(pw.gp_function(gps[0]), o.function)

@@ -6,8 +6,9 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from uqdrive.inference.identifiability import observability_analysis
 from uqdrive.io import atomic_path
+from uqdrive.settings import Settings
 
-r = observability_analysis(snakemake.params.config)  # noqa: F821
+r = observability_analysis(Settings.from_config(snakemake.params.config))  # noqa: F821
 with atomic_path(snakemake.output[0]) as tmp:  # noqa: F821
     with open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)

@@ -6,15 +6,17 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import xarray as xr
 
 from uqdrive.io import write_dataset
-from uqdrive.vehicle.montecarlo import TimeGrid, monte_carlo_moments
+from uqdrive.vehicle.montecarlo import monte_carlo_moments
 from uqdrive.vehicle.single_track import STATES
+from uqdrive.settings import Settings
 
 config = snakemake.params.config  # noqa: F821
 conv = config["pce"]["convergence"]
-mean, std, n = monte_carlo_moments(config, "lst", conv["reference_samples"], conv["chunk"])
+settings = Settings.from_config(config)
+mean, std, n = monte_carlo_moments(settings, "lst", conv["reference_samples"], conv["chunk"])
 ds = xr.Dataset(
     {"mean": (("state", "time"), mean), "std": (("state", "time"), std)},
-    coords={"state": list(STATES), "time": TimeGrid.from_config(config).output},
+    coords={"state": list(STATES), "time": settings.time.output},
     attrs={"title": "LST Monte Carlo reference moments", "n_samples": n, "seed": config["seed"]},
 )
 write_dataset(ds, snakemake.output[0])  # noqa: F821

@@ -6,8 +6,10 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 from uqdrive.io import write_dataset
 from uqdrive.studies.pce import pce_dataset
 from uqdrive.vehicle.chaos import LSTChaosModel
+from uqdrive.settings import Settings
 
 config = snakemake.params.config  # noqa: F821
-model = LSTChaosModel(config, order=config["pce"]["order"], quadrature_points=config["pce"]["quadrature_points"])
-moments = model.moments(model.theta_from_config(config, model.uncertain))
+settings = Settings.from_config(config)
+model = LSTChaosModel(settings, order=config["pce"]["order"], quadrature_points=config["pce"]["quadrature_points"])
+moments = model.moments(settings.uncertainty.theta(model.uncertain))
 write_dataset(pce_dataset(config, model, moments), snakemake.output[0])  # noqa: F821

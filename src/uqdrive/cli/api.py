@@ -17,6 +17,7 @@ import xarray as xr
 
 from ..config import ConfigError, load_config, validate_config
 from ..io import read_ensemble, validate_ensemble
+from ..settings import Settings
 
 __all__ = ["Estimate", "Verdict", "identify", "discover", "simulate", "resolve_config", "car_record", "car_warnings"]
 
@@ -331,7 +332,7 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
         n = int(cfg["montecarlo"]["samples"] if samples is None else samples)
         ds = simulate_model(cfg, Path(model), steer, n, int(cfg["seed"] if seed is None else seed))
     else:
-        ds = simulate_ensemble(cfg, str(model), steer, samples=samples, seed=seed)
+        ds = simulate_ensemble(Settings.from_config(cfg), str(model), steer, samples=samples, seed=seed)
     bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]
     if bad:
         raise ConfigError(f"the simulation diverged ('{bad[0]}' not finite) with this config: vehicle.* and uncertainty.* "

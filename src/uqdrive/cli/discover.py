@@ -14,10 +14,10 @@ import numpy as np
 import yaml
 
 from ..inference.discrepancy import DiscrepancyFinder
-from ..io import MIN_RUNS, DataError, check_run_count, read_ensemble, speed_profile
+from ..io import MIN_RUNS, DataError, OutputError, check_run_count, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import expand_names
-from ..vehicle.uncertainty import known_quantities
+from ..settings import Settings
 
 __all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "discover_dataset", "baseline_warnings", "write_outputs"]
 
@@ -61,8 +61,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     discover to start from (its effects refitted, further ones added on top).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
-    succeeded, so a failure leaves no verdict behind. The data's speed (attribute ``v_c``)
-    replaces the config's ``vehicle.speed_kmh`` where they differ.
+    succeeded, so a failure leaves no verdict behind. The data's speed (``v``, else the attribute
+    ``v_c``: :func:`uqdrive.io.data_speed`) replaces the config's ``vehicle.speed_kmh`` where they differ.
 
     The file may carry any non-empty set of channels (psi, psi_dot, beta, y, a_y) and a speed
     ``v`` that changes over time: the baseline, the null band and every candidate are computed
@@ -80,7 +80,7 @@ def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: S
     in the verdict), writing nothing: the fitted finder and the verdict.json fields.
     ``model_fits`` says whether the final model leaves no unexplained gap (no ``unrecognised``)."""
     names = _checked_candidates(candidates)
-    start = _start_model(model) if model is not None else None
+    start = _start_model(model, config) if model is not None else None
     check_run_count(ds.sizes["sample"], str(measured), "discover")
     if abs(float(ds["time"].values[0])) > 1e-9:
         raise DataError(f"{measured}: time must start at 0 s (the model starts at rest); it starts at {float(ds['time'].values[0])} s")
@@ -88,38 +88,38 @@ def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: S
     if "v_c" not in ds.attrs:  # a 'v' that never changes is the constant speed; a profile's mean stands for it
         ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0]) if profile is None else float(np.mean(profile))
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
-    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:  # the data's speed wins, as in identify (the CLI says so)
-        config = {**config, "vehicle": {**config["vehicle"], "speed_kmh": v_c * 3.6}}
-    finder = DiscrepancyFinder(config, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
-    if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > config["montecarlo"]["spin_threshold"], axis=-1))) < MIN_SAMPLES:
+    # the data's speed wins, as in identify (the CLI says so)
+    settings = Settings.from_config(config, speed=v_c if abs(v_c * 3.6 - kmh) > 1e-9 * kmh else None)
+    finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
+    if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > settings.spin.threshold, axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
-    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder, config),
-                   fixed=known_quantities(config))
+    verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder),
+                   fixed=settings.uncertainty.known())
     verdict["model_fits"] = not any(e["effect"] == "unrecognised" for e in verdict["effects"])
     return finder, verdict
 
 
-def _start_model(path: Path) -> dict:
+def _start_model(path: Path, config: Mapping[str, Any]) -> dict:
     """The effects and distributions of a ``model.yaml`` to start from (a DataError otherwise)."""
     from .model import load_model
 
-    structure, dist = load_model(path)
+    structure, dist = load_model(path, config)
     return {"effects": {name: dict(p) for name, p in structure.effects}, "distributions": dist}
 
 
-def baseline_warnings(finder: DiscrepancyFinder, config: Mapping[str, Any]) -> list[str]:
+def baseline_warnings(finder: DiscrepancyFinder) -> list[str]:
     """Warnings of the baseline fit, in the words of ``uqdrive identify``: the optimiser did not
     converge, or a distribution parameter (a std at zero excepted) sits at a bound of its search
     box. (Whether the baseline fits the data at all is the verdict's question.)"""
-    from ..inference.discrepancy.fit import THETA_BOUNDS, known_theta
+    from ..inference.discrepancy.fit import THETA_BOUNDS
     from ..vehicle.augmented import THETA_NAMES
     from .identify import fit_warnings
 
     base = finder.baseline_
-    u = config["uncertainty"]
-    theta0 = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], u["F_w_mean"]["low"], u["F_w_mean"]["high"]]
-    free = [i for i in range(len(THETA_NAMES)) if i not in known_theta(config)]
+    layout = finder.settings.layout
+    theta0 = list(layout.start)
+    free = [i for i in range(len(THETA_NAMES)) if i not in layout.known]
     pick = lambda seq: [seq[i] for i in free]  # noqa: E731
     out = fit_warnings(pick(base.theta_), pick(theta0), pick(THETA_BOUNDS), pick(THETA_NAMES), bool(base.success_), base.message_)
     return [f"baseline fit: {w}" for w in out]
@@ -142,6 +142,8 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
         save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"],
                                        channels=finder.channels_), tmp / "bands.png")
         save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold, channels=finder.channels_), tmp / "localisation.png")
+        if out.exists() and not out.is_dir():
+            raise OutputError(f"output folder '{out}' became a regular file meanwhile; it is not replaced by a folder: choose another --out")
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=parent))
             out.rename(old / out.name)

@@ -11,7 +11,6 @@ run created is removed again on a failure or an interruption.
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import warnings
@@ -21,7 +20,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
-from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, state_weights
+from ..inference.identify import DistributionEstimator, WeightContext, state_weights
 from ..plots.fit import fit_figure
 from ..vehicle.channels import ChannelChaosModel
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
@@ -29,6 +28,7 @@ from ..vehicle.montecarlo import spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used_samples
 from ..vehicle.single_track import STATES
+from ..settings import Settings, Spin, TimeGrid
 
 __all__ = ["identify_file", "identify_dataset", "fit_status", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
 
@@ -37,48 +37,45 @@ UNCERTAIN = ("mu", "l_f", "F_w_mean")
 FEW_RUNS = 100
 
 
-def _model_config(config: Mapping[str, Any], ds, source: str) -> dict:
-    """The config with the measured grid and speed (the model runs on the data's time grid)."""
+def _model_settings(config: Mapping[str, Any], ds, source: str) -> Settings:
+    """The settings of ``config`` on the measured grid and at the measured speed (the model runs on the data's time grid)."""
     t = ds["time"].values.astype(float)
     if abs(t[0]) > 1e-9:
         raise DataError(f"{source}: 'time' starts at {t[0]:g} s; the model starts from straight driving at t = 0: "
                         "subtract the start time from the time coordinate")
-    cfg = copy.deepcopy(dict(config))
     dt = float(t[1] - t[0])
-    cfg["time"] = {"t_end": float(t[-1]), "dt": dt, "step": dt}
     v = float(ds.attrs["v_c"]) if "v" not in ds else float(np.ravel(ds["v"].values)[0])
-    cfg["vehicle"] = dict(cfg["vehicle"], speed_kmh=v * 3.6)
-    return cfg
+    return Settings.from_config(config, time=TimeGrid(float(t[-1]), dt, dt), speed=v)
 
 
-def _dst_divergence(cfg, delta):
+def _dst_divergence(settings: Settings, delta):
     """D_KL(NLST || LST) of the synthetic reality under the measured input (DST weights)."""
     from ..vehicle.montecarlo import STEERS, simulate_ensemble
     from ..vehicle.single_track import steering_input
 
-    st = cfg["steering"]
+    st = settings.steering
     for steer, sign in STEERS.items():
-        if np.allclose(delta, steering_input(np.arange(delta.size) * cfg["time"]["dt"], np.deg2rad(st["delta_max_deg"]), st["period"], sign), atol=1e-6):
-            stats = {m: ensemble_statistics(simulate_ensemble(cfg, m, steer), cfg["montecarlo"]["spin_policy"]) for m in ("lst", "nlst")}
+        if np.allclose(delta, steering_input(np.arange(delta.size) * settings.time.dt, st.delta_max, st.period, sign), atol=1e-6):
+            stats = {m: ensemble_statistics(simulate_ensemble(settings, m, steer), settings.spin.policy) for m in ("lst", "nlst")}
             return kl_divergence_series(stats["nlst"], stats["lst"]).values
     raise DataError("the DST cost needs the synthetic reality (LST and NLST) under the same input; "
                     "the measured delta is neither the config's slalom nor its inverted form: use --cost std or inp")
 
 
-def _lost_control(ds, cfg, source: str):
+def _lost_control(ds, spin: Spin, source: str):
     """Spin flags from the data, the file's own flags (or None) and the dataset carrying the former."""
-    threshold = float(cfg["montecarlo"]["spin_threshold"])
+    threshold = float(spin.threshold)
     if "beta" not in ds:  # no side slip recorded: lost control cannot be told from the data
         in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
         spun = np.zeros(ds.sizes["sample"], bool) if in_file is None else in_file
         ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": "lost control, from the file's flags"}))
-        mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+        mask = used_samples(ds, spin.policy)
         check_spread(ds, source, mask)
         return ds, spun, None
     spun = spin_mask(ds["beta"].values, threshold)
     in_file = ds["spun"].values.astype(bool) if "spun" in ds else None
     ds = ds.assign(spun=("sample", spun.astype(np.int8), {"units": "1", "long_name": f"lost control (|beta| > {threshold} rad), from the data"}))
-    mask = used_samples(ds, cfg["montecarlo"]["spin_policy"])
+    mask = used_samples(ds, spin.policy)
     if mask.sum() < 2:
         raise DataError(f"{source}: only {int(mask.sum())} of {mask.size} realisations kept control (|beta| <= {threshold:g} rad); "
                         "mean and std need at least 2: give more realisations or set montecarlo.spin_policy: keep in the config")
@@ -165,13 +162,13 @@ def fit_notes(names, theta, bounds, upper_bounds) -> list[str]:
     return out
 
 
-def _channel_notes(cfg, ds, channels, speed) -> list[str]:
+def _channel_notes(settings: Settings, ds, channels, speed) -> list[str]:
     """What the recorded channels cannot answer: parameters they cannot separate, lost control
     without beta, unit conversions, runs at different speeds."""
     from ..inference.identifiability import unidentifiable_parameters
 
     # the four states identify every parameter fitted here (thesis sec. 5.3.1): the test is for subsets
-    open_ = {} if channels == STATES else unidentifiable_parameters(cfg, channels, UNCERTAIN)
+    open_ = {} if channels == STATES else unidentifiable_parameters(settings, channels, UNCERTAIN)
     out = [f"{p} cannot be identified from the channels {', '.join(channels)} (observability rank test): its estimate is "
            f"not determined by the data; record {hint}" for p, hint in open_.items()]
     if "beta" not in channels:
@@ -228,30 +225,31 @@ def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "st
     if cost == "dst" and (channels != STATES or speed is not None):
         raise DataError(f"{source}: the DST cost compares the LST and NLST states at constant speed; this file has channels "
                         f"{', '.join(channels)}{' and a changing speed' if speed is not None else ''}: use --cost std or inp")
-    cfg = _model_config(config, ds, source)
-    policy = cfg["montecarlo"]["spin_policy"]
-    ds, spun, in_file = _lost_control(ds, cfg, source)
+    settings = _model_settings(config, ds, source)
+    policy = settings.spin.policy
+    ds, spun, in_file = _lost_control(ds, settings.spin, source)
     stats = ensemble_statistics(ds, policy, channels)
-    scale = state_scale or configured_state_scale(cfg)
+    ident = settings.identify
+    scale = state_scale or ident.scale()
     try:
         state_weights(scale, stats["mean"].values, stats["std"].values)
     except ValueError:
         raise DataError(f"{source}: a state's measured {'mean' if scale == 'rms_mean' else 'std'} is zero throughout, so "
                         f"--state-scale {scale} cannot scale it; use --state-scale none") from None
     delta = ds["delta"].values
-    m_load = float(cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load)
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=cfg["identification"]["order"],
-                          quadrature_points=cfg["identification"]["quadrature_points"], fixed={"m_load": m_load}, delta=delta)
+    m_load = float(settings.uncertainty.m_load.mean if m_load is None else m_load)
+    model = LSTChaosModel(settings, uncertain=UNCERTAIN, time_variant_wind=False, order=ident.order,
+                          quadrature_points=ident.quadrature_points, fixed={"m_load": m_load}, delta=delta)
     if channels != STATES or speed is not None:
         model = ChannelChaosModel(model, channels, speed)
-    kl = _dst_divergence(cfg, delta) if cost == "dst" else None
-    theta0 = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
+    kl = _dst_divergence(settings, delta) if cost == "dst" else None
+    theta0 = settings.uncertainty.theta(UNCERTAIN)
     runs = np.stack([ds[s].values[used_samples(ds, policy)] for s in channels]).astype(float)
     # Measurement noise inflates the measured std: the model's variance gets the noise variance
     # estimated from the data (order-4 differences leave the smooth signal out).
     noise = np.array([estimate_noise_variance(runs[i], order=4) for i in range(runs.shape[0])])
-    est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(cfg["seed"]), max_iter=cfg["identification"]["max_iter"],
-                                wheelbase=cfg["vehicle"]["wheelbase"], state_scale=scale, optimiser=configured_optimiser(cfg),
+    est = DistributionEstimator(model, cost, starts=starts, rng=np.random.default_rng(settings.seed), max_iter=ident.max_iter,
+                                wheelbase=settings.vehicle.wheelbase, state_scale=scale, optimiser=ident.optimiser,
                                 noise_variance=noise)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -262,7 +260,7 @@ def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "st
                             "check v_c, the units of the states and the config's uncertainty means") from None
     summary = _summary(est, model, theta0, m_load, runs.shape[1])
     summary["warnings"] += [m for m in dict.fromkeys(str(w.message) for w in caught) if not m.startswith("identification did not converge")]
-    summary["warnings"] += _channel_notes(cfg, ds, channels, speed)
+    summary["warnings"] += _channel_notes(settings, ds, channels, speed)
     n_used = int(stats.attrs["n_used"])
     sampling = _sampling_errors([v for u in UNCERTAIN for v in summary[u]], n_used)
     se_mu = summary["standard_errors"]["mu"][0]
@@ -273,7 +271,7 @@ def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "st
     flagged = None if in_file is None else np.flatnonzero(in_file).tolist()
     if flagged is not None and flagged != np.flatnonzero(spun).tolist():
         summary["warnings"].append(f"the file's 'spun' flags ({len(flagged)}) disagree with the data criterion |beta| > "
-                                   f"{cfg['montecarlo']['spin_threshold']:g} rad ({int(spun.sum())}); the data criterion was used")
+                                   f"{settings.spin.threshold:g} rad ({int(spun.sum())}); the data criterion was used")
     summary.update({
         "cost_function": cost,
         "state_scale": scale,
@@ -285,7 +283,7 @@ def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "st
         "samples": int(ds.sizes["sample"]),
         "samples_used": int(stats.attrs["n_used"]),
         "spin_policy": policy,
-        "spin_threshold": float(cfg["montecarlo"]["spin_threshold"]),
+        "spin_threshold": float(settings.spin.threshold),
         "n_spun": int(spun.sum()),
         "spun_indices": np.flatnonzero(spun).tolist(),
         "measured": source,

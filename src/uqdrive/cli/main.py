@@ -19,9 +19,11 @@ from pathlib import Path
 
 from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
-from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_writable
+from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_folder, check_writable
 from .help_text import HelpFormatter, candidate_listing, epilog
+from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
+from ..settings import Settings
 
 __all__ = ["main", "build_parser", "Interrupted"]
 
@@ -56,19 +58,25 @@ def _load(args) -> dict:
 
 
 def _speed_notice(config, measured: Path) -> None:
-    """One line when the data's speed (attribute v_c) replaced the config's vehicle.speed_kmh, once
-    the command succeeded (a refusal stays one line: the reader names what is wrong)."""
+    """One line when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced the
+    config's vehicle.speed_kmh or a v_c beside v was ignored, once the command succeeded (a refusal
+    stays one line: the reader names what is wrong)."""
+    from ..io import data_speed
+
     try:
         import xarray as xr
 
         with xr.open_dataset(measured) as ds:
-            v_c = float(ds.attrs["v_c"])
+            v_c, ignored = data_speed(ds)
+            name = "v" if "v" in ds else "v_c"
     except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
         return
     kmh = float(config["vehicle"]["speed_kmh"])
-    if abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
-        stderr_line(f"uqdrive: note: the data's speed v_c = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's "
-                    f"vehicle.speed_kmh = {kmh:g} km/h")
+    said = [ignored] if ignored else []
+    if v_c is not None and abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
+        said.insert(0, f"the data's speed {name} = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's vehicle.speed_kmh = {kmh:g} km/h")
+    if said:
+        stderr_line(f"uqdrive: note: {'; '.join(said)}")
 
 
 def _car_notice(args, config) -> None:
@@ -267,12 +275,7 @@ def _discover(args) -> int:
 
     progress = Progress(quiet=args.quiet)
     config = resolve_config(args.config, args.vehicle)
-    out = Path(args.out)
-    if out.exists() and not args.force:
-        raise OutputError(f"output folder '{out}' exists; pass --force to replace it or choose another --out")
-    existing = next(p for p in out.parents if p.exists())
-    if not existing.is_dir():
-        raise OutputError(f"output folder '{out}' lies below '{existing}', which is not a folder; choose another --out")
+    out = check_replaced_folder(args.out, overwrite=args.force)
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     verdict = discover(args.measured, config=config, candidates=candidates, model=args.model, progress=progress,
                        posterior=args.posterior)
@@ -321,7 +324,7 @@ def _description(reference: str) -> str:
     return read_vehicle_file(reference)[1]["description"]
 
 
-SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_vehicles)
+SUBCOMMANDS = (_add_simulate, _add_identify, _add_discover, _add_config, _add_vehicles, add_import)
 
 
 # -- parser and shared error handling -------------------------------------------------------------

@@ -5,6 +5,8 @@ LST plus named effects with fitted parameters), for ``uqdrive simulate`` and ``u
 from __future__ import annotations
 
 import json
+import math
+import numbers
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -13,6 +15,7 @@ import xarray as xr
 import yaml
 
 from .._version import __version__
+from .._yaml import load_yaml
 from ..config import config_hash
 from ..inference.discrepancy.band import moment_statistics, statistic_scale
 from ..inference.discrepancy.fit import StructureFit
@@ -20,12 +23,13 @@ from ..inference.sampling import run_influence, sampling_errors
 from ..io import DataError, check_run_count, read_ensemble, speed_profile
 from ..rng import rng_stream
 from ..vehicle.augmented import AugmentedSimulator
-from ..vehicle.effects import ModelStructure, structure_from_effects
+from ..vehicle.effects import EFFECTS, ModelStructure, structure_from_effects
 from ..vehicle.montecarlo import STEERS, spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, steering_input
+from ..settings import Settings
 
-__all__ = ["is_model_file", "load_model", "simulate_model", "identify_with_model"]
+__all__ = ["is_model_file", "load_model", "check_effects", "check_distributions", "MODEL_DISTRIBUTIONS", "simulate_model", "identify_with_model"]
 
 
 def is_model_file(value: str) -> bool:
@@ -33,20 +37,117 @@ def is_model_file(value: str) -> bool:
     return value.endswith((".yaml", ".yml"))
 
 
-def load_model(path: str | Path) -> tuple[ModelStructure, dict]:
-    """The structure and the distributions of a ``model.yaml``; a clear DataError otherwise."""
+#: The distributions of a model file: name -> its two parameters with their range (low, high, low
+#: inclusive, high inclusive, unit). The ranges are the config's physical ranges of the same quantities.
+MODEL_DISTRIBUTIONS = {
+    "mu": {"mean": (0.0, 10.0, False, True, "-"), "std": (0.0, 10.0, True, True, "-")},
+    "l_f": {"mean": (0.0, 20.0, False, False, "m"), "std": (0.0, 20.0, True, True, "m")},
+    "F_w_mean": {"low": (-1e5, 1e5, True, True, "N"), "high": (-1e5, 1e5, True, True, "N")},
+    "m_load": {"mean": (0.0, 1e5, True, True, "kg"), "std": (0.0, 1e5, True, True, "kg")},
+}
+_OPTIONAL = ("m_load",)
+
+
+def _number(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _span(lo, hi, lo_in, hi_in) -> str:
+    return f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
+
+
+def check_effects(effects, where: str) -> dict:
+    """``{effect: {parameter: value}}`` of a model file checked against the registry
+    (:data:`uqdrive.vehicle.effects.EFFECTS`): known names, each parameter present once, a finite
+    number inside the registry's bounds in the registry's unit. A :class:`DataError` naming the
+    effect, the parameter, its unit and the fix otherwise."""
+    example = "effects: {actuator_lag: {T: 0.05}}"
+    if effects is None:
+        return {}
+    if not isinstance(effects, Mapping):
+        raise DataError(f"{where}: 'effects' is a {type(effects).__name__}; map each effect to its parameters ({example}), "
+                        "or leave it empty for the baseline")
+    out = {}
+    for name, params in effects.items():
+        if name not in EFFECTS:
+            raise DataError(f"{where}: effect '{name}' is unknown; known effects: {', '.join(sorted(EFFECTS))}")
+        e = EFFECTS[name]
+        form = "{" + ", ".join(f"{p}: <{'number' if u == '-' else u}>" for p, u in zip(e.parameters, e.units)) + "}"
+        if not isinstance(params, Mapping):
+            raise DataError(f"{where}: effect '{name}' is {params!r}, not its parameters; write {name}: {form}")
+        unknown = [p for p in params if p not in e.parameters]
+        missing = [p for p in e.parameters if p not in params]
+        if unknown or missing:
+            what = f"has no parameter '{unknown[0]}'" if unknown else f"lacks parameter '{missing[0]}'"
+            raise DataError(f"{where}: effect '{name}' {what}; write {name}: {form}")
+        for p, unit, (lo, hi) in zip(e.parameters, e.units, e.bounds):
+            v = params[p]
+            unit_ = "" if unit == "-" else f" {unit}"
+            if not _number(v) or not math.isfinite(v) or not lo <= v <= hi:
+                got = f"{v!r} is not a number" if not _number(v) else f"{v:g}{unit_} is outside [{lo:g}, {hi:g}]{unit_}"
+                raise DataError(f"{where}: effect '{name}' parameter {p} = {got}; give a finite number in [{lo:g}, {hi:g}]{unit_}")
+        out[name] = {p: float(params[p]) for p in e.parameters}
+    return out
+
+
+def check_distributions(dist, where: str, wheelbase: float | None = None) -> dict:
+    """The distributions of a model file checked: mu, l_f (mean, std), F_w_mean (low, high) and
+    optionally m_load (mean, std), each a finite number in its physical range (:data:`MODEL_DISTRIBUTIONS`),
+    low <= high, and the l_f mean inside the ``wheelbase`` (m) where given."""
+    form = "distributions: {mu: {mean: 1.0, std: 0.1}, l_f: {mean: 1.5, std: 0.1}, F_w_mean: {low: -500, high: 500}}"
+    if not isinstance(dist, Mapping):
+        raise DataError(f"{where}: 'distributions' is a {type(dist).__name__}; write them as a mapping, {form}")
+    for name in dist:
+        if name not in MODEL_DISTRIBUTIONS:
+            raise DataError(f"{where}: distribution '{name}' is unknown; give {', '.join(MODEL_DISTRIBUTIONS)} ({form})")
+    out = {}
+    for name, fields in MODEL_DISTRIBUTIONS.items():
+        if name not in dist:
+            if name in _OPTIONAL:
+                continue
+            raise DataError(f"{where}: distribution '{name}' is missing; give all of mu, l_f and F_w_mean ({form})")
+        d = dist[name]
+        want = "{" + ", ".join(f"{f}: <{'number' if r[-1] == '-' else r[-1]}>" for f, r in fields.items()) + "}"
+        if not isinstance(d, Mapping) or set(d) != set(fields):
+            raise DataError(f"{where}: distribution '{name}' is {d!r}; write {name}: {want}")
+        for f, (lo, hi, lo_in, hi_in, unit) in fields.items():
+            v = d[f]
+            unit_ = "" if unit == "-" else f" {unit}"
+            inside = _number(v) and math.isfinite(v) and (lo <= v if lo_in else lo < v) and (v <= hi if hi_in else v < hi)
+            if not inside:
+                got = f"{v!r} is not a number" if not _number(v) else f"{v:g}{unit_} is outside {_span(lo, hi, lo_in, hi_in)}{unit_}"
+                raise DataError(f"{where}: distributions.{name}.{f} = {got}; give a finite number in "
+                                f"{_span(lo, hi, lo_in, hi_in)}{unit_}" + (" (0: known)" if f == "std" else ""))
+        out[name] = {f: float(d[f]) for f in fields}
+    if out["F_w_mean"]["low"] > out["F_w_mean"]["high"]:
+        raise DataError(f"{where}: distributions.F_w_mean.low = {out['F_w_mean']['low']:g} N exceeds high = "
+                        f"{out['F_w_mean']['high']:g} N; swap them")
+    if wheelbase is not None and not out["l_f"]["mean"] < wheelbase:
+        raise DataError(f"{where}: distributions.l_f.mean = {out['l_f']['mean']:g} m lies beyond the wheelbase {wheelbase:g} m; "
+                        "give the distance from the centre of gravity to the front axle, inside the wheelbase")
+    return out
+
+
+def load_model(path: str | Path, config: Mapping[str, Any] | None = None) -> tuple[ModelStructure, dict]:
+    """The structure and the distributions of a ``model.yaml``, checked against the effect
+    registry and the distributions' ranges (:func:`check_effects`, :func:`check_distributions`;
+    the l_f mean inside the wheelbase of ``config`` where given); a one-line DataError otherwise.
+    ``simulate``, ``identify`` and ``discover`` read every model file through it."""
     path = Path(path)
     try:
-        doc = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise DataError(f"cannot read model file '{path}': {exc}") from None
+        doc = load_yaml(path.read_bytes().decode("utf-8-sig"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
+        reason = getattr(exc, "strerror", None) or " ".join(str(exc).split())
+        raise DataError(f"cannot read model file '{path}': {reason}; give the model.yaml that uqdrive discover wrote") from None
     if not isinstance(doc, dict) or doc.get("baseline") != "lst" or "distributions" not in doc:
         raise DataError(f"'{path}' is not a uqdrive model file (needs baseline: lst, effects, distributions); write one with `uqdrive discover`")
-    try:
-        structure = structure_from_effects(doc.get("effects") or {})
-    except (KeyError, ValueError) as exc:
-        raise DataError(f"'{path}': {str(exc).strip(chr(34) + chr(39))}") from None
-    return structure, doc["distributions"]
+    where = f"model file '{path}'"
+    if doc.get("uqdrive_model", 1) != 1:
+        raise DataError(f"{where}: uqdrive_model = {doc['uqdrive_model']!r}; this uqdrive reads version 1: write it again with "
+                        "this version's `uqdrive discover`")
+    effects = check_effects(doc.get("effects"), where)
+    dist = check_distributions(doc["distributions"], where, None if config is None else float(config["vehicle"]["wheelbase"]))
+    return structure_from_effects(effects), dist
 
 
 def _theta(d: Mapping[str, Any]):
@@ -55,7 +156,7 @@ def _theta(d: Mapping[str, Any]):
 
 def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: int, seed: int) -> xr.Dataset:
     """An ensemble of the augmented model in the data schema (the thesis' input (5.5)/(5.7))."""
-    structure, dist = load_model(path)
+    structure, dist = load_model(path, config)
     cfg = dict(config)
     if "m_load" in dist:
         cfg["uncertainty"] = dict(cfg["uncertainty"], m_load=dict(dist["m_load"]))
@@ -64,7 +165,7 @@ def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: i
     st = config["steering"]
     delta = steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
     v_c = config["vehicle"]["speed_kmh"] / 3.6
-    sim = AugmentedSimulator.drawn(cfg, t, delta, v_c, samples, rng_stream(seed, "parameters"))
+    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta, v_c, samples, rng_stream(seed, "parameters"))
     x = sim.simulate(_theta(dist), structure)
     spun = spin_mask(x[2], config["montecarlo"]["spin_threshold"])
     data = {s: (("sample", "time"), x[i], {"units": STATE_UNITS[s], "long_name": STATE_NAMES[s]}) for i, s in enumerate(STATES)}
@@ -92,7 +193,7 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
     """
     from .identify import fit_figure, fit_notes, fit_status, fit_warnings, write_outputs
 
-    structure, dist = load_model(path)
+    structure, dist = load_model(path, config)
     ds = measured if isinstance(measured, xr.Dataset) else read_ensemble(measured)
     measured = ds.attrs.get("source", "dataset") if isinstance(measured, xr.Dataset) else measured
     check_run_count(ds.sizes["sample"], str(measured), "identify")
@@ -112,7 +213,7 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
     t = ds["time"].values
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(4)])
     stride = max(1, int(np.ceil((t.size - 1) / 150)))
-    sim = AugmentedSimulator.drawn(config, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
                                    interpolation=str(ds["delta"].attrs.get("interpolation", "linear")))
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])

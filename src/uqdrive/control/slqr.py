@@ -9,14 +9,13 @@ that discretised response, so no fixed-step simulation runs inside the optimiser
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
-
 import numpy as np
 from scipy.optimize import minimize
 
 from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
-from ..vehicle.montecarlo import TimeGrid, gust_input_column, kle_from_config
+from ..settings import Settings, TimeGrid
+from ..vehicle.montecarlo import gust_input_column, wind_kle
 from ..vehicle.uncertainty import ParameterDistribution
 from ..vehicle.single_track import VehicleParameters, lst_matrices
 
@@ -35,10 +34,10 @@ class LaneKeepingCase:
     dt: float = 0.01
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], horizon: float | None = None) -> "LaneKeepingCase":
-        """The case of the config's ``control`` section (initial offset range, yaw, horizon) on ``time.dt``."""
-        c = config["control"]
-        return cls(c["y0"][0], c["y0"][1], c["psi0_deg"], c["horizon"] if horizon is None else horizon, config["time"]["dt"])
+    def from_settings(cls, settings: Settings, horizon: float | None = None) -> "LaneKeepingCase":
+        """The case of the settings' controller (initial offset range, yaw, horizon) on the time grid's dt."""
+        c = settings.control
+        return cls(c.y0[0], c.y0[1], c.psi0_deg, c.horizon if horizon is None else horizon, settings.time.dt)
 
 
 def mean_variance_weights(n_terms: int, gamma: float) -> np.ndarray:
@@ -56,20 +55,20 @@ class ClosedLoopChaos:
     condition germs of the lane-keeping case.
     """
 
-    def __init__(self, config: Mapping[str, Any], case: LaneKeepingCase, distribution: ParameterDistribution | None = None,
+    def __init__(self, settings: Settings, case: LaneKeepingCase, distribution: ParameterDistribution | None = None,
                  order: int = 2, quadrature_points: int = 4, time_variant_wind: bool = True):
-        dist = distribution if distribution is not None else ParameterDistribution.from_config(config)
-        kle = kle_from_config(config)
+        dist = distribution if distribution is not None else ParameterDistribution.from_settings(settings.uncertainty)
+        kle = wind_kle(settings)
         n_kle = kle.n_modes if time_variant_wind else 0
         self.projector = pr = GalerkinProjector(["normal", "normal", "normal", "uniform"], ["normal"] * n_kle + ["uniform", "uniform"], order, quadrature_points)
         draws = dist.from_germs(pr.nodes)
-        p = replace(VehicleParameters.from_config(config), mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
+        p = replace(VehicleParameters.from_settings(settings), mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
         A, B, W = lst_matrices(p)
         Q = A.shape[0]
         self.A0 = pr.matrix(A)
         self.M = np.stack([pr.matrix(B[:, :, None] * np.eye(4)[j][None, None, :]) for j in range(4)])  # d A_PCE / d K_j
-        scale = config["wind"]["sigma"] * np.sqrt(kle.eigenvalues[:n_kle])
-        W_gust = gust_input_column(W, config["wind"]["gust_yaw_moment"])
+        scale = settings.wind.sigma * np.sqrt(kle.eigenvalues[:n_kle])
+        W_gust = gust_input_column(W, settings.wind.gust_yaw_moment)
         F = np.zeros((Q, 4, n_kle + 2))
         F[:, :, :n_kle] = W_gust[:, :, None] * scale
         self.E = np.concatenate([pr.input_matrix((W * draws["F_w_mean"][:, None])[:, :, None]), pr.linear_input_matrix(F)[:, :n_kle]], axis=1)

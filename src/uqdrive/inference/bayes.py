@@ -13,6 +13,7 @@ import numpy as np
 import xarray as xr
 
 from ..numerics.threads import with_single_blas_thread
+from ..settings import Settings
 
 __all__ = ["MOVES", "MomentLikelihood", "BoxPrior", "log_posterior", "log_posteriors", "log_posterior_batch", "sample_ensembles",
            "gelman_rubin", "chain_dataset"]
@@ -114,11 +115,12 @@ class BoxPrior:
     high: np.ndarray
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "BoxPrior":
-        """The box of the config's ``bayes.prior`` (low, high per parameter, in ``theta_names`` order)."""
-        b = config["bayes"]["prior"]
-        names = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
-        return cls(np.array([b[n][0] for n in names], float), np.array([b[n][1] for n in names], float))
+    def from_settings(cls, settings: Settings) -> "BoxPrior":
+        """The box of the settings' ``bayes_prior`` (low, high per parameter, in ``theta_names`` order)."""
+        b = settings.bayes_prior
+        if not b:
+            raise KeyError("the config lacks bayes.prior (low, high of each distribution parameter)")
+        return cls(np.array([lo for lo, _ in b], float), np.array([hi for _, hi in b], float))
 
     def __call__(self, theta) -> float:
         theta = np.asarray(theta)

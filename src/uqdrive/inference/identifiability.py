@@ -6,11 +6,10 @@ and the rank of the Lie-derivative Jacobian is evaluated at a point.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
-
 import numpy as np
 import sympy as sp
 
+from ..settings import Settings
 
 __all__ = ["ObservabilityResult", "observability_analysis", "observability_matrix", "channel_observability", "unidentifiable_parameters"]
 
@@ -49,21 +48,21 @@ class ObservabilityResult:
         return [n for n, r in self.removal_rank.items() if r == self.rank]
 
 
-def _lst_symbolic(config: Mapping[str, Any]):
+def _lst_symbolic(settings: Settings):
     """Augmented LST (3.12) with symbolic states and parameters, numeric constants."""
-    veh = config["vehicle"]
+    veh = settings.vehicle
     psi, psi_dot, beta, y = sp.symbols("psi psi_dot beta y")
     mu, m_load, l_f, F_w = sp.symbols("mu m_load l_f F_w_mean")
     delta = sp.Symbol("delta")
     F = sp.Float  # numeric constants as floats: rationals make the Lie derivatives swell
-    L, g, v = F(veh["wheelbase"]), F(veh["g"]), F(veh["speed_kmh"] / 3.6)
-    m = F(veh["m_base"]) + m_load
-    I_z = m * F(veh["J0"])
+    L, g, v = F(veh.wheelbase), F(veh.g), F(veh.v_c)
+    m = F(veh.m_base) + m_load
+    I_z = m * F(veh.J0)
     l_r = L - l_f
-    C = F(config["tyre"]["C"])
-    c_f = m * g * l_r / L * F(veh["c_Sf"]) * C * mu
-    c_r = m * g * l_f / L * F(veh["c_Sr"]) * C * mu
-    M_c = F(veh["M_c"])
+    C = F(veh.C)
+    c_f = m * g * l_r / L * F(veh.c_Sf) * C * mu
+    c_r = m * g * l_f / L * F(veh.c_Sr) * C * mu
+    M_c = F(veh.M_c)
     f = sp.Matrix(
         [
             psi_dot,
@@ -78,6 +77,13 @@ def _lst_symbolic(config: Mapping[str, Any]):
     )
     x = sp.Matrix([psi, psi_dot, beta, y, mu, m_load, l_f, F_w])
     return x, f, delta
+
+
+def _nominal(settings: Settings) -> dict:
+    """The evaluation point of the parameters: the means, the mean wind 100 N past its midpoint
+    (a zero wind would hide its column)."""
+    nominal = settings.uncertainty.nominal()
+    return {**nominal, "F_w_mean": nominal["F_w_mean"] + 100.0}
 
 
 def _lie_jacobian(A, b, x, dA, db, n: int) -> np.ndarray:
@@ -115,7 +121,7 @@ def _lie_jacobian(A, b, x, dA, db, n: int) -> np.ndarray:
     return np.vstack(rows)
 
 
-def observability_matrix(config: Mapping[str, Any], state=None, n_lie: int | None = None):
+def observability_matrix(settings: Settings, state=None, n_lie: int | None = None):
     """O_NL = d/dz [g, L_f g, ..., L_f^{n-1} g] with g = the four measured states (3.9)-(3.11).
 
     Evaluated with the constant input delta = delta_max at the nominal parameters and the given
@@ -133,7 +139,7 @@ def observability_matrix(config: Mapping[str, Any], state=None, n_lie: int | Non
     values : (4 n_lie, 8) ndarray
         O_NL at the point (n_lie defaults to the augmented dimension 8).
     """
-    x, f, delta = _lst_symbolic(config)
+    x, f, delta = _lst_symbolic(settings)
     n = x.shape[0] if n_lie is None else n_lie
     states, params = list(x[:4]), list(x[4:])
     drift = f[:4, :]
@@ -141,11 +147,10 @@ def observability_matrix(config: Mapping[str, Any], state=None, n_lie: int | Non
     b_sym = drift.subs({s: 0 for s in states})  # exact: the drift is affine in the state
     A_fn = sp.lambdify(params + [delta], A_sym, "numpy")
     b_fn = sp.lambdify(params + [delta], b_sym, "numpy")
-    unc = config["uncertainty"]
-    nominal = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"], "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"]) + 100.0}
+    nominal = _nominal(settings)
     state = state if state is not None else {"psi": 0.05, "psi_dot": 0.2, "beta": 0.01, "y": 1.0}
     point = {s: state[s.name] if s.name in state else nominal[s.name] for s in x}
-    point[delta] = np.deg2rad(config["steering"]["delta_max_deg"])
+    point[delta] = settings.steering.delta_max
     p0 = np.array([point[s] for s in params], dtype=complex)
     x0 = np.array([point[s] for s in states], dtype=float)
 
@@ -161,14 +166,14 @@ def observability_matrix(config: Mapping[str, Any], state=None, n_lie: int | Non
     return x, point, _lie_jacobian(A0, b0, x0, dA, db, n)
 
 
-def observability_analysis(config: Mapping[str, Any], state=None, tol: float = 1e-9) -> ObservabilityResult:
+def observability_analysis(settings: Settings, state=None, tol: float = 1e-9) -> ObservabilityResult:
     """Rank of O_NL (`observability_matrix`) and the column-removal test (thesis sec. 5.3.1).
 
     The rank uses singular values relative to the largest, after scaling each column by its
     variable's nominal magnitude and each row to unit norm (the k-th Lie derivative grows like
     |eigenvalue|^k, which would otherwise swamp the rank test).
     """
-    x, point, values = observability_matrix(config, state)
+    x, point, values = observability_matrix(settings, state)
     scale = np.array([max(abs(point[s]), 1e-3) for s in x])
     values = values * scale  # columns in relative units, so the rank is not a unit artefact
     return _rank_test(values, tuple(str(s) for s in x), tol)
@@ -199,36 +204,34 @@ _RECORD_HINT = {
 }
 
 
-def _lst_outputs(config: Mapping[str, Any], channels):
+def _lst_outputs(settings: Settings, channels):
     """Symbolic outputs h(x, theta, delta) of ``channels``: states as they are and
     a_y = v (beta_dot + psi_dot) of the LST (:func:`uqdrive.vehicle.single_track.lateral_acceleration_map`)."""
-    x, f, delta = _lst_symbolic(config)
-    v = sp.Float(config["vehicle"]["speed_kmh"] / 3.6)
+    x, f, delta = _lst_symbolic(settings)
+    v = sp.Float(settings.vehicle.v_c)
     by_name = {"psi": x[0], "psi_dot": x[1], "beta": x[2], "y": x[3], "a_y": sp.expand(v * (f[2] + x[1]))}
     return x, f, delta, [by_name[c] for c in channels]
 
 
-def channel_observability(config: Mapping[str, Any], channels, parameters=PARAMETERS, state=None, tol: float = 1e-9) -> ObservabilityResult:
+def channel_observability(settings: Settings, channels, parameters=PARAMETERS, state=None, tol: float = 1e-9) -> ObservabilityResult:
     """The rank test of :func:`observability_analysis` for the measured ``channels`` (a subset of
-    psi, psi_dot, beta, y, a_y) with only ``parameters`` unknown (the others at their config
+    psi, psi_dot, beta, y, a_y) with only ``parameters`` unknown (the others at their nominal
     values, as identify fixes m_load).
 
     The outputs are affine in the state, h = H(theta) x + d(theta) (a_y = C x + D u), so the Lie
     derivatives are L^0 h = H x + d and L^k h = H A^(k-1) (A x + b) (thesis (3.9)-(3.11)); the
     Jacobian in the augmented state z = (x, theta) is taken by complex step, exact to rounding.
     """
-    x, f, delta, outputs = _lst_outputs(config, channels)
+    x, f, delta, outputs = _lst_outputs(settings, channels)
     states, params = list(x[:4]), list(x[4:])
     free = [p for p in params if str(p) in parameters]
     drift = f[:4, :]
     h = sp.Matrix(outputs)
     fns = [sp.lambdify(params + [delta], e, "numpy") for e in (drift.jacobian(states), drift.subs({s: 0 for s in states}),
                                                               h.jacobian(states), h.subs({s: 0 for s in states}))]
-    unc = config["uncertainty"]
-    nominal = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
-               "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"]) + 100.0}
+    nominal = _nominal(settings)
     state = state if state is not None else {"psi": 0.05, "psi_dot": 0.2, "beta": 0.01, "y": 1.0}
-    d0 = np.deg2rad(config["steering"]["delta_max_deg"])
+    d0 = settings.steering.delta_max
     z0 = np.array([state[str(s)] for s in states] + [nominal[str(p)] for p in free], complex)
     n = 4 + len(free)
 
@@ -251,8 +254,8 @@ def channel_observability(config: Mapping[str, Any], channels, parameters=PARAME
     return _rank_test(O * scale, tuple(str(s) for s in states + free), tol)
 
 
-def unidentifiable_parameters(config: Mapping[str, Any], channels, parameters=PARAMETERS) -> dict:
+def unidentifiable_parameters(settings: Settings, channels, parameters=PARAMETERS) -> dict:
     """Parameters of ``parameters`` that the ``channels`` cannot separate (rank test of
     :func:`channel_observability`), each with what to record instead."""
-    result = channel_observability(config, channels, parameters)
+    result = channel_observability(settings, channels, parameters)
     return {p: _RECORD_HINT.get(p, "more channels") for p in parameters if p in result.unidentifiable}

@@ -13,9 +13,10 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
+from ..settings import ParameterLayout
 from .sampling import gauss_newton_errors, run_influence, sampling_errors
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "configured_state_scale", "OPTIMISERS", "configured_optimiser", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "OPTIMISERS", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -111,13 +112,6 @@ def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
     return 1.0 / scale**2
 
 
-def configured_state_scale(config, normalised: bool = False) -> str:
-    """The state scale the config selects: ``identification.state_scale`` (thesis-faithful
-    experiments; default "none") or ``normalised_state_scale`` (default "rms_mean")."""
-    ident = config["identification"]
-    return ident.get("normalised_state_scale", "rms_mean") if normalised else ident.get("state_scale", "none")
-
-
 def _lbfgsb(est: "DistributionEstimator", z0, box) -> OptimizeResult:
     """Quasi-Newton (L-BFGS-B) on the scaled cost with the model's analytic gradient."""
     return minimize(est._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": est.max_iter, "ftol": 1e-15, "gtol": 1e-10})
@@ -158,11 +152,6 @@ def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
 OPTIMISERS: dict[str, Callable] = {"lbfgsb": _lbfgsb, "gauss_newton": _gauss_newton}
 
 
-def configured_optimiser(config) -> str:
-    """The local optimiser the config selects (``identification.optimiser``, default "lbfgsb")."""
-    return config["identification"].get("optimiser", "lbfgsb")
-
-
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
     """Random initial guesses deviating from ``theta`` by between e_min and e_max, thesis (5.34)."""
     theta = np.asarray(theta, float)
@@ -172,10 +161,9 @@ def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
 
 
 def default_bounds(theta_names, wheelbase: float):
-    """Physical boxes: mu > 0, 0 < l_f < L, std > 0, mean wind within +- 5 kN."""
-    box = {"mu_mean": (0.05, 3.0), "mu_std": (1e-4, 1.5), "l_f_mean": (0.05, wheelbase - 0.05), "l_f_std": (1e-4, 1.5),
-           "m_load_mean": (-500.0, 2000.0), "m_load_std": (1e-2, 500.0), "F_w_mean_low": (-5000.0, 5000.0), "F_w_mean_high": (-5000.0, 5000.0)}
-    return [box[n] for n in theta_names]
+    """Physical boxes: mu > 0, 0 < l_f < L, std > 0, mean wind within +- 5 kN
+    (:meth:`uqdrive.settings.ParameterLayout.identify_box`)."""
+    return ParameterLayout.identify_box(theta_names, wheelbase)
 
 
 class DistributionEstimator:

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
 import matplotlib
+from ..settings import Settings
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -94,7 +95,7 @@ def distributions(ds: xr.Dataset, estimate: str, title: str):
 def tyre_curves_estimated(config, mu_estimates: dict):
     """Fig 6.10: front tyre force of the non-linear model, its ideal linearisation, and the
     linear tyres of the identified mean frictions."""
-    p = VehicleParameters.from_config(config)
+    p = VehicleParameters.from_settings(Settings.from_config(config))
     alpha = np.deg2rad(np.linspace(0, 10, 400))
     fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
     ax.plot(np.rad2deg(alpha), magic_formula(alpha, p.F_fz, p.c_Sf, p.C, 1.0, p.E), "k", lw=2, label="Magic Formula, mu = 1")

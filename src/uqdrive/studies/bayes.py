@@ -5,7 +5,7 @@ summary table of the posteriors.
 
 from __future__ import annotations
 
-import copy
+from dataclasses import replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -14,13 +14,14 @@ import xarray as xr
 from .._version import __version__
 from ..inference.bayes import BoxPrior, MomentLikelihood, chain_dataset, log_posteriors, sample_ensembles
 from ..config import config_hash
-from ..inference.identify import DistributionEstimator, configured_optimiser, configured_state_scale
+from ..inference.identify import DistributionEstimator
 from ..vehicle.montecarlo import simulate_ensemble
 from ..vehicle.noise import add_noise, estimate_noise_variance
 from ..vehicle.chaos import LSTChaosModel
 from ..rng import rng_stream
 from ..vehicle.statistics import used_samples
 from ..vehicle.single_track import STATES
+from ..settings import Settings
 
 __all__ = ["CASES", "prepare_data", "posterior_case", "summarise", "posterior_table_rows", "coverage_study"]
 
@@ -42,21 +43,21 @@ def prepare_data(config: Mapping[str, Any], ensemble: xr.Dataset, noise_level: f
     return x, noise_var
 
 
-def _model(config, dt=None, m_load=None, gusts: bool = False):
-    """The Table 5.4 model (``gusts``: plus the KLE gusts of known F_w,sigma, as in the data)."""
-    cfg = copy.deepcopy(dict(config))
+def _model(settings: Settings, dt=None, m_load=None, gusts: bool = False):
+    """The Table 5.4 model (``gusts``: plus the KLE gusts of known F_w,sigma, as in the data),
+    on the output grid ``dt`` (s) when given."""
     if dt is not None:
-        cfg["time"] = dict(cfg["time"], dt=dt)
-    m_load = cfg["uncertainty"]["m_load"]["mean"] if m_load is None else m_load
-    ident = cfg["identification"]
-    return LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=gusts, order=ident["order"],
-                         quadrature_points=ident["quadrature_points"], fixed={"m_load": m_load})
+        settings = settings.with_time(replace(settings.time, dt=dt))
+    m_load = settings.uncertainty.m_load.mean if m_load is None else m_load
+    ident = settings.identify
+    return LSTChaosModel(settings, uncertain=UNCERTAIN, time_variant_wind=gusts, order=ident.order,
+                         quadrature_points=ident.quadrature_points, fixed={"m_load": m_load})
 
 
 def _models(config):
     """The optimiser's model (full grid) and the sampler's (``bayes.model_dt``, gusts if asked)."""
-    b = config["bayes"]
-    return _model(config), _model(config, dt=b["model_dt"], gusts=b.get("model_gusts", False))
+    b, settings = config["bayes"], Settings.from_config(config)
+    return _model(settings), _model(settings, dt=b["model_dt"], gusts=b.get("model_gusts", False))
 
 
 def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generator, ensembles, models) -> dict:
@@ -71,11 +72,12 @@ def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generato
     if noise_var is not None:  # noise-aware, as the identification's past-the-thesis estimate
         std = np.sqrt(np.maximum(std**2 - noise_var[:, None], 0.0))
     full, coarse = models
-    truth = LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    settings = Settings.from_config(config)
+    ident = settings.identify
+    truth = settings.uncertainty.theta(UNCERTAIN)
     est, unit_free = (
-        DistributionEstimator(full, "std", max_iter=config["identification"]["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                              state_scale=configured_state_scale(config, normalised),
-                              optimiser=configured_optimiser(config)).fit(mean, std, truth)
+        DistributionEstimator(full, "std", max_iter=ident.max_iter, wheelbase=settings.vehicle.wheelbase,
+                              state_scale=ident.scale(normalised), optimiser=ident.optimiser).fit(mean, std, truth)
         for normalised in (False, True)
     )
     for name, step in (("time.dt", dt), ("bayes.model_dt", b["model_dt"])):
@@ -86,14 +88,14 @@ def _setup_case(config: Mapping[str, Any], x, noise_var, rng: np.random.Generato
     every = int(round(b["likelihood_dt"] / b["model_dt"]))
     data_idx = np.arange(stride, x.shape[2], stride)
     # The likelihood times are every `every`-th model time: the sampler's model computes only those.
-    target = (MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var), BoxPrior.from_config(config), data_idx // stride)
+    target = (MomentLikelihood.from_samples(x[:, :, data_idx], b["model_error"], noise_var), BoxPrior.from_settings(settings), data_idx // stride)
     n_ens = b["ensembles"] if ensembles is None else ensembles
     centre = est.theta_.copy()
     starts = [centre] + [centre * (1.0 + b["dispersion"] * rng.standard_normal(centre.size)) for _ in range(n_ens - 1)]
     admissible = log_posteriors(coarse, [(np.array(starts), *target)], every)[0]
     starts = [s if np.isfinite(lp) else centre for s, lp in zip(starts, admissible)]
     attrs = {"optimiser_estimate": est.theta_, "optimiser_converged": int(est.converged_), "truth": truth,
-             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": configured_state_scale(config, normalised=True),
+             "optimiser_estimate_unit_free": unit_free.theta_, "unit_free_state_scale": ident.scale(normalised=True),
              "likelihood_times": int(data_idx.size), "model_gusts": int(b.get("model_gusts", False)), "moves": b.get("moves", "stretch"), "n_samples": int(x.shape[1]), "seed": int(config["seed"]),
              "config_hash": config_hash(config), "uqdrive_version": __version__}
     return {"target": target, "every": every, "starts": starts, "attrs": attrs}
@@ -190,7 +192,7 @@ def coverage_study(config: Mapping[str, Any], sets: int, steps: int, rng: np.ran
     models = _models(config)
     cases = []
     for k in range(sets):
-        ens = simulate_ensemble(config, "lst", seed=int(config["seed"]) + 1000 + k)
+        ens = simulate_ensemble(Settings.from_config(config), "lst", seed=int(config["seed"]) + 1000 + k)
         x, _ = prepare_data(config, ens)
         cases.append(_setup_case(config, x, None, rng, 1, models))
         del ens, x

@@ -14,11 +14,12 @@ from .._version import __version__
 from ..config import config_hash
 from ..control.lqr import lqr_gain
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
-from ..vehicle.montecarlo import TimeGrid, gust_input_column, kle_from_config, wind_yaw_moment
+from ..vehicle.montecarlo import TimeGrid, gust_input_column, wind_yaw_moment, wind_kle
 from ..rng import rng_stream
 from ..control.slqr import ClosedLoopChaos, LaneKeepingCase
 from ..vehicle.uncertainty import ParameterDistribution
 from ..vehicle.single_track import STATES, VehicleParameters, lst_matrices, make_nlst_rhs
+from ..settings import Settings
 
 __all__ = ["weights", "lqr_mean_gain", "slqr_gain", "closed_loop_monte_carlo", "closed_loop_moments", "gamma_sweep", "distribution_from_theta", "gains_dataset", "controller_table_rows"]
 
@@ -31,8 +32,9 @@ def weights(config):
 
 def lqr_mean_gain(config, distribution: ParameterDistribution | None = None) -> np.ndarray:
     """LQR of the LST at the mean parameters (thesis (6.1)), disturbance ignored; shape (4,)."""
-    dist = distribution if distribution is not None else ParameterDistribution.from_config(config)
-    p = VehicleParameters.from_config(config, mu=dist.mu[0], m_load=dist.m_load[0], l_f=dist.l_f[0])
+    settings = Settings.from_config(config)
+    dist = distribution if distribution is not None else ParameterDistribution.from_settings(settings.uncertainty)
+    p = VehicleParameters.from_settings(settings, mu=dist.mu[0], m_load=dist.m_load[0], l_f=dist.l_f[0])
     A, B, _ = lst_matrices(p)
     Q, R = weights(config)
     return lqr_gain(A, B, Q, R)[0]
@@ -50,7 +52,8 @@ def slqr_gain(config, distribution: ParameterDistribution | None = None, gamma: 
     """SLQR (4.66) minimising (5.38) on [0, T]; returns (K, optimiser result, ClosedLoopChaos)."""
     c = config["control"]
     Q, R = weights(config)
-    model = ClosedLoopChaos(config, LaneKeepingCase.from_config(config), distribution, order=c["order"])
+    settings = Settings.from_config(config)
+    model = ClosedLoopChaos(settings, LaneKeepingCase.from_settings(settings), distribution, order=c["order"])
     K0 = lqr_mean_gain(config, distribution) if K0 is None else K0
     K, res = model.synthesise(K0, Q, R, c["gamma"] if gamma is None else gamma)
     return K, res, model
@@ -59,8 +62,9 @@ def slqr_gain(config, distribution: ParameterDistribution | None = None, gamma: 
 def closed_loop_moments(config, K, distribution: ParameterDistribution | None = None) -> dict:
     """PCE mean and variance of the closed loop over the simulation time (Figs 6.16, 6.17)."""
     c = config["control"]
-    case = LaneKeepingCase.from_config(config, horizon=c["simulation_time"])
-    model = ClosedLoopChaos(config, case, distribution, order=c["order"])
+    settings = Settings.from_config(config)
+    case = LaneKeepingCase.from_settings(settings, horizon=c["simulation_time"])
+    model = ClosedLoopChaos(settings, case, distribution, order=c["order"])
     mean, var, u_mean, u_var = model.moments(K)
     return {"time": model.time, "mean": mean, "variance": var, "u_mean": u_mean, "u_variance": u_var}
 
@@ -73,21 +77,21 @@ def closed_loop_monte_carlo(config, gains: Mapping[str, np.ndarray], model: str,
     with delta = K x. Stability: every eigenvalue of A + B K in the left half plane (LST), and
     a bounded, settled trajectory (NLST: |y| < 0.1 m and |beta| < 0.2 rad at the end).
     """
-    c = config["control"]
-    dist = distribution if distribution is not None else ParameterDistribution.from_config(config)
+    c, settings = config["control"], Settings.from_config(config)
+    dist = distribution if distribution is not None else ParameterDistribution.from_settings(settings.uncertainty)
     rng = rng_stream(seed, "control", 0 if model == "lst" else 1)
-    kle = kle_from_config(config)
+    kle = wind_kle(settings)
     germs = dist.sample_germs(rng, samples)
     xi_wind = rng.standard_normal((samples, kle.n_modes))
     ic = rng.uniform(-1.0, 1.0, (samples, 2))
     draws = dist.from_germs(germs)
-    p = VehicleParameters.from_config(config, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
+    p = VehicleParameters.from_settings(settings, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
     x0 = np.zeros((samples, 4))
     x0[:, 3] = 0.5 * (c["y0"][0] + c["y0"][1]) + 0.5 * (c["y0"][1] - c["y0"][0]) * ic[:, 0]
     x0[:, 0] = np.deg2rad(c["psi0_deg"]) * ic[:, 1]
-    coeffs = config["wind"]["sigma"] * xi_wind * np.sqrt(kle.eigenvalues)
-    grid = TimeGrid(c["simulation_time"], config["time"]["dt"], config["time"]["step"])
-    gust_yaw = bool(config["wind"]["gust_yaw_moment"])
+    coeffs = settings.wind.sigma * xi_wind * np.sqrt(kle.eigenvalues)
+    grid = TimeGrid(c["simulation_time"], settings.time.dt, settings.time.step)
+    gust_yaw = bool(settings.wind.gust_yaw_moment)
     A, B, W = lst_matrices(p)
     states, steer, stable = [], [], []
     for name, K in gains.items():
@@ -134,7 +138,8 @@ def gamma_sweep(config, distribution: ParameterDistribution | None = None) -> xr
     c = config["control"]
     Q, R = weights(config)
     K_lqr = lqr_mean_gain(config, distribution)
-    model = ClosedLoopChaos(config, LaneKeepingCase.from_config(config), distribution, order=c["order"])
+    settings = Settings.from_config(config)
+    model = ClosedLoopChaos(settings, LaneKeepingCase.from_settings(settings), distribution, order=c["order"])
 
     def parts(K):
         return model.cost(K, Q, R, 1.0), model.cost(K, Q, R, 0.0)  # mean part, variance part

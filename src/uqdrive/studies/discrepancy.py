@@ -12,6 +12,7 @@ import xarray as xr
 from ..vehicle.single_track import STATE_UNITS
 from .hidden_effects import MAGNITUDE_UNITS
 from .scorecard import ScoreRow
+from ..settings import Settings
 
 __all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows", "clopper_pearson",
            "false_alarm_row", "CHANNEL_SETS", "BRAKING", "channel_detection"]
@@ -262,7 +263,7 @@ def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], run
             for case in cases:
                 data = generate(config, dataclasses.replace(case, samples=int(n), speed=BRAKING if braking else {}), channels=channels)
                 clock = time.perf_counter()
-                v = DiscrepancyFinder(config, posterior=False).fit(data).verdict_  # the table reports verdicts: no posterior
+                v = DiscrepancyFinder(Settings.from_config(config), posterior=False).fit(data).verdict_  # the table reports verdicts: no posterior
                 named = {v["effect"], *v.get("ambiguous_with", [])}
                 rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": name, "runs": int(n),
                              "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",

@@ -19,14 +19,15 @@ import xarray as xr
 
 from .._version import __version__
 from ..config import config_hash
-from ..inference.identify import DistributionEstimator, WeightContext, configured_optimiser, configured_state_scale, initial_guess
+from ..inference.identify import DistributionEstimator, WeightContext, initial_guess
 from ..numerics.metrics import normalised_w2_normal, normalised_w2_uniform
 from ..rng import rng_stream
-from ..vehicle.montecarlo import STEERS, TimeGrid, kle_from_config, simulate_ensemble
+from ..vehicle.montecarlo import STEERS, simulate_ensemble, wind_kle
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.statistics import kl_divergence_series
 from ..vehicle.single_track import STATES, steering_input
 from .experiments import EXPERIMENTS
+from ..settings import Settings
 
 __all__ = ["MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan",
            "replicate_config", "coverage_study", "coverage_table", "binomial_band"]
@@ -64,7 +65,7 @@ class Estimate:
 def true_theta(config) -> np.ndarray:
     """Distribution parameters of the config in ``theta_names`` order, shape (6,): the truth of the
     simulated experiments."""
-    return LSTChaosModel.theta_from_config(config, UNCERTAIN)
+    return Settings.from_config(config).uncertainty.theta(UNCERTAIN)
 
 
 def w2_scores(theta, config, thesis_formula: bool = False) -> np.ndarray:
@@ -80,9 +81,10 @@ def w2_scores(theta, config, thesis_formula: bool = False) -> np.ndarray:
     )
 
 
-def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ident) -> dict:
+def _fit(settings: Settings, data: MeasuredMoments, task: Estimate, theta0, m_load, rng) -> dict:
+    ident = settings.identify
     model = LSTChaosModel(
-        config, uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"],
+        settings, uncertain=UNCERTAIN, time_variant_wind=False, order=ident.order, quadrature_points=ident.quadrature_points,
         steer=data.steer, fixed={"m_load": float(m_load)},
     )
     std = data.std
@@ -90,9 +92,9 @@ def _fit(config, data: MeasuredMoments, task: Estimate, theta0, m_load, rng, ide
         if data.noise_variance is None:
             raise ValueError(f"{task.label}: noise-aware estimation needs the noise variance of the data")
         std = np.sqrt(np.maximum(std**2 - np.asarray(data.noise_variance)[:, None], 0.0))
-    scale = task.state_scale or configured_state_scale(config)
-    est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident["max_iter"], wheelbase=config["vehicle"]["wheelbase"],
-                                state_scale=scale, optimiser=configured_optimiser(config))
+    scale = task.state_scale or ident.scale()
+    est = DistributionEstimator(model, task.cost, starts=task.starts, rng=rng, max_iter=ident.max_iter, wheelbase=settings.vehicle.wheelbase,
+                                state_scale=scale, optimiser=ident.optimiser)
     theta0 = physical_start(model, theta0)
     try:
         est.fit(data.mean, std, theta0, WeightContext(data.delta, data.kl_divergence))
@@ -136,8 +138,9 @@ def run_experiment(
         Per run, a substitution of data keys (the noise test uses one data set per run).
     """
     ident = config["identification"]
-    truth = true_theta(config)
-    m_true = config["uncertainty"]["m_load"]["mean"]
+    settings = Settings.from_config(config)
+    truth = settings.uncertainty.theta(UNCERTAIN)
+    m_true = settings.uncertainty.m_load.mean
     n_runs, n_tasks = len(deviations), len(tasks)
     theta = np.full((n_runs, n_tasks, 6), np.nan)
     theta_std = np.full_like(theta, np.nan)
@@ -152,7 +155,7 @@ def run_experiment(
         m_guess[r] = initial_guess(np.array([m_true]), *m_load_deviation[r], rng)[0]
         for k, task in enumerate(tasks):
             key = run_data[r].get(task.data, task.data) if run_data else task.data
-            out = _fit(config, data[key], task, guess[r], m_guess[r], rng, ident)
+            out = _fit(settings, data[key], task, guess[r], m_guess[r], rng)
             theta[r, k], theta_std[r, k], cost[r, k] = out["theta"], out["theta_std"], out["cost"]
             n_iter[r, k], converged[r, k] = out["n_iter"], int(out["converged"])
             if np.all(np.isfinite(out["theta"])):
@@ -178,7 +181,7 @@ def run_experiment(
             "title": f"identification experiment: {name}",
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
-            "state_scales": ",".join(sorted({t.state_scale or configured_state_scale(config) for t in tasks})),
+            "state_scales": ",".join(sorted({t.state_scale or settings.identify.scale() for t in tasks})),
             "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
         },
     )
@@ -225,7 +228,7 @@ def experiment_plan(config: Mapping[str, Any], name: str):
         dev = [tuple(ident["basic_deviation"])] * runs
         return tasks, dev, dev, [{"lst": "lst_normal_no_wind_moment", "nlst": "nlst_normal_no_wind_moment"}] * runs
     if name in ("normalised", "normalised_inverted"):  # the basic / inverted test with unit-free residuals
-        scale = configured_state_scale(config, normalised=True)
+        scale = Settings.from_config(config).identify.scale(normalised=True)
         dev = [tuple(ident["basic_deviation"])] * runs
         nlst_n = [Estimate(t.label, t.data, t.cost, state_scale=scale) for t in nlst]
         if name == "normalised":
@@ -251,7 +254,7 @@ def measured_data_sets(config: Mapping[str, Any], stats: Mapping[str, xr.Dataset
     The DST weights use D_KL between the noiseless NLST and LST outputs of the same input
     (the synthetic reality is known, sec. 5.3.2), also for the noisy data sets.
     """
-    t = TimeGrid.from_config(config).output
+    t = Settings.from_config(config).time.output
     st = config["steering"]
     delta = {s: steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[s]) for s in STEERS}
     kl = {s: kl_divergence_series(stats[f"nlst_{s}"], stats[f"lst_{s}"]).values for s in STEERS if f"nlst_{s}" in stats and f"lst_{s}" in stats}
@@ -310,19 +313,19 @@ def coverage_study(config: Mapping[str, Any], replicates: int, samples: int, dt:
         One row per replicate and parameter: estimate, standard error, lo95, hi95, covered,
         and per replicate the misfit, its threshold and whether it passed.
     """
-    cfg = replicate_config(config, dt)
-    seed = int(cfg["seed"] if seed is None else seed)
-    ident = cfg["identification"]
-    model = LSTChaosModel(cfg, uncertain=UNCERTAIN, time_variant_wind=False, order=ident["order"], quadrature_points=ident["quadrature_points"])
-    truth = LSTChaosModel.theta_from_config(cfg, UNCERTAIN)
-    kle = kle_from_config(cfg)
+    settings = Settings.from_config(replicate_config(config, dt))
+    seed = int(settings.seed if seed is None else seed)
+    ident = settings.identify
+    model = LSTChaosModel(settings, uncertain=UNCERTAIN, time_variant_wind=False, order=ident.order, quadrature_points=ident.quadrature_points)
+    truth = settings.uncertainty.theta(UNCERTAIN)
+    kle = wind_kle(settings)
     rows = []
     for r in range(replicates):
-        ds = simulate_ensemble(cfg, "lst", samples=samples, seed=seed + r, kle=kle)
+        ds = simulate_ensemble(settings, "lst", samples=samples, seed=seed + r, kle=kle)
         runs = np.stack([ds[s].values for s in STATES]).astype(float)
         mean, std = runs.mean(axis=1), runs.std(axis=1, ddof=1)
         start = initial_guess(truth, 0.05, 0.15, rng_stream(seed, "identify_coverage", r))
-        est = DistributionEstimator(model, "std", state_scale=state_scale, wheelbase=cfg["vehicle"]["wheelbase"], optimiser=optimiser,
+        est = DistributionEstimator(model, "std", state_scale=state_scale, wheelbase=settings.vehicle.wheelbase, optimiser=optimiser,
                                     rng=rng_stream(seed, "identify_reference", r)).fit(mean, std, start, runs=runs)
         ref = est.misfit_reference_
         for i, name in enumerate(model.theta_names):

@@ -14,6 +14,7 @@ from .._version import __version__
 from ..config import config_hash
 from ..vehicle.chaos import ChaosMoments, LSTChaosModel
 from ..vehicle.single_track import STATES
+from ..settings import Settings
 
 __all__ = ["pce_dataset", "convergence_study"]
 
@@ -65,11 +66,11 @@ def convergence_study(
     scale = ref_std.max(axis=1)
     shape = (len(orders), len(quadrature_points), len(STATES))
     err_mean, err_std, seconds = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape[:2], np.nan)
-    theta = None
+    theta, settings = None, Settings.from_config(config)
     for i, order in enumerate(orders):
         for j, q in enumerate(quadrature_points):
-            model = LSTChaosModel(config, order=order, quadrature_points=q)
-            theta = model.theta_from_config(config, model.uncertain) if theta is None else theta
+            model = LSTChaosModel(settings, order=order, quadrature_points=q)
+            theta = settings.uncertainty.theta(model.uncertain) if theta is None else theta
             t0 = time.perf_counter()
             r = model.moments(theta)
             seconds[i, j] = time.perf_counter() - t0

@@ -23,6 +23,7 @@ from ..control.lqr import lqr_gain
 from ..io import atomic_path
 from ..vehicle.uncertainty import KarhunenLoeve
 from ..vehicle.single_track import VehicleParameters, lst_matrices
+from ..settings import Settings
 
 __all__ = ["COLUMNS", "STATUSES", "UQDRIVE_CHECK", "ScoreRow", "Deviation", "KNOWN_DEVIATIONS", "ScorecardError", "compare", "coverage_row",
            "write_scorecard", "read_scorecard", "check_scorecard", "scorecard_problems", "foundation_rows", "wheelslip_rows", "gp_estimate_rows",
@@ -229,7 +230,7 @@ def foundation_rows(config: Mapping[str, Any], kle: KarhunenLoeve) -> list[Score
     """Rows of the foundation: the LQR gain of the mean LST vs (6.1); the KLE's mode count,
     eigenvalues and captured variance share vs sec. 7.3. Tolerance: half a unit of the printed
     last digit (0.005 for the gain, 5e-4 for the eigenvalues and the share)."""
-    A, B, _ = lst_matrices(VehicleParameters.from_config(config))
+    A, B, _ = lst_matrices(VehicleParameters.from_settings(Settings.from_config(config)))
     ctl = config["control"]
     K = lqr_gain(A, B, np.diag(ctl["Q_diag"]), ctl["R"])[0]
     src = "thesis sec. 7.3, Fig. 7.1"
@@ -256,7 +257,7 @@ def wheelslip_rows(config: Mapping[str, Any], calibrations) -> list[ScoreRow]:
     curve may exceed it (``gp_coverage_conservative``), never fall below."""
     from ..wheelslip.quarter_car import QuarterCar, damping_bounds, friction_slope, pid_gains, pid_schedule
 
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     w = config["wheelslip"]
     mean, var = w["paper_slope"]["mean"], w["paper_slope"]["variance"]
     sched = pid_schedule(mean, car)

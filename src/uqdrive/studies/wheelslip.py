@@ -14,6 +14,7 @@ from ..config import config_hash
 from ..wheelslip.gp import ArcsineGP
 from ..wheelslip.quarter_car import QuarterCar, damping, friction_curve, friction_slope, pid_gains, pid_schedule, simulate_closed_loop
 from ..wheelslip.calibration import calibration, design_summary, fit_friction_gp, posterior_curves, prior_calibration, slope_interval_ml
+from ..settings import Settings
 
 __all__ = ["gp_dataset", "gp_from_dataset", "calibration_dataset", "closed_loop_dataset", "SLIP_GRID"]
 
@@ -27,7 +28,7 @@ def _provenance(config, seed_key) -> dict:
 def gp_dataset(config: Mapping[str, Any], n: int, rng: np.random.Generator) -> xr.Dataset:
     """Fit the arcsine GP to n noisy points (+ mu(0) = 0) and design the PID on its slope."""
     w = config["wheelslip"]
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     gp, slip, mu = fit_friction_gp(car, n, w["gp"]["training_slip"], w["gp"]["noise_std"], w["gp"]["restarts"], rng)
     m, v = gp.predict(SLIP_GRID)
     sm, sv = gp.predict_slope(SLIP_GRID)
@@ -67,7 +68,7 @@ def calibration_dataset(config: Mapping[str, Any], n: int, mcmc_sets: int, hyper
     ``log`` receives progress lines."""
     w = config["wheelslip"]
     c = w["calibration"]
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     mcmc = {"sets": mcmc_sets, "walkers": c["walkers"], "steps": c["steps"], "burn": c["burn"]} if mcmc_sets else None
     res = calibration(car, n, c["sets"], w["gp"]["training_slip"], w["gp"]["noise_std"], w["gp"]["restarts"], rng, mcmc, log=log)
     x_train = np.concatenate([[0.0], np.linspace(*w["gp"]["training_slip"], n)])
@@ -99,7 +100,7 @@ def closed_loop_dataset(config: Mapping[str, Any], gp_ds: xr.Dataset, rng: np.ra
     """Brake the non-linear quarter car with the GP-tuned PID on posterior curves and the truth."""
     w = config["wheelslip"]
     cl = w["closed_loop"]
-    car = QuarterCar.from_config(config)
+    car = QuarterCar.from_settings(Settings.from_config(config).wheelslip)
     gp = gp_from_dataset(gp_ds)
     mean_slope = gp_ds.attrs["E_Gamma"]
     curves = posterior_curves(gp, SLIP_GRID, cl["draws"], rng)

@@ -9,23 +9,22 @@ the distribution and effect parameters, so optimisers can fit them (past the the
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any, Mapping
-
 import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
+from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure
-from .single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
+from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
-from .uncertainty import Germs, kle_nystrom
+from .uncertainty import Germs, kle_of_wind
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
-THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
+THETA_NAMES = ParameterLayout.names
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
@@ -37,9 +36,9 @@ class AugmentedSimulator:
 
     Parameters
     ----------
-    config : mapping
-        Validated configuration: vehicle and tyre constants, the load distribution (fixed, not
-        identified: the LST depends on the mass only through F_w / m), the wind KLE settings.
+    settings : Settings
+        The car's constants, the load distribution (fixed, not identified: the LST depends on
+        the mass only through F_w / m), the wind and its KLE settings.
     time : ndarray, shape (T,)
         Uniform output grid from 0 (s).
     delta : ndarray, shape (T,)
@@ -66,7 +65,7 @@ class AugmentedSimulator:
         Times (s) of the returned states.
     """
 
-    def __init__(self, config: Mapping[str, Any], time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear",
+    def __init__(self, settings: Settings, time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear",
                  channels=STATES, speed=None):
         time = np.asarray(time, float)
         self.channels = tuple(channels)
@@ -81,35 +80,33 @@ class AugmentedSimulator:
         self.dt = float(self.time[1] - self.time[0])
         self.delta = delta
         self.germs = germs
-        self.config = config
-        w = config["wind"]
-        self.kle = kle_nystrom(0.0, horizon, w["Tc"], w["kle_quadrature"], w["kle_truncation"])
+        self.car = settings.vehicle
+        self.load = settings.uncertainty.m_load
+        w = settings.wind
+        self.kle = kle_of_wind(w, horizon)
         if germs.kle.shape[1] < self.kle.n_modes:
             raise ValueError(f"germs hold {germs.kle.shape[1]} KLE modes; the wind needs {self.kle.n_modes}")
         self.f = self.kle.eigenfunctions(self.time)  # (n_c, T)
-        self.sigma = float(w["sigma"])
-        self.gust_yaw_moment = bool(w["gust_yaw_moment"])
-        load = config["uncertainty"]["m_load"]
-        self.m_load = load["mean"] + load["std"] * germs.m_load
-        self.base = replace(VehicleParameters.from_config(config), v_c=float(v_c))
+        self.sigma = float(w.sigma)
+        self.gust_yaw_moment = bool(w.gust_yaw_moment)
+        self.m_load = self.load.mean + self.load.std * germs.m_load
+        self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
 
     @classmethod
-    def drawn(cls, config: Mapping[str, Any], time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
+    def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
               matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None) -> "AugmentedSimulator":
         """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
         moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
-        w = config["wind"]
-        n_modes = kle_nystrom(0.0, float(np.asarray(time)[-1]), w["Tc"], w["kle_quadrature"], w["kle_truncation"]).n_modes
-        return cls(config, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
+        n_modes = kle_of_wind(settings.wind, float(np.asarray(time)[-1])).n_modes
+        return cls(settings, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
 
     def with_germs(self, germs: Germs) -> "AugmentedSimulator":
         """The same model on other germs (the KLE is reused)."""
         other = object.__new__(AugmentedSimulator)
         other.__dict__.update(self.__dict__)
         other.germs = germs
-        load = self.config["uncertainty"]["m_load"]
-        other.m_load = load["mean"] + load["std"] * germs.m_load
+        other.m_load = self.load.mean + self.load.std * germs.m_load
         return other
 
     def with_input(self, delta) -> "AugmentedSimulator":
@@ -132,8 +129,7 @@ class AugmentedSimulator:
         mu_m, mu_s, lf_m, lf_s, lo, hi = np.asarray(theta, float)
         g = self.germs if germs is None else germs
         L = self.base.wheelbase
-        load = self.config["uncertainty"]["m_load"]
-        m_load = self.m_load if germs is None else load["mean"] + load["std"] * g.m_load
+        m_load = self.m_load if germs is None else self.load.mean + self.load.std * g.m_load
         mu = np.maximum(mu_m + mu_s * g.mu, 0.05)
         l_f = np.clip(lf_m + lf_s * g.l_f, 0.05 * L, 0.95 * L)
         p = replace(self.base, mu=mu, l_f=l_f, m_load=np.maximum(m_load, -0.9 * self.base.m_base))
@@ -205,7 +201,7 @@ class AugmentedSimulator:
         wind = np.concatenate([q[1] for q in parts])
         coeffs = np.concatenate([q[2] * s.gust_scale for q, s in zip(parts, structures)])
         per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
-        fields = {"tyre_curvature": self.config["tyre"]["E"], "lateral_acceleration": 0.0, "course_weight": 0.0}
+        fields = {"tyre_curvature": self.car.E, "lateral_acceleration": 0.0, "course_weight": 0.0}
         if chassis:
             fields.update({f: 0.0 for f in _CHASSIS_FIELDS})
         return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
@@ -272,9 +268,7 @@ class AugmentedSimulator:
         A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
         A = A.copy()
         A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        W_gust = W.copy()
-        if not self.gust_yaw_moment:
-            W_gust[:, 1] = 0.0
+        W_gust = gust_input_column(W, self.gust_yaw_moment)
         const = W * wind[:, None]
         const[:, 2] += s.lateral_acceleration / p.v_c
         held = self._held_input(s)
@@ -285,7 +279,7 @@ class AugmentedSimulator:
             delta = held_integral(self.delta, self.dt, s.steering_delay)
         else:
             steer = B
-        E = np.concatenate([steer[:, :, None], const[:, :, None], W_gust[:, :, None] * coeffs[:, None, :]], axis=2)
+        E = input_matrix(steer, const, W_gust, coeffs)
         g = np.column_stack([delta, np.ones_like(delta), self.f.T])
         x = lti_foh_response(A, E, g, self.dt, self.stride, np.zeros((A.shape[0], 4)))
         if held:
@@ -326,12 +320,12 @@ class AugmentedSimulator:
             F_w_half[:, start:start + size] = (coeffs[start:start + size] @ f_half).T
             start += size
         F_w_half += wind
-        E = self.config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature
+        E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
             speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
             if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
-                return (*integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
+                return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed), js)
             if not s.nonlinear:
                 rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
@@ -340,7 +334,7 @@ class AugmentedSimulator:
             out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed)
             return out.transpose(1, 2, 0), rhs, js
         if uses_chassis_terms(s):
-            return integrate_chassis(self.config, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
+            return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import partial
-from typing import Any, Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -29,10 +29,11 @@ from ..numerics.discretise import foh_discretise, foh_discretise_derivatives_bat
 from ..numerics.integrate import foh_discretise_single, lti_response_single, rk4_fixed_step
 from ..numerics.recursion import decoupled_blocks
 from ..numerics.threads import with_single_blas_thread
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lateral_acceleration_map,
+from ..settings import SpeedRamp
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lateral_acceleration_map,
                            lst_matrices_at_speed, nlst_rhs, wind_yaw_moment)
 
-__all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel", "speed_ramp", "configured_speed",
+__all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel", "speed_ramp",
            "simulate_lst_ltv", "simulate_nlst_ltv", "lateral_acceleration"]
 
 #: Every channel a measured ensemble may carry: the four states and the lateral acceleration.
@@ -302,17 +303,7 @@ def speed_ramp(t, start_kmh: float, end_kmh: float, t_start: float = 0.0, durati
     """Speed (m/s) that changes linearly from ``start_kmh`` to ``end_kmh`` (km/h) over
     ``duration`` s from ``t_start``, constant before and after (braking or accelerating): v(t)
     (m/s) at the times ``t`` (s), same shape as ``t``."""
-    s = np.clip((np.asarray(t, float) - t_start) / duration, 0.0, 1.0)
-    return (start_kmh + (end_kmh - start_kmh) * s) / 3.6
-
-
-def configured_speed(config: Mapping[str, Any], t) -> np.ndarray | None:
-    """The speed profile of ``montecarlo.speed_profile`` on the times ``t`` (m/s), or None when the
-    config has none (the constant ``vehicle.speed_kmh``)."""
-    ramp = config["montecarlo"].get("speed_profile")
-    if not ramp:
-        return None
-    return speed_ramp(t, ramp["start_kmh"], ramp["end_kmh"], ramp.get("t_start", 0.0), ramp["duration"])
+    return SpeedRamp(start_kmh, end_kmh, duration, t_start).on(t)
 
 
 def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid, speed, gust_yaw_moment: bool = True):
@@ -340,8 +331,7 @@ def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenf
     for i, (v, v_dot) in enumerate(zip(0.5 * (speed[1:] + speed[:-1]), np.diff(speed) / grid.step)):
         A, B, W = lst_matrices_at_speed(p, v, v_dot)
         W_gust = gust_input_column(W, gust_yaw_moment)
-        E = np.concatenate([B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None],
-                            W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]], axis=2)
+        E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
         Phi, P, Q = foh_discretise(A, E, grid.step)
         x = np.einsum("nij,nj->ni", Phi, x) + P @ g[i] + Q @ g[i + 1]
         if (i + 1) % grid.substeps == 0:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, replace
-from typing import Any, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -16,10 +16,10 @@ from ..numerics.adjoint import foh_response_vjp
 from ..numerics.batched_lti import foh_discretise_batched, lti_response_batched
 from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
-from .montecarlo import STEERS, TimeGrid, gust_input_column, kle_from_config
+from ..settings import Settings
+from .montecarlo import STEERS, gust_input_column, wind_kle
 from ..numerics.threads import with_single_blas_thread
 from .single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed, steering_input
-from .uncertainty import known_quantities
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
 
@@ -88,8 +88,8 @@ class LSTChaosModel:
 
     Parameters
     ----------
-    config : mapping
-        Validated configuration (vehicle, tyre, wind, steering, time; uncertainty for defaults).
+    settings : Settings
+        The car, its uncertainty (for the fixed values), the wind, steering and time grid.
     uncertain : sequence of str
         Uncertain parameters among ``DISTRIBUTIONS``; the others are fixed.
     time_variant_wind : bool
@@ -100,9 +100,9 @@ class LSTChaosModel:
         Gauss points per parametric germ (N_GLQ,PCE).
     steer : {"normal", "inverted"}
     fixed : mapping, optional
-        Values of fixed parameters (default: the config means; the mean wind's midpoint).
-        A quantity the config declares known (``std: 0``, ``low == high``,
-        :func:`uqdrive.vehicle.uncertainty.known_quantities`) is fixed at its value whether or
+        Values of fixed parameters (default: the means; the mean wind's midpoint).
+        A quantity declared known (``std: 0``, ``low == high``,
+        :meth:`uqdrive.settings.Uncertainty.known`) is fixed at its value whether or
         not ``uncertain`` names it: it has no germ and no entries in ``theta``.
     delta : ndarray, shape (T,), optional
         Measured steering angle on the output grid (rad); overrides (5.5)/(5.7) and ``steer``.
@@ -123,7 +123,7 @@ class LSTChaosModel:
 
     def __init__(
         self,
-        config: Mapping[str, Any],
+        settings: Settings,
         uncertain: Sequence[str] = ("mu", "m_load", "l_f", "F_w_mean"),
         time_variant_wind: bool = True,
         order: int = 2,
@@ -137,28 +137,25 @@ class LSTChaosModel:
             raise ValueError(f"unknown uncertain parameter(s) {unknown}; choose from {list(DISTRIBUTIONS)}")
         if order < 0:
             raise ValueError(f"PCE order must be non-negative, got {order}")
-        known = known_quantities(config)
+        known = settings.uncertainty.known()
         self.known = {u: v for u, v in known.items() if u in uncertain}
         self.uncertain = tuple(u for u in uncertain if u not in known)
-        unc = config["uncertainty"]
-        defaults = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
-                    "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
-        self.fixed = {**defaults, **dict(fixed or {})}
-        self.vehicle = VehicleParameters.from_config(config)
-        kle = kle_from_config(config)
+        self.fixed = {**settings.uncertainty.nominal(), **dict(fixed or {})}
+        self.vehicle = VehicleParameters.from_settings(settings)
+        kle = wind_kle(settings)
         n_linear = kle.n_modes if time_variant_wind else 0
-        self.wind_scale = config["wind"]["sigma"] * np.sqrt(kle.eigenvalues[:n_linear])
-        self.gust_yaw_moment = bool(config["wind"]["gust_yaw_moment"])
+        self.wind_scale = settings.wind.sigma * np.sqrt(kle.eigenvalues[:n_linear])
+        self.gust_yaw_moment = bool(settings.wind.gust_yaw_moment)
         self.parametric = tuple(u for u in self.uncertain if u not in INPUT_ONLY)
         self.input_germs = tuple(u for u in self.uncertain if u in INPUT_ONLY)
         linear = [DISTRIBUTIONS[u] for u in self.input_germs] + ["normal"] * n_linear
         self.projector = GalerkinProjector([DISTRIBUTIONS[u] for u in self.parametric], linear, order, quadrature_points)
-        grid = TimeGrid.from_config(config)
+        grid = settings.time
         self.time = grid.output
         self.dt = grid.dt
-        st = config["steering"]
+        st = settings.steering
         if delta is None:
-            delta = steering_input(self.time, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
+            delta = steering_input(self.time, st.delta_max, st.period, STEERS[steer])
         elif np.shape(delta) != self.time.shape:
             raise ValueError(f"delta has {np.size(delta)} samples but the time grid has {self.time.size}")
         one = np.ones_like(delta)
@@ -177,18 +174,6 @@ class LSTChaosModel:
         state, term = np.divmod(self.expanded_states, self.projector.n_terms)
         self._mean_rows = np.array([np.flatnonzero((state == i) & (term == 0))[0] for i in range(4)])
         self._variance_indicator = ((state[:, None] == np.arange(4)) & (term[:, None] != 0)).astype(float)
-
-    @staticmethod
-    def theta_from_config(config: Mapping[str, Any], uncertain: Sequence[str]) -> np.ndarray:
-        """The config's true distribution parameters in ``theta`` order (the quantities the
-        config declares known are left out, as the model leaves them out of ``theta``)."""
-        unc = config["uncertainty"]
-        known = known_quantities(config)
-        out = []
-        for u in (u for u in uncertain if u not in known):
-            d = unc[u]
-            out += [d["mean"], d["std"]] if DISTRIBUTIONS[u] == "normal" else [d["low"], d["high"]]
-        return np.array(out, float)
 
     def _parameters_at_nodes(self, theta):
         """Parameter values (Q,) at the nodes and their derivatives d value / d theta (n_theta, Q)."""

@@ -13,6 +13,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ..settings import Vehicle
 from .single_track import STATES
 
 __all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
@@ -128,8 +129,8 @@ class Effect:
         order) set in its fields."""
         raise NotImplementedError
 
-    def prior_start(self, config: Mapping | None = None) -> tuple:
-        """Start values of the parameters for a car's ``config`` (default: ``start``)."""
+    def prior_start(self, vehicle: Vehicle | None = None) -> tuple:
+        """Start values of the parameters for a car's settings ``vehicle`` (default: ``start``)."""
         return self.start
 
     def augment(self, structure: ModelStructure, values) -> ModelStructure:
@@ -219,9 +220,9 @@ class LongitudinalLoadTransfer(Effect):
     def apply(self, s, v):
         return replace(s, pitch_height=float(v[0]))
 
-    def prior_start(self, config=None):
-        """The vehicle section's ``cg_height`` where given."""
-        h = None if config is None else config.get("vehicle", {}).get("cg_height")
+    def prior_start(self, vehicle=None):
+        """The car's ``cg_height`` where given."""
+        h = None if vehicle is None else vehicle.cg_height
         return self.start if h is None else (float(h),)
 
 

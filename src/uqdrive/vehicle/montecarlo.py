@@ -4,77 +4,41 @@ vectorised simulation of the LST (exact discretisation) and NLST (RK4), spin det
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..config import config_hash, restrict_config
-from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_nystrom
+from ..settings import Settings, TimeGrid
+from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
-from .channels import configured_speed, lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, lst_matrices, make_nlst_rhs,
+from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, make_nlst_rhs,
                            steering_input, wind_yaw_moment)
 
 __all__ = [
     "MODELS",
     "STEERS",
     "TimeGrid",
-    "kle_from_config",
+    "wind_kle",
     "simulate_lst",
     "simulate_nlst",
     "spin_mask",
     "simulate_ensemble",
-    "ENSEMBLE_SETTINGS",
-    "ensemble_hash",
     "lst_response",
     "monte_carlo_moments",
 ]
 
 MODELS = ("lst", "nlst")
 STEERS = {"normal": 1.0, "inverted": -1.0}
-@dataclass(frozen=True)
-class TimeGrid:
-    """Output grid t_k = k dt on [0, t_end] and the fine integration step h = dt / substeps."""
-
-    t_end: float
-    dt: float
-    step: float
-
-    @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "TimeGrid":
-        """The grid of the config's ``time`` section (t_end, dt, step in s)."""
-        t = config["time"]
-        return cls(t["t_end"], t["dt"], t["step"])
-
-    @property
-    def n_out(self) -> int:
-        """Number of output intervals, t_end / dt."""
-        return int(round(self.t_end / self.dt))
-
-    @property
-    def substeps(self) -> int:
-        """Integration steps per output interval, dt / step."""
-        return int(round(self.dt / self.step))
-
-    @property
-    def output(self) -> np.ndarray:
-        """Output times, shape (n_out + 1,) (s)."""
-        return np.arange(self.n_out + 1) * self.dt
-
-    def fine(self, refine: int = 1) -> np.ndarray:
-        """Fine grid with step h / refine (refine=2 gives the RK4 half-step grid)."""
-        n = self.n_out * self.substeps * refine
-        return np.arange(n + 1) * (self.step / refine)
 
 
-def kle_from_config(config: Mapping[str, Any]) -> KarhunenLoeve:
-    """KLE of the unit side-wind process over [0, t_end] with the config's settings."""
-    w = config["wind"]
-    return kle_nystrom(0.0, config["time"]["t_end"], w["Tc"], w["kle_quadrature"], w["kle_truncation"])
+def wind_kle(settings: Settings) -> KarhunenLoeve:
+    """KLE (5.16)-(5.22) of the unit side-wind process over the settings' horizon [0, t_end] (s)
+    with their wind's quadrature and truncation."""
+    return kle_of_wind(settings.wind, settings.time.t_end)
 
 
 def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
@@ -112,10 +76,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
     A, B, W = lst_matrices(p)
     W_gust = gust_input_column(W, gust_yaw_moment)
     n = A.shape[0]
-    E = np.concatenate(
-        [B[:, :, None], (W * np.asarray(wind_mean)[:, None])[:, :, None], W_gust[:, :, None] * np.asarray(wind_coeffs)[:, None, :]],
-        axis=2,
-    )
+    E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
     g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
     return lti_foh_response(A, E, g, grid.step, grid.substeps, np.zeros((n, 4)))
 
@@ -175,23 +136,8 @@ def spin_mask(beta, threshold: float):
     return np.any(np.abs(beta) > threshold, axis=-1)
 
 
-#: The settings an ensemble depends on besides its size and seed (the keys simulate_ensemble reads).
-ENSEMBLE_SETTINGS = ("vehicle", "tyre", "uncertainty", "wind", "steering", "time", "montecarlo.spin_threshold")
-
-
-def ensemble_hash(config: Mapping[str, Any], samples: int, seed: int, chunk: int | None = None) -> str:
-    """:func:`uqdrive.config.config_hash` of what an ensemble depends on: the settings it reads
-    and its effective size, seed and chunk (an override of ``samples`` or ``seed`` counts), so the
-    CLI and the workflow write the same hash for the same ensemble, whatever else their configs hold."""
-    keys = ENSEMBLE_SETTINGS + (("montecarlo.speed_profile",) if config["montecarlo"].get("speed_profile") else ())
-    settings = {"settings": restrict_config(config, keys), "samples": int(samples), "seed": int(seed)}
-    if chunk is not None:
-        settings["chunk"] = int(chunk)
-    return config_hash(settings)
-
-
 def simulate_ensemble(
-    config: Mapping[str, Any],
+    settings: Settings,
     model: str,
     steer: str = "normal",
     samples: int | None = None,
@@ -203,15 +149,15 @@ def simulate_ensemble(
 
     Parameters
     ----------
-    config : mapping
-        Validated configuration.
+    settings : Settings
+        The car, its uncertainty, the wind, steering, time grid, speed and spin threshold.
     model : {"lst", "nlst"}
     steer : {"normal", "inverted"}
         Input (5.5) or (5.7).
     samples, seed : int, optional
-        Override ``montecarlo.samples`` and ``seed``.
+        Override the settings' sample count and seed.
     kle : KarhunenLoeve, optional
-        Precomputed KLE (else computed from the config).
+        Precomputed KLE (else computed from the settings).
     chunk : int, optional
         Index of an independent block of a larger ensemble: its draws come from their own
         random streams, so blocks can be simulated one after another in bounded memory.
@@ -225,39 +171,39 @@ def simulate_ensemble(
         raise ValueError(f"unknown model '{model}'; choose one of {', '.join(MODELS)}")
     if steer not in STEERS:
         raise ValueError(f"unknown steering '{steer}'; choose one of {', '.join(STEERS)}")
-    n = int(config["montecarlo"]["samples"] if samples is None else samples)
-    seed = int(config["seed"] if seed is None else seed)
-    grid = TimeGrid.from_config(config)
-    kle = kle_from_config(config) if kle is None else kle
+    n = int(settings.samples if samples is None else samples)
+    seed = int(settings.seed if seed is None else seed)
+    grid = settings.time
+    kle = wind_kle(settings) if kle is None else kle
 
-    dist = ParameterDistribution.from_config(config)
+    dist = ParameterDistribution.from_settings(settings.uncertainty)
     keys = () if chunk is None else (int(chunk),)
     germs = dist.sample_germs(rng_stream(seed, "parameters", *keys), n)
     xi_wind = rng_stream(seed, "wind", *keys).standard_normal((n, kle.n_modes))
     draws = dist.from_germs(germs)
-    p = VehicleParameters.from_config(config, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
-    coeffs = _wind_modes(kle, config["wind"]["sigma"], xi_wind)
-    st = config["steering"]
-    delta_max = np.deg2rad(st["delta_max_deg"])
+    p = VehicleParameters.from_settings(settings, mu=draws["mu"], m_load=draws["m_load"], l_f=draws["l_f"])
+    wind_settings, st = settings.wind, settings.steering
+    coeffs = _wind_modes(kle, wind_settings.sigma, xi_wind)
+    delta_max = st.delta_max
 
     refine = 1 if model == "lst" else 2
     t_fine = grid.fine(refine)
-    delta_fine = steering_input(t_fine, delta_max, st["period"], STEERS[steer])
+    delta_fine = steering_input(t_fine, delta_max, st.period, STEERS[steer])
     f_fine = kle.eigenfunctions(t_fine)
-    speed_fine = configured_speed(config, t_fine)
-    if speed_fine is None:
+    ramp = settings.speed
+    if ramp is None:
         simulate = simulate_lst if model == "lst" else simulate_nlst
-        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, config["wind"]["gust_yaw_moment"])
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment)
     else:
         simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
-        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, speed_fine, config["wind"]["gust_yaw_moment"])
+        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, ramp.on(t_fine), wind_settings.gust_yaw_moment)
 
     t = grid.output
-    speed = np.full(t.size, float(p.v_c)) if speed_fine is None else configured_speed(config, t)
+    speed = np.full(t.size, float(p.v_c)) if ramp is None else ramp.on(t)
     wind = draws["F_w_mean"][:, None] + coeffs @ kle.eigenfunctions(t)
-    delta_out = steering_input(t, delta_max, st["period"], STEERS[steer])
+    delta_out = steering_input(t, delta_max, st.period, STEERS[steer])
     a_y = lateral_acceleration(model, x, p, delta_out, wind, speed)
-    threshold = config["montecarlo"]["spin_threshold"]
+    threshold = settings.spin.threshold
     spun = spin_mask(x[2], threshold)
     data_vars = {
         name: (("sample", "time"), x[i], {"units": STATE_UNITS[name], "long_name": STATE_NAMES[name]})
@@ -265,7 +211,7 @@ def simulate_ensemble(
     }
     data_vars["a_y"] = (("sample", "time"), a_y, {"units": A_Y_UNIT, "long_name": "lateral acceleration at the centre of gravity"})
     data_vars["delta"] = ("time", delta_out, {"units": "rad", "long_name": "front steering angle"})
-    if speed_fine is not None:
+    if ramp is not None:
         data_vars["v"] = ("time", speed, {"units": "m/s", "long_name": "vehicle speed"})
     units = {"mu": "1", "m_load": "kg", "l_f": "m", "F_w_mean": "N"}
     for name, value in draws.items():
@@ -276,30 +222,32 @@ def simulate_ensemble(
         "title": f"uqdrive Monte Carlo ensemble ({model.upper()}, {steer} steering)",
         "model": model,
         "steer": steer,
-        **({"v_c": float(p.v_c)} if speed_fine is None else {}),
+        **({"v_c": float(p.v_c)} if ramp is None else {}),
         "noise_A": 0.0,
         "n_spun": int(spun.sum()),
         "spin_threshold": float(threshold),
-        "wind_sigma": float(config["wind"]["sigma"]),
-        "gust_yaw_moment": int(config["wind"]["gust_yaw_moment"]),
+        "wind_sigma": float(wind_settings.sigma),
+        "gust_yaw_moment": int(wind_settings.gust_yaw_moment),
         "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4",
         "integration_step": float(grid.step),
         "seed": seed,
-        "config_hash": ensemble_hash(config, n, seed, chunk),
+        "config_hash": settings.ensemble_hash(n, seed, chunk),
         "uqdrive_version": __version__,
     }
     coords = {"sample": np.arange(n), "time": ("time", t, {"units": "s", "long_name": "time"}), "kle_mode": np.arange(kle.n_modes)}
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)
 
 
-def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str = "normal") -> np.ndarray:
+def lst_response(settings: Settings, draws: Mapping[str, Any], steer: str = "normal") -> np.ndarray:
     """LST responses for given parameter sets with the time-variant wind switched off.
 
     For cross-checks of the PCE against non-intrusive methods (chaospy, SALib): any parameter
-    of ``mu``, ``m_load``, ``l_f``, ``F_w_mean`` missing from ``draws`` takes its config mean.
+    of ``mu``, ``m_load``, ``l_f``, ``F_w_mean`` missing from ``draws`` takes its mean (the mean
+    wind its interval's midpoint).
 
     Parameters
     ----------
+    settings : Settings
     draws : mapping of str to ndarray, shape (n,)
         Parameter values per realisation: mu (-), m_load (kg), l_f (m), F_w_mean (N).
 
@@ -307,20 +255,16 @@ def lst_response(config: Mapping[str, Any], draws: Mapping[str, Any], steer: str
     -------
     ndarray, shape (4, n, n_out + 1)
     """
-    unc = config["uncertainty"]
     n = len(next(iter(draws.values())))
-    full = {"mu": unc["mu"]["mean"], "m_load": unc["m_load"]["mean"], "l_f": unc["l_f"]["mean"],
-            "F_w_mean": 0.5 * (unc["F_w_mean"]["low"] + unc["F_w_mean"]["high"])}
-    full = {k: np.broadcast_to(np.asarray(draws.get(k, v), float), (n,)) for k, v in full.items()}
-    grid = TimeGrid.from_config(config)
-    st = config["steering"]
+    full = {k: np.broadcast_to(np.asarray(draws.get(k, v), float), (n,)) for k, v in settings.uncertainty.nominal().items()}
+    grid = settings.time
     t_fine = grid.fine(1)
-    delta = steering_input(t_fine, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
-    p = VehicleParameters.from_config(config, mu=full["mu"], m_load=full["m_load"], l_f=full["l_f"])
+    delta = steering_input(t_fine, settings.steering.delta_max, settings.steering.period, STEERS[steer])
+    p = VehicleParameters.from_settings(settings, mu=full["mu"], m_load=full["m_load"], l_f=full["l_f"])
     return simulate_lst(p, delta, full["F_w_mean"], np.zeros((n, 0)), np.zeros((0, t_fine.size)), grid)
 
 
-def monte_carlo_moments(config: Mapping[str, Any], model: str, samples: int, chunk: int, seed: int | None = None):
+def monte_carlo_moments(settings: Settings, model: str, samples: int, chunk: int, seed: int | None = None):
     """Mean and std of every state over a large ensemble, simulated in independent chunks.
 
     Chunk statistics are merged with Chan et al.'s pairwise update of (count, mean, M2), so a
@@ -332,12 +276,12 @@ def monte_carlo_moments(config: Mapping[str, Any], model: str, samples: int, chu
     n : int
         Realisations used (all of them: the spin policy is for the NLST data sets).
     """
-    seed = int(config["seed"] if seed is None else seed)
-    kle = kle_from_config(config)
+    seed = int(settings.seed if seed is None else seed)
+    kle = wind_kle(settings)
     count, mean, m2 = 0, 0.0, 0.0
     for c, start in enumerate(range(0, samples, chunk)):
         m = min(chunk, samples - start)
-        ds = simulate_ensemble(config, model, samples=m, seed=seed, kle=kle, chunk=c)
+        ds = simulate_ensemble(settings, model, samples=m, seed=seed, kle=kle, chunk=c)
         x = np.stack([ds[s].values for s in STATES])  # (4, m, T)
         mean_c, m2_c = x.mean(axis=1), ((x - x.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
         delta = mean_c - mean

@@ -4,12 +4,11 @@ speed benchmarks and, with tight tolerances, the yardstick of the accuracy tests
 
 from __future__ import annotations
 
-from typing import Any, Mapping
-
 import numpy as np
 import xarray as xr
 from scipy.integrate import solve_ivp
 
+from ..settings import Settings
 from .montecarlo import STEERS, gust_input_column, wind_yaw_moment
 from .uncertainty import KarhunenLoeve
 from .single_track import VehicleParameters, lst_matrices, nlst_rhs, steering_input
@@ -18,7 +17,7 @@ __all__ = ["solve_realisations"]
 
 
 def solve_realisations(
-    config: Mapping[str, Any],
+    settings: Settings,
     ensemble: xr.Dataset,
     kle: KarhunenLoeve,
     samples,
@@ -34,8 +33,8 @@ def solve_realisations(
 
     Parameters
     ----------
-    config : mapping
-        The configuration the ensemble was made with.
+    settings : Settings
+        The settings the ensemble was made with.
     ensemble : xarray.Dataset
         Simulated ensemble (needs ``mu``, ``m_load``, ``l_f``, ``F_w_mean``, ``xi_wind``).
     kle : KarhunenLoeve
@@ -48,15 +47,15 @@ def solve_realisations(
     ndarray, shape (len(samples), n_time, 4)
     """
     t = ensemble["time"].values
-    st = config["steering"]
-    delta_max, period, sign = np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[ensemble.attrs["steer"]]
-    coeffs = config["wind"]["sigma"] * ensemble["xi_wind"].values * np.sqrt(kle.eigenvalues)
+    st = settings.steering
+    delta_max, period, sign = st.delta_max, st.period, STEERS[ensemble.attrs["steer"]]
+    coeffs = settings.wind.sigma * ensemble["xi_wind"].values * np.sqrt(kle.eigenvalues)
     linear = ensemble.attrs["model"] == "lst"
-    gust_yaw = bool(config["wind"]["gust_yaw_moment"])
+    gust_yaw = bool(settings.wind.gust_yaw_moment)
     runs = []
     for j in samples:
-        p = VehicleParameters.from_config(
-            config, mu=float(ensemble.mu[j]), m_load=float(ensemble.m_load[j]), l_f=float(ensemble.l_f[j])
+        p = VehicleParameters.from_settings(
+            settings, mu=float(ensemble.mu[j]), m_load=float(ensemble.m_load[j]), l_f=float(ensemble.l_f[j])
         )
         F_mean, c = float(ensemble.F_w_mean[j]), coeffs[j]
         if linear:

@@ -6,9 +6,11 @@ Every function is vectorised over realisations: parameters may be scalars or arr
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
+
+from ..settings import Settings
 
 __all__ = [
     "STATES",
@@ -16,6 +18,7 @@ __all__ = [
     "STATE_NAMES",
     "VehicleParameters",
     "magic_formula",
+    "curvature_argument",
     "lst_matrices",
     "nlst_rhs",
     "make_nlst_rhs",
@@ -23,6 +26,7 @@ __all__ = [
     "lateral_acceleration_map",
     "lst_matrices_at_speed",
     "gust_input_column",
+    "input_matrix",
     "wind_yaw_moment",
     "with_compliance_steer",
 ]
@@ -79,23 +83,23 @@ class VehicleParameters:
     E: float = 0.97
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], **draws) -> "VehicleParameters":
-        """Nominal parameters of a validated config; ``draws`` override mu, m_load, l_f."""
-        veh, unc, tyre = config["vehicle"], config["uncertainty"], config["tyre"]
+    def from_settings(cls, settings: Settings, **draws) -> "VehicleParameters":
+        """Nominal parameters of the settings' car and means; ``draws`` override mu, m_load, l_f."""
+        veh, unc = settings.vehicle, settings.uncertainty
         nominal = cls(
-            mu=unc["mu"]["mean"],
-            m_load=unc["m_load"]["mean"],
-            l_f=unc["l_f"]["mean"],
-            m_base=veh["m_base"],
-            J0=veh["J0"],
-            wheelbase=veh["wheelbase"],
-            c_Sf=veh["c_Sf"],
-            c_Sr=veh["c_Sr"],
-            v_c=veh["speed_kmh"] / 3.6,
-            M_c=veh["M_c"],
-            g=veh["g"],
-            C=tyre["C"],
-            E=tyre["E"],
+            mu=unc.mu.mean,
+            m_load=unc.m_load.mean,
+            l_f=unc.l_f.mean,
+            m_base=veh.m_base,
+            J0=veh.J0,
+            wheelbase=veh.wheelbase,
+            c_Sf=veh.c_Sf,
+            c_Sr=veh.c_Sr,
+            v_c=veh.v_c,
+            M_c=veh.M_c,
+            g=veh.g,
+            C=veh.C,
+            E=veh.E,
         )
         return replace(nominal, **draws)
 
@@ -166,6 +170,19 @@ def with_compliance_steer(p: VehicleParameters, K_deg_per_g) -> VehicleParameter
     return replace(p, c_Sf=p.c_Sf / factor)
 
 
+def curvature_argument(bx, E, out=None):
+    """The Magic Formula's curved argument u = B x - E (B x - atan(B x)) of (2.2a), the force
+    being D sin(C atan(u)): ``bx`` (any shape) is B x (-), ``E`` the curvature factor (-); ``out``
+    (``bx``'s shape) takes u without temporaries (the RK4 inner loops pass one). Returns u (-)."""
+    if out is None:
+        return bx - E * (bx - np.arctan(bx))
+    np.arctan(bx, out)
+    np.subtract(bx, out, out)
+    out *= E
+    np.subtract(bx, out, out)
+    return out
+
+
 def magic_formula(slip, F_z, B, C, D, E):
     """Pacejka's Magic Formula without shifts, thesis (2.2a) with S_H = S_V = 0.
 
@@ -183,8 +200,7 @@ def magic_formula(slip, F_z, B, C, D, E):
     ndarray, the broadcast shape of the arguments
         Tyre force (N), F_z D sin(C atan(B x - E (B x - atan(B x)))).
     """
-    bx = B * slip
-    return F_z * D * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
+    return F_z * D * np.sin(C * np.arctan(curvature_argument(B * slip, E)))
 
 
 def lst_matrices(p: VehicleParameters):
@@ -295,8 +311,7 @@ def make_nlst_rhs(p: VehicleParameters):
         sin_b, cos_b = np.sin(beta), np.cos(beta)
         slip = -np.arctan((v * sin_b + lever * psi_dot) / (v * cos_b))
         slip[0] += delta
-        bx = stiffness * slip
-        F = peak * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
+        F = peak * np.sin(C * np.arctan(curvature_argument(stiffness * slip, E)))
         F_fy_cos = F[0] * np.cos(delta)
         out = np.empty_like(x)
         out[0] = psi_dot
@@ -383,6 +398,14 @@ def wind_yaw_moment(M_c: float, wind_mean, gust, gust_yaw_moment: bool):
     """Yaw moment of the wind (5.3f): M_c times the whole wind, or its mean only when the
     gusts act laterally only (config ``wind.gust_yaw_moment``)."""
     return M_c * (wind_mean + gust) if gust_yaw_moment else M_c * wind_mean
+
+
+def input_matrix(steer, constant, gust, coeffs):
+    """The LST's input matrix E = [B, W F_w, W_gust c_1, ..., W_gust c_nc], shape (n, 4, 2 + n_c),
+    of the shared signals g(t) = [delta(t), 1, f_1(t), ..., f_nc(t)] of (5.4) with (5.1), (5.21):
+    ``steer`` B, ``constant`` W F_w_mean (plus an effect's constant term) and ``gust`` W_gust
+    (:func:`gust_input_column`) of shape (n, 4), the wind mode coefficients ``coeffs`` (n, n_c) (N)."""
+    return np.concatenate([steer[:, :, None], constant[:, :, None], gust[:, :, None] * coeffs[:, None, :]], axis=2)
 
 
 def gust_input_column(W, gust_yaw_moment: bool):

@@ -55,13 +55,11 @@ kappa_r = K / (m_base g) (K in rad per g at the base mass; a roll angle phi'' = 
 
 from __future__ import annotations
 
-from typing import Any, Mapping
-
 import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
-from ..vehicle_spec import require
-from .single_track import VehicleParameters
+from ..settings import Vehicle
+from .single_track import VehicleParameters, curvature_argument
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
@@ -242,8 +240,7 @@ class ExtendedSingleTrackRHS:
         """Force (N) at slip ``q`` (rad) and peak ``peak`` (N): Magic Formula or its slope at zero."""
         B = self.B if B is None else B
         if self.saturating:
-            bx = B * q
-            return peak * np.sin(self.C * np.arctan(bx - self.E * (bx - np.arctan(bx))))
+            return peak * np.sin(self.C * np.arctan(curvature_argument(B * q, self.E)))
         return peak * B * self.C * q
 
     def _yielded_front_slip(self, q0, peak):
@@ -258,7 +255,7 @@ class ExtendedSingleTrackRHS:
             return q
         for _ in range(3):
             bx = B * q
-            u = bx - self.E * (bx - np.arctan(bx))
+            u = curvature_argument(bx, self.E)
             slope = peak * np.cos(self.C * np.arctan(u)) * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
             q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
         return q
@@ -349,19 +346,19 @@ class ExtendedSingleTrackRHS:
         out[3] = v * (np.sin(course) if self.course_sine else course)
 
 
-def integrate_chassis(config: Mapping[str, Any], p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
+def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
                       n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None):
     """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
     RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half``
-    its speed profile), plus the config whose vehicle section gives cg_height and track_width to
-    the lateral load transfer.
+    its speed profile), plus the car's settings whose cg_height and track_width the lateral
+    load transfer needs.
 
     With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
     right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
     h_t = (0.0, 1.0)
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
-        h_t = (require(config, "cg_height", purpose), require(config, "track_width", purpose))
+        h_t = (vehicle.require("cg_height", purpose), vehicle.require("track_width", purpose))
     rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:

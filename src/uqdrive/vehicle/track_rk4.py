@@ -37,7 +37,7 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from .effects import ModelStructure
-from .single_track import STATES, VehicleParameters, with_compliance_steer
+from .single_track import STATES, VehicleParameters, curvature_argument, with_compliance_steer
 
 __all__ = ["SingleTrackRHS", "integrate_single_track", "speed_on_half_steps", "linear_lateral_acceleration", "LinearTrackRHS",
            "integrate_linear_ltv", "rk4_lateral_acceleration", "measured_channels"]
@@ -130,10 +130,7 @@ class SingleTrackRHS:
         if self.saturating:  # D sin(C arctan(B a - E (B a - arctan(B a))))
             bx = self._bx
             np.multiply(self.Bs, q, bx)
-            np.arctan(bx, F)
-            np.subtract(bx, F, F)
-            F *= self.E
-            np.subtract(bx, F, F)
+            curvature_argument(bx, self.E, out=F)
             np.arctan(F, F)
             F *= self.C
             np.sin(F, F)

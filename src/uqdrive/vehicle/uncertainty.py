@@ -5,43 +5,22 @@ expansion of the coloured side-wind process by the Nystrom method (thesis 5.16-5
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
 
 import numpy as np
 
+from ..settings import PARAMETER_NAMES, Uncertainty, Wind
+
 __all__ = [
     "PARAMETER_NAMES",
-    "known_quantities",
-    "known_value",
     "ParameterDistribution",
     "normal_from_germ",
     "uniform_from_germ",
     "squared_exponential_covariance",
     "KarhunenLoeve",
     "kle_nystrom",
+    "kle_of_wind",
     "Germs",
 ]
-
-#: Stationary uncertainties in germ order xi_1..xi_4 of (5.8)-(5.11).
-PARAMETER_NAMES = ("mu", "m_load", "l_f", "F_w_mean")
-
-
-def known_value(spec: Mapping[str, float]) -> float | None:
-    """The value of a quantity declared known (``std: 0`` or ``low == high``), else None."""
-    if "std" in spec:
-        return float(spec["mean"]) if spec["std"] == 0 else None
-    return float(spec["low"]) if spec["low"] == spec["high"] else None
-
-
-def known_quantities(config: Mapping[str, Any]) -> dict[str, float]:
-    """Uncertain quantities the config declares known, name -> value: a normal with std 0, a
-    uniform with low == high. A known quantity has no germ in the chaos model and is not
-    identified; Monte Carlo draws give it its value in every realisation ((5.8)-(5.11) with a
-    zero spread)."""
-    unc = config["uncertainty"]
-    out = {name: known_value(unc[name]) for name in PARAMETER_NAMES}
-    return {name: value for name, value in out.items() if value is not None}
-
 
 def normal_from_germ(xi, mean, std):
     """Normal parameter from a standard normal germ, mean + std * xi, thesis (5.8)-(5.10)."""
@@ -67,15 +46,9 @@ class ParameterDistribution:
     F_w_mean: tuple[float, float] = (-400.0, 400.0)
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "ParameterDistribution":
-        """The distributions of the config's ``uncertainty`` section."""
-        u = config["uncertainty"]
-        return cls(
-            mu=(u["mu"]["mean"], u["mu"]["std"]),
-            m_load=(u["m_load"]["mean"], u["m_load"]["std"]),
-            l_f=(u["l_f"]["mean"], u["l_f"]["std"]),
-            F_w_mean=(u["F_w_mean"]["low"], u["F_w_mean"]["high"]),
-        )
+    def from_settings(cls, u: Uncertainty) -> "ParameterDistribution":
+        """The distributions of the settings' uncertain quantities."""
+        return cls(mu=u.mu.theta, m_load=u.m_load.theta, l_f=u.l_f.theta, F_w_mean=u.F_w_mean.theta)
 
     @staticmethod
     def sample_germs(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -216,6 +189,12 @@ def kle_nystrom(t_start: float, t_end: float, Tc: float, n_quadrature: int, trun
     # Fix the sign so results do not depend on the LAPACK build: f_n(t_start-side node) >= 0.
     functions *= np.where(functions[:, :1] < 0, -1.0, 1.0)
     return KarhunenLoeve(nodes, weights, lam[:n_keep].copy(), functions, lam, float(Tc))
+
+
+def kle_of_wind(wind: Wind, t_end: float) -> KarhunenLoeve:
+    """The KLE (5.16)-(5.22) of the unit side wind over [0, ``t_end``] (s) with the settings
+    ``wind`` (Tc, Gauss-Legendre points, truncation)."""
+    return kle_nystrom(0.0, t_end, wind.Tc, wind.kle_quadrature, wind.kle_truncation)
 
 
 @dataclass(frozen=True)

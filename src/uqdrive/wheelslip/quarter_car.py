@@ -5,9 +5,9 @@ friction curve (26)-(27), PID tuning (22)-(23) and the 95 % damping bounds (24)-
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
-
 import numpy as np
+
+from ..settings import WheelSlipCar
 
 __all__ = [
     "QuarterCar",
@@ -46,10 +46,9 @@ class QuarterCar:
     omega_0d: float = 20 * np.pi
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> "QuarterCar":
-        """The quarter car of the config's ``wheelslip`` section."""
-        w = config["wheelslip"]
-        return cls(**{f: w[f] for f in cls.__dataclass_fields__})
+    def from_settings(cls, car: WheelSlipCar) -> "QuarterCar":
+        """The quarter car of the settings' ``wheelslip``."""
+        return cls(**{f: getattr(car, f) for f in cls.__dataclass_fields__})
 
     @property
     def alpha(self) -> float:

@@ -5,10 +5,11 @@ lost control set aside.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
+from ...settings import Spin
 from ...vehicle.channels import CHANNELS
 from ...vehicle.noise import estimate_noise_variance
 
@@ -24,20 +25,20 @@ class Measured(NamedTuple):
     spun: np.ndarray; samples_used: int  # noqa: E702
 
 
-def prepare_measured(ds, montecarlo: Mapping[str, Any], max_times: int) -> Measured:
+def prepare_measured(ds, spin_policy: Spin, max_times: int) -> Measured:
     """The channels of :data:`uqdrive.vehicle.channels.CHANNELS` that ``ds`` carries, every
     ``stride`` samples from t = 0 (at most ``max_times`` compared times, t = 0 left out), each
     channel's noise variance (:func:`uqdrive.vehicle.noise.estimate_noise_variance`), and the
-    spin policy of ``montecarlo`` (``spin_threshold`` rad, ``spin_policy``). Without beta the
+    spin policy ``spin_policy`` (threshold in rad, keep or exclude). Without beta the
     data cannot tell which runs spun: every run is used and no model realisation is left out
     (spin None).
     """
     channels = tuple(c for c in CHANNELS if c in ds)
     x = np.stack([np.asarray(ds[s].values, float) for s in channels])  # (C, n, T)
-    thr = float(montecarlo["spin_threshold"])
+    thr = float(spin_policy.threshold)
     has_beta = "beta" in channels
     spun = np.any(np.abs(x[channels.index("beta")]) > thr, axis=-1) if has_beta else np.zeros(x.shape[1], bool)
-    exclude = has_beta and montecarlo["spin_policy"] == "exclude"
+    exclude = has_beta and spin_policy.policy == "exclude"
     used = ~spun if exclude else np.ones_like(spun)
     T = x.shape[-1]
     stride = max(1, int(np.ceil((T - 1) / max_times)))

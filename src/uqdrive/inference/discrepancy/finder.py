@@ -13,12 +13,13 @@ import numpy as np
 
 from ...numerics.threads import single_blas_thread
 from ...rng import rng_stream
+from ...settings import Settings
 from ...vehicle.augmented import AugmentedSimulator
 from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, fitted_values, testable
-from .fit import StructureFit, known_theta
+from .fit import StructureFit
 from .posterior import AugmentedPosterior
 from .ranking import screen
 from .selection import backward_check, forward_selection, size_check
@@ -45,10 +46,10 @@ class DiscrepancyFinder:
 
     Parameters
     ----------
-    config : mapping
-        Validated configuration: vehicle constants, the load and gust distributions (fixed), the
-        prior of mu, l_f and the mean wind (start of the baseline fit), the spin threshold and
-        policy, and ``discrepancy`` settings (defaults below when absent).
+    settings : Settings
+        The car's constants, the load and gust distributions (fixed), the prior of mu, l_f and
+        the mean wind (start of the baseline fit), the spin policy, and the discrepancy search's
+        settings (``settings.discover``), which the arguments below override.
     candidates : sequence of str, optional
         Registry names or families (``sensor_bias``) of the candidate effects.
     model_samples : int
@@ -71,11 +72,11 @@ class DiscrepancyFinder:
         A ``model.yaml`` document (``effects``, ``distributions``) to start from: its effects are
         refitted jointly with the distributions and further effects added on top.
     seed : int, optional
-        Root seed of the model germs and the bootstrap (default: config ``seed``).
+        Root seed of the model germs and the bootstrap (default: the settings' ``seed``).
     posterior : bool, optional
         Sample the emcee posterior of the augmented model (:class:`.posterior.AugmentedPosterior`)
-        into the verdict's ``posterior``; default: config ``discrepancy.posterior.enabled``, for
-        the named effects in ``discrepancy.posterior.effects`` (empty: whatever is named). True
+        into the verdict's ``posterior``; default: :meth:`uqdrive.settings.Discover.wants_posterior`
+        (enabled, for the named effects in its ``posterior_effects``; empty: whatever is named). True
         forces it for every verdict.
     inputs : mapping of str to ndarray, optional
         Steering commands (rad, on the measured time grid) among which the verdict's
@@ -111,23 +112,24 @@ class DiscrepancyFinder:
         The posterior of ``augmented_``'s parameters when it was sampled.
     """
 
-    def __init__(self, config: Mapping[str, Any], candidates: Sequence[str] | None = None, model_samples: int | None = None,
+    def __init__(self, settings: Settings, candidates: Sequence[str] | None = None, model_samples: int | None = None,
                  nonlinear_samples: int | None = None, bootstrap: int | None = None, level: float | None = None,
                  max_times: int | None = None, top: int | None = None, seed: int | None = None, posterior: bool | None = None,
                  inputs: Mapping[str, Any] | None = None, log: Callable[[str], None] | None = None, max_effects: int | None = None,
                  start_model: Mapping[str, Any] | None = None):
-        d = dict(config.get("discrepancy", {}))
-        self.config = config
-        self.candidates = expand_names(candidates if candidates is not None else d.get("candidates", DEFAULT_CANDIDATES))
-        self.model_samples = int(model_samples or d.get("model_samples", 1000))
-        self.nonlinear_samples = int(nonlinear_samples or d.get("nonlinear_samples", 300))
-        self.bootstrap = int(bootstrap or d.get("bootstrap", 200))
-        self.level = float(level or d.get("level", 0.01))
-        self.max_times = int(max_times or d.get("max_times", 150))
-        self.top = int(top or d.get("top", 3))
-        self.max_effects = int(max_effects or d.get("max_effects", 3))
+        d = settings.discover
+        self.settings = settings
+        default = DEFAULT_CANDIDATES if d.candidates is None else list(d.candidates)
+        self.candidates = expand_names(candidates if candidates is not None else default)
+        self.model_samples = int(model_samples or d.model_samples)
+        self.nonlinear_samples = int(nonlinear_samples or d.nonlinear_samples)
+        self.bootstrap = int(bootstrap or d.bootstrap)
+        self.level = float(level or d.level)
+        self.max_times = int(max_times or d.max_times)
+        self.top = int(top or d.top)
+        self.max_effects = int(max_effects or d.max_effects)
         self.start_model = start_model
-        self.seed = int(config["seed"] if seed is None else seed)
+        self.seed = int(settings.seed if seed is None else seed)
         self.posterior = posterior
         self.inputs = inputs
         self.log = log
@@ -135,7 +137,7 @@ class DiscrepancyFinder:
     # -- data ---------------------------------------------------------------------------------
     def _prepare(self, ds):
         """The measured data on the compared grid (:func:`.data.prepare_measured`)."""
-        m = prepare_measured(ds, self.config["montecarlo"], self.max_times)
+        m = prepare_measured(ds, self.settings.spin, self.max_times)
         self.channels_, self.stride_, self.spun_, self.samples_used_ = m.channels, m.stride, m.spun, m.samples_used
         return m.x, m.index, m.noise, m.spin
 
@@ -152,8 +154,7 @@ class DiscrepancyFinder:
             theta0 = [d["mu"]["mean"], d["mu"]["std"], d["l_f"]["mean"], d["l_f"]["std"], d["F_w_mean"]["low"], d["F_w_mean"]["high"]]
             effects = {k: [float(v[p]) for p in EFFECTS[k].parameters] for k, v in (self.start_model.get("effects") or {}).items()}
             return theta0, effects
-        prior = self.config["uncertainty"]
-        return [prior["mu"]["mean"], prior["mu"]["std"], prior["l_f"]["mean"], prior["l_f"]["std"], prior["F_w_mean"]["low"], prior["F_w_mean"]["high"]], {}
+        return list(self.settings.layout.start), {}
 
     def _fit(self, ds) -> "DiscrepancyFinder":
         clock = _time.perf_counter()
@@ -166,7 +167,7 @@ class DiscrepancyFinder:
         v_c = float(ds.attrs["v_c"]) if speed is None else float(np.mean(speed))
         self.speed_profile_ = None if speed is None else {"min": float(speed.min()), "max": float(speed.max()), "mean": v_c}
         self.candidates_, self.untestable_ = testable(self.candidates, self.channels_)
-        raw = AugmentedSimulator.drawn(self.config, t, delta, v_c, self.model_samples, rng_stream(self.seed, "discrepancy_model"),
+        raw = AugmentedSimulator.drawn(self.settings, t, delta, v_c, self.model_samples, rng_stream(self.seed, "discrepancy_model"),
                                        stride=self.stride_, interpolation=self.interpolation_,
                                        channels=self.channels_, speed=speed)
         self._raw_germs = raw.germs
@@ -189,7 +190,7 @@ class DiscrepancyFinder:
         if start_effects:
             base = self._joint(ctx, theta0, list(start_effects), start_effects)
         else:
-            base = StructureFit(sim, index, noise, spin, fixed=known_theta(self.config)).fit(self.measured_, self.scale_, theta0)
+            base = StructureFit(sim, index, noise, spin, fixed=dict(self.settings.layout.known)).fit(self.measured_, self.scale_, theta0)
         lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
         self.baseline_ = base
         self.band_ = band = self._null_band(ctx, base, key=0)
@@ -219,8 +220,7 @@ class DiscrepancyFinder:
                      f"gap {self.verdict_['gap_before']:.3g} -> {self.verdict_['gap_after']:.3g}")
         self.posterior_ = None
         if self.steps_ and self._wants_posterior(self.verdict_["effect"]):
-            settings = {k: v for k, v in self.config.get("discrepancy", {}).get("posterior", {}).items() if k not in ("enabled", "effects")}
-            self.posterior_ = AugmentedPosterior(**settings).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
+            self.posterior_ = AugmentedPosterior(**self.settings.discover.posterior).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
             self.verdict_["posterior"] = self.posterior_.summary()
             lap("posterior")
         self.verdict_["evidence"]["seconds"] = round(_time.perf_counter() - clock, 1)
@@ -310,8 +310,7 @@ class DiscrepancyFinder:
     def _wants_posterior(self, effect: str) -> bool:
         if self.posterior is not None:
             return bool(self.posterior)
-        p = self.config.get("discrepancy", {}).get("posterior", {})
-        return bool(p.get("enabled", False)) and (not p.get("effects") or effect in p["effects"])
+        return self.settings.discover.wants_posterior(effect)
 
     def _null_band(self, ctx, base, key: int = 0):
         """Bootstrap replicates of the fitted ``base`` (the baseline, or a model with named
@@ -368,7 +367,7 @@ class DiscrepancyFinder:
                              fit_theta=False, max_nfev=40)
             return f.fit(self.measured_, self._scale_for(structure.nonlinear, ctx.n), theta)
 
-        fixed = {c: [self.config["tyre"]["E"]] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if self._nonlinear(c)}
+        fixed = {c: [self.settings.vehicle.E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if self._nonlinear(c)}
         return screen(cur, pool, anchors, held, fixed)
 
     def _probe(self, ctx, theta, names, values):
@@ -390,7 +389,7 @@ class DiscrepancyFinder:
         # at zero size (refitted after its fit went there) may grow during the fit
         nonlinear = any(self._nonlinear(k) for k in names)
         budget = max_nfev or (25 if nonlinear else 60)
-        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=known_theta(self.config))
+        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=dict(self.settings.layout.known))
         return f.fit(self.measured_, self._scale_for(nonlinear, ctx.n), theta_start)
 
     # -- verdict ------------------------------------------------------------------------------
@@ -408,4 +407,4 @@ class DiscrepancyFinder:
 
     def model_document(self) -> dict:
         """The augmented model as ``model.yaml`` content (:func:`.verdict.model_document`)."""
-        return model_document(self.augmented_, self.config, self.verdict_)
+        return model_document(self.augmented_, self.settings, self.verdict_)

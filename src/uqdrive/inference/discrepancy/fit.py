@@ -10,29 +10,17 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
-from ...vehicle.uncertainty import known_quantities
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit", "known_theta"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
-THETA_BOUNDS = ((0.1, 3.0), (0.0, 1.0), (0.3, 2.5), (0.0, 1.0), (-3000.0, 3000.0), (-3000.0, 3000.0))
+THETA_BOUNDS = ParameterLayout.bounds
 #: Typical magnitudes, so that the optimiser steps every parameter alike.
-THETA_SCALE = (1.0, 0.2, 1.5, 0.2, 400.0, 400.0)
-
-
-def known_theta(config) -> dict[int, float]:
-    """The distribution parameters the config declares known, as :class:`StructureFit`'s
-    ``fixed``: a known mu or l_f holds its mean and a std of 0, a known mean wind both bounds."""
-    where = {"mu": (0, 1), "l_f": (2, 3), "F_w_mean": (4, 5)}
-    out = {}
-    for name, value in known_quantities(config).items():
-        if name in where:
-            i, j = where[name]
-            out.update({i: value, j: value if name == "F_w_mean" else 0.0})
-    return out
+THETA_SCALE = ParameterLayout.scales
 
 
 class StructureFit:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...settings import Settings
 from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, FAMILIES
 from ...vehicle.single_track import STATES
@@ -138,7 +139,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             "catch_all": {"chi2": round(float(np.sum(catch_z**2)), 2), "parameters": p_catch, "max_statistic": round(band.max_statistic(catch_z), 3)},
             "screening": {c: round(v["chi2"], 2) for c, v in sorted(finder.screening_.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])},
             "candidates": summary,
-            "samples": int(ctx.n + finder.spun_.size) if finder.config["montecarlo"]["spin_policy"] == "exclude" else int(ctx.n),
+            "samples": int(ctx.n + finder.spun_.size) if finder.settings.spin.policy == "exclude" else int(ctx.n),
             "samples_used": finder.samples_used_,
             "n_spun": int(finder.spun_.size),
             "spun_indices": [int(i) for i in finder.spun_],
@@ -176,12 +177,14 @@ def localise(time, z, band, limit: int = 20, signals=STATES):
     return out[:limit]
 
 
-def model_document(aug, config, verdict) -> dict:
+def model_document(aug, settings: Settings, verdict) -> dict:
     """``model.yaml`` content: the baseline, every added effect with its fitted parameters, the
-    distributions of the fit ``aug`` (a :class:`.fit.StructureFit`) and the verdict's names."""
+    distributions of the fit ``aug`` (a :class:`.fit.StructureFit`), the settings' load and
+    wind sigma, and the verdict's names."""
     effects = {name: dict(params) for name, params in aug.structure_.effects}
     d = distributions(aug.theta_)
-    d["m_load"] = dict(config["uncertainty"]["m_load"])
+    load = settings.uncertainty.m_load
+    d["m_load"] = {"mean": load.mean, "std": load.std}
     return {"uqdrive_model": 1, "baseline": "lst", "effects": effects, "distributions": d,
-            "wind_sigma": float(config["wind"]["sigma"]), "verdict": verdict["effect"],
+            "wind_sigma": float(settings.wind.sigma), "verdict": verdict["effect"],
             "verdict_effects": [e["effect"] for e in verdict["effects"]]}

@@ -22,6 +22,7 @@ from ...vehicle.four_wheel.model import PSI, R, VX, VY, Y
 from ...vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
 from ..hidden_effects import wind_kle
 from ..manoeuvres import MANOEUVRES, steering_command
+from ...settings import Settings
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -84,7 +85,7 @@ def _nominal_run(config, car, delta_half, h, n_steps, every):
     u = config["uncertainty"]
     k = delta_half.shape[1]
     zero = np.zeros_like(delta_half)
-    v = np.full(delta_half.shape[0], float(config["vehicle"]["speed_kmh"]) / 3.6)
+    v = np.full(delta_half.shape[0], Settings.from_config(config).vehicle.v_c)
     _, ex = simulate_four_wheel(car, np.full(k, u["mu"]["mean"]), np.full(k, u["m_load"]["mean"]), np.full(k, u["l_f"]["mean"]),
                                 delta_half, v, zero, zero, h, n_steps, every)
     return np.abs(ex["a_y"]).max(axis=-1)
@@ -128,7 +129,7 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     draws : dict
         mu, m_load, l_f, F_w_mean (samples,).
     """
-    car = FourWheelCar.from_config(config) if car is None else car
+    car = FourWheelCar.from_vehicle(Settings.from_config(config).vehicle) if car is None else car
     u, w = config["uncertainty"], config["wind"]
     n = int(case.samples)
     rng = rng_stream(case.seed, "hidden_parameters", STREAM_KEY)
@@ -147,7 +148,7 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     M_w = car.M_c * (F_w if w["gust_yaw_moment"] else np.broadcast_to(draws["F_w_mean"], F_w.shape))
     params = {**dict(case.manoeuvre_params), "amplitude_deg": amplitude_deg}
     d_half = steering_command(case.manoeuvre, t_half, params)
-    v = np.full(t_half.size, float(config["vehicle"]["speed_kmh"]) / 3.6)
+    v = np.full(t_half.size, Settings.from_config(config).vehicle.v_c)
     s, ex = simulate_four_wheel(car, mu, draws["m_load"], l_f, d_half, v, F_w, M_w, h, n_steps, every)
     x = np.stack([s[PSI], s[R], np.arctan2(s[VY], s[VX]), s[Y]])
     return t, steering_command(case.manoeuvre, t, params), x, ex["a_y"], draws
@@ -176,7 +177,7 @@ def generate(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg: floa
     data["a_y"] = (("sample", "time"), y[4], {"units": "m/s^2", "long_name": "measured lateral acceleration"})
     data["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
     coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
-    return xr.Dataset(data, coords=coords, attrs={"title": "measured ensemble", "v_c": float(config["vehicle"]["speed_kmh"]) / 3.6})
+    return xr.Dataset(data, coords=coords, attrs={"title": "measured ensemble", "v_c": Settings.from_config(config).vehicle.v_c})
 
 
 def case_label(case: FourWheelCase, amplitude_deg: float, limit: float, car: FourWheelCar) -> dict[str, Any]:

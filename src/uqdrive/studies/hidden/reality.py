@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ...vehicle.single_track import magic_formula
+from ...vehicle.single_track import curvature_argument, magic_formula
 from ...vehicle_spec import require
 from ..manoeuvres import braking_in_turn_speed
 from .chassis import (
@@ -25,6 +25,7 @@ from .chassis import (
     roll_per_g,
     wheel_load_transfer,
 )
+from ...settings import Settings
 
 __all__ = ["CHASSIS_EFFECTS", "case_speed", "speed_of_case", "reality_rhs", "rk4_left_limit", "state_size"]
 
@@ -65,7 +66,7 @@ def case_speed(config: Mapping[str, Any], case, t):
     """Speed (m/s), shape (T,), at times ``t`` (s), shape (T,): the case's braking profile
     (:func:`uqdrive.studies.manoeuvres.braking_in_turn_speed`), or the config's constant speed."""
     if not case.speed:
-        return np.full(np.size(t), config["vehicle"]["speed_kmh"] / 3.6)
+        return np.full(np.size(t), Settings.from_config(config).vehicle.v_c)
     return braking_in_turn_speed(np.asarray(t, float), **dict(case.speed))
 
 
@@ -106,7 +107,7 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
         -> shape (n,) (m/s^2).
     """
     veh, tyre, w = config["vehicle"], config["tyre"], config["wind"]
-    v, g, L, M_c = veh["speed_kmh"] / 3.6, veh["g"], veh["wheelbase"], veh["M_c"]
+    v, g, L, M_c = Settings.from_config(config).vehicle.v_c, veh["g"], veh["wheelbase"], veh["M_c"]
     C, E, B_f, B_r = tyre["C"], tyre["E"], veh["c_Sf"], veh["c_Sr"]
     mu, l_f = draws["mu"], draws["l_f"]
     m = veh["m_base"] + draws["m_load"]
@@ -151,8 +152,7 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
 
         def lateral(alpha, D, B):  # the force across the wheel: the Magic Formula, or its slope B C D
             if saturating:
-                bx = B * alpha
-                return D * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
+                return D * np.sin(C * np.arctan(curvature_argument(B * alpha, E)))
             return B * C * D * alpha
 
         if roll_steer != 0:

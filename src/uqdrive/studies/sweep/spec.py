@@ -26,6 +26,7 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..._yaml import load_yaml
 from ...config import ConfigError, load_config, override_config, validate_config
 from ..experiments import EXPERIMENTS
 
@@ -160,7 +161,7 @@ def load_sweep(path: str | Path, search: Sequence[str | Path] = (".",)) -> Sweep
     """Read and check a sweep file; its ``base`` is looked up in the folders ``search``, in order."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml(path.read_text())
     except OSError as exc:
         raise SweepError(f"cannot read sweep file '{path}': {exc.strerror or exc}") from None
     except yaml.YAMLError as exc:

@@ -47,12 +47,10 @@ at (x_i, y_i) = (l_f, t/2), (l_f, -t/2), (-l_r, t/2), (-l_r, -t/2)):
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
-
 import numpy as np
 
 from ...numerics.integrate import rk4_fixed_step
-from ...vehicle_spec import require
+from ...settings import Vehicle
 from .tyre import cornering_stiffness, friction_ellipse, lateral_force, peak_force
 
 __all__ = ["FourWheelCar", "FourWheelRHS", "simulate_four_wheel", "N_STATES"]
@@ -127,14 +125,13 @@ class FourWheelCar:
     air_density: float = 1.2
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any], **overrides) -> "FourWheelCar":
-        """The car of a validated config's vehicle and tyre sections (cg_height and track_width
-        are required: :func:`uqdrive.vehicle_spec.require`); ``overrides`` replace any field."""
-        veh, tyre = config["vehicle"], config["tyre"]
+    def from_vehicle(cls, veh: Vehicle, **overrides) -> "FourWheelCar":
+        """The car of the single-track settings ``veh`` (cg_height and track_width are required:
+        :meth:`uqdrive.settings.Vehicle.require`); ``overrides`` replace any field."""
         purpose = "the four-wheel vehicle model"
-        car = cls(m_base=float(veh["m_base"]), J0=float(veh["J0"]), wheelbase=float(veh["wheelbase"]), B_f=float(veh["c_Sf"]),
-                  B_r=float(veh["c_Sr"]), C=float(tyre["C"]), E=float(tyre["E"]), M_c=float(veh["M_c"]), g=float(veh["g"]),
-                  cg_height=require(config, "cg_height", purpose), track_width=require(config, "track_width", purpose))
+        car = cls(m_base=float(veh.m_base), J0=float(veh.J0), wheelbase=float(veh.wheelbase), B_f=float(veh.c_Sf),
+                  B_r=float(veh.c_Sr), C=float(veh.C), E=float(veh.E), M_c=float(veh.M_c), g=float(veh.g),
+                  cg_height=veh.require("cg_height", purpose), track_width=veh.require("track_width", purpose))
         return replace(car, **overrides)
 
     @property
