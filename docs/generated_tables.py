@@ -97,7 +97,10 @@ def substitutions() -> dict[str, str]:
             "spin_threshold": f"{config['montecarlo']['spin_threshold']:g}",
             "discover_level": f"{config['discrepancy']['level']:g}",
             "max_effects": str(config["discrepancy"]["max_effects"]),
-            "n_effects": str(len(fx.EFFECTS))}
+            "n_effects": str(len(fx.EFFECTS)),
+            "mu_prior": "N({mean:g}, {std:g})".format(**config["uncertainty"]["mu"]),
+            "locked_packages": str(sum(1 for line in (Path(io.__file__).resolve().parents[2] / "requirements.lock").read_text().splitlines()
+                                       if "==" in line))}
 
 
 def four_wheel_car() -> str:
