@@ -25,6 +25,7 @@ sys.path.insert(0, str(HERE))
 import equations  # noqa: E402
 import generated_tables  # noqa: E402
 import import_example  # noqa: E402
+import your_car_example  # noqa: E402
 
 equations.write_index(HERE.parent / "src" / "uqdrive", HERE / "api" / "generated" / "equations.md")
 # The candidate effects of discover (from the registry) and the workflow's rules (from its files).
@@ -32,6 +33,8 @@ generated_tables.write_all(HERE.parent, HERE / "api" / "generated")
 # The import guide's worked example runs here: its logs, the import and the identification, so
 # that every number the page shows comes from this build (docs/import_example.py).
 import_example.write_example(HERE / "api" / "generated" / "import_example.md")
+# The your-car guide's worked example (simulate the sedan, identify it with two cars), likewise.
+your_car_example.write_example(HERE.parent, HERE / "api" / "generated" / "your_car_example.md")
 
 project = "uqdrive"
 author = "uqdrive contributors"
