@@ -30,8 +30,43 @@ def _run(argv: list[str]) -> str:
     return "```console\n$ uqdrive " + " ".join(argv) + "\n" + (out.getvalue() + err.getvalue()).rstrip("\n") + "\n```\n"
 
 
+def _refused(argv: list[str]) -> str:
+    """Run `uqdrive ARGV`, which must refuse its input (exit status 2); the command and its line."""
+    from uqdrive.cli.main import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+        code = main(argv)
+    if code != 2:
+        raise RuntimeError(f"uqdrive {' '.join(argv)} was not refused (exit status {code})")
+    return "$ uqdrive " + " ".join(argv) + "\n" + (out.getvalue() + err.getvalue()).rstrip("\n")
+
+
+#: Vehicle files with one mistake each, made from the packaged sedan: file name -> (what is wrong, change).
+MISTAKES = {
+    "bad_lf.yaml": ("the centre of gravity behind the rear axle", {"cg_to_front_axle": 2.9}),
+    "kn_per_rad.yaml": ("cornering stiffness typed in kN/rad", {"cornering_stiffness": {"front": 160.0, "rear": 160.0}}),
+    "negative_mass.yaml": ("a negative mass", {"mass": -1573.0}),
+    "no_stiffness.yaml": ("no cornering stiffness", {"cornering_stiffness": None}),
+}
+
+
+def _errors(root: Path) -> str:
+    """A console block of refusals: an unknown car and each file of :data:`MISTAKES`."""
+    sedan = yaml.safe_load((root / "src" / "uqdrive" / "vehicles" / "rajamani_sedan.yaml").read_text())
+    lines = [_refused(["identify", "sedan.nc", "--vehicle", "mustang", "--config", "mycar.yaml", "--out", "x"])]
+    for name, (_, change) in MISTAKES.items():
+        car = {k: v for k, v in {**sedan, **change}.items() if v is not None}
+        Path(name).write_text(yaml.safe_dump(car, sort_keys=False))
+        lines.append(_refused(["identify", "sedan.nc", "--vehicle", name, "--config", "mycar.yaml", "--out", "x"]))
+    wrong = ", ".join(f"`{name}`: {what}" for name, (what, _) in MISTAKES.items())
+    return (f"The packaged sedan's file with one mistake each ({wrong}), and a car that is not packaged:\n\n"
+            "```console\n" + "\n".join(lines) + "\n```\n")
+
+
 def write_example(root: Path, target: Path) -> None:
-    """Simulate the sedan, identify it twice, and write the example's Markdown to ``target``."""
+    """Simulate the sedan, identify it twice, and write the example's Markdown to ``target``; the
+    refusals of mistaken vehicle files to ``target``'s name with ``_errors`` appended."""
     import xarray as xr
 
     config = yaml.safe_load((root / "config" / "test.yaml").read_text())
@@ -48,6 +83,7 @@ def write_example(root: Path, target: Path) -> None:
             own = _run(["identify", "sedan.nc", "--vehicle", "rajamani_sedan", "--config", "mycar.yaml", "--out", "fit_sedan"])
             other = _run(["identify", "sedan.nc", "--vehicle", "bmw_320i", "--config", "mycar.yaml", "--out", "fit_bmw"])
             est = {k: json.loads(Path(f"{k}/estimate.json").read_text()) for k in ("fit_sedan", "fit_bmw")}
+            errors = _errors(root)
         finally:
             os.chdir(cwd)
     right, wrong = est["fit_sedan"], est["fit_bmw"]
@@ -68,6 +104,6 @@ def write_example(root: Path, target: Path) -> None:
         "and cornering stiffness (per axle, at mu = 1) before reading mu.\n",
     ]
     target.parent.mkdir(parents=True, exist_ok=True)
-    body = "\n".join(text)
-    if not target.exists() or target.read_text() != body:
-        target.write_text(body, encoding="utf-8")
+    for path, body in ((target, "\n".join(text)), (target.with_name(target.stem + "_errors.md"), errors)):
+        if not path.exists() or path.read_text() != body:
+            path.write_text(body, encoding="utf-8")

@@ -14,7 +14,7 @@ COMMAND = re.compile(r"^\s*(?:\$\s+)?uqdrive\s+(.*)$")
 def shown_commands(pages=None):
     """(page, line number, argv after `uqdrive`) of every command line in a fenced block of
     ``pages`` (default: the docs and the README), continuation lines joined."""
-    pages = pages or sorted((ROOT / "docs").rglob("*.md")) + [ROOT / "README.md"]
+    pages = pages or sorted(p for p in (ROOT / "docs").rglob("*.md") if "generated" not in p.parts) + [ROOT / "README.md"]
     for page in pages:
         inside, pending, start = False, "", 0
         for n, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
