@@ -93,3 +93,33 @@ def test_the_generated_candidate_table_names_every_registered_effect():
     names = [n for n in EFFECTS if n not in members] + [f"{f}_<channel>" for f in FAMILIES]
     assert all(f"`{n}`" in table for n in names)
     assert table.count("\n| `") == len(names)  # one row each, nothing else
+
+
+QUOTE = re.compile(r'\*"(.+?)"\*', re.DOTALL)
+
+
+def missing_fragments(page: Path, source: str) -> list[str]:
+    """The parts of each message the page quotes (*"..."*, "..." standing for what varies) that
+    no source file holds."""
+    out = []
+    for quote in QUOTE.findall(page.read_text(encoding="utf-8")):
+        for part in re.split(r"\s*\.\.\.\s*", " ".join(quote.split())):
+            if len(part) >= 6 and part not in source:
+                out.append(f"{part!r} (of *\"{' '.join(quote.split())}\"*)")
+    return out
+
+
+def _source() -> str:
+    """Every product source file's text, its string pieces joined as Python joins them."""
+    text = "\n".join(p.read_text(encoding="utf-8") for p in sorted((ROOT / "src" / "uqdrive").rglob("*.py")))
+    return re.sub(r'"\s*\n\s*f?"', "", text)  # implicit concatenation across lines
+
+
+def test_every_message_the_troubleshooting_page_quotes_is_one_the_code_prints(tmp_path):
+    source = _source()
+    assert len(QUOTE.findall((ROOT / "docs" / "faq.md").read_text(encoding="utf-8"))) > 20  # the page's quotes are found
+    bad = missing_fragments(ROOT / "docs" / "faq.md", source)
+    assert not bad, "quoted in docs/faq.md but printed nowhere (the message changed: update the page):\n" + "\n".join(bad)
+    page = tmp_path / "faq.md"
+    page.write_text('*"the misfit is ... times the noise"* and *"a message nobody prints"*')
+    assert missing_fragments(page, source) == ["'a message nobody prints' (of *\"a message nobody prints\"*)"]
