@@ -1,0 +1,151 @@
+"""Tables of the guides written from the code at every docs build: the candidate effects of
+discover (the registry) and the workflow's rules, so that no page types what the code defines.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import yaml
+
+
+def _cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _bound(lo: float, hi: float) -> str:
+    return f"{lo:g} to {hi:g}"
+
+
+def candidates_table() -> str:
+    """Markdown table of every registered candidate effect, one row per effect (a sensor family
+    one row for all its channels), with its parameters, the value at which it vanishes, whether
+    the packaged config searches it, what it models and what it moves first."""
+    from uqdrive.vehicle import effects as fx
+
+    default = yaml.safe_load((Path(fx.__file__).resolve().parents[1] / "default_config.yaml").read_text())
+    searched = set(fx.expand_names(default["discrepancy"]["candidates"]))
+    family_of = {m: fam for fam, members in fx.FAMILIES.items() for m in members}
+    lines = ["| name | parameters (unit, bounds, start) | vanishes at | searched by default | what it models | what it moves first |",
+             "|---|---|---|---|---|---|"]
+    done: set[str] = set()
+    for name, e in fx.EFFECTS.items():
+        family = family_of.get(name)
+        if family in done:
+            continue
+        if family:
+            done.add(family)
+            members = [fx.EFFECTS[m] for m in fx.FAMILIES[family]]
+            channels = ", ".join(m.channel for m in members)
+            units = ", ".join(f"{m.channel}: {m.units[0]}" for m in members)
+            row = (f"`{family}_<channel>` (channel: {channels})",
+                   f"{members[0].parameters[0].rsplit('_', 1)[0]}_<channel> ({units}; start {members[0].start[0]:g})",
+                   f"{fx.VANISHES[members[0].name][1]:g}",
+                   "yes" if all(m.name in searched for m in members) else "no",
+                   members[0].description.replace(members[0].channel, "channel"),
+                   members[0].signature.replace(f"{members[0].channel}:", "the channel:"))
+        else:
+            params = "; ".join(f"{p} ({u}, {_bound(*b)}, start {s:g})"
+                               for p, u, b, s in zip(e.parameters, e.units, e.bounds, e.start))
+            vanish = fx.VANISHES.get(name)
+            row = (f"`{name}`", params, f"{vanish[0]} = {vanish[1]:g}" if vanish else "never (differs at every value)",
+                   "yes" if name in searched else "no", e.description, e.signature)
+        lines.append("| " + " | ".join(_cell(c) for c in row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def workflow_rules(root: Path) -> str:
+    """Markdown sentence and table: the rule files of the workflow and the rules each defines."""
+    files = [root / "Snakefile", root / "workflow" / "Snakefile"] + sorted((root / "workflow" / "rules").glob("*.smk"))
+    rows, total = [], 0
+    for f in files:
+        names = re.findall(r"^rule\s+(\w+)\s*:", f.read_text(), flags=re.MULTILINE)
+        if names:
+            total += len(names)
+            rows.append(f"| `{f.relative_to(root)}` | {len(names)} | " + ", ".join(f"`{n}`" for n in names) + " |")
+    head = [f"The workflow defines {total} rules in {len(rows)} files (counted from `workflow/` "
+            "when these pages were built); a rule runs once per case, seed or sweep cell, so the job count "
+            "depends on the config: `snakemake -n --quiet rules --configfile FILE` prints it for yours.", "",
+            "| file | rules | names |", "|---|---:|---|"]
+    return "\n".join(head + rows) + "\n"
+
+
+def _write(out: Path, text: str) -> None:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not out.exists() or out.read_text() != text:  # unchanged file: Sphinx keeps its cache
+        out.write_text(text)
+
+
+def write_all(root: Path, outdir: Path) -> None:
+    """Write every table of this module into ``outdir``."""
+    _write(outdir / "candidates.md", candidates_table())
+    _write(outdir / "workflow_rules.md", workflow_rules(root))
+    _write(outdir / "four_wheel_car.md", four_wheel_car())
+    _write(outdir / "four_wheel_cases.md", four_wheel_cases(root))
+    _write(outdir / "plausible_car.md", plausible_car())
+
+
+def substitutions() -> dict[str, str]:
+    """Numbers the pages quote through MyST substitutions (``{{ name }}``), read from the code and
+    the packaged config."""
+    from uqdrive import io
+    from uqdrive.vehicle import effects as fx
+
+    config = yaml.safe_load((Path(io.__file__).resolve().parent / "default_config.yaml").read_text())
+    return {"min_runs": str(io.MIN_RUNS),
+            "spin_threshold": f"{config['montecarlo']['spin_threshold']:g}",
+            "discover_level": f"{config['discrepancy']['level']:g}",
+            "max_effects": str(config["discrepancy"]["max_effects"]),
+            "n_effects": str(len(fx.EFFECTS)),
+            "mu_prior": "N({mean:g}, {std:g})".format(**config["uncertainty"]["mu"]),
+            "locked_packages": str(sum(1 for line in (Path(io.__file__).resolve().parents[2] / "requirements.lock").read_text().splitlines()
+                                       if "==" in line))}
+
+
+def four_wheel_car() -> str:
+    """Markdown table of the four-wheel car's constants (`FourWheelCar` defaults) with their
+    meaning and unit from its docstring."""
+    import dataclasses
+
+    from uqdrive.vehicle.four_wheel import FourWheelCar
+
+    from numpydoc.docscrape import NumpyDocString
+
+    defaults = {f.name: f.default for f in dataclasses.fields(FourWheelCar)}
+    lines = ["| constants | default values | meaning (units, in the order of the constants) |", "|---|---|---|"]
+    for p in NumpyDocString(FourWheelCar.__doc__)["Attributes"]:
+        names = [n.strip() for n in p.name.split(",") if n.strip() in defaults]
+        values = ", ".join(f"{defaults[n]:g}" for n in names)
+        lines.append(f"| {', '.join(f'`{n}`' for n in names)} | {values} | {_cell(' '.join(p.desc))} |")
+    return "\n".join(lines) + "\n"
+
+
+def four_wheel_cases(root: Path) -> str:
+    """Markdown table of the four-wheel benchmark's cases with the expectation that
+    benchmarks/bench_four_wheel.py states for each."""
+    import importlib.util
+
+    from uqdrive.studies.four_wheel import four_wheel_cases as cases
+
+    spec = importlib.util.spec_from_file_location("bench_four_wheel", root / "benchmarks" / "bench_four_wheel.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    lines = ["| case | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---:|---:|---|"]
+    for c in cases({"seed": 0}):
+        params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
+        lines.append(f"| `{c.name}` | {c.manoeuvre}{f' ({params})' if params else ''} | {c.level:g} | {c.t_end:g} | "
+                     f"{_cell(bench.EXPECTED.get(c.name, ''))} |")
+    return "\n".join(lines) + "\n"
+
+
+def plausible_car() -> str:
+    """Markdown table of the plausibility checks of a vehicle file (`uqdrive.vehicle_spec.PLAUSIBLE`):
+    the range a car's number must lie in and the unit slip named when it does not."""
+    from uqdrive.vehicle_spec import PLAUSIBLE
+
+    lines = ["| key | accepted range | unit | below it, the message asks | above it, the message asks |", "|---|---|---|---|---|"]
+    for key, (lo, hi, unit, below, above) in PLAUSIBLE.items():
+        slip = lambda s: f"given in {s[0]}?" if s else "-"  # noqa: E731
+        lines.append(f"| `{key}` | {lo:g} to {hi:g} | {unit} | {slip(below)} | {slip(above)} |")
+    return "\n".join(lines) + "\n"
