@@ -146,30 +146,31 @@ rule discrepancy_thesis_figures:
 
 
 CHANNEL_TABLE = config["discrepancy"]["channel_sets"]
-#: The detection table's cells, one job each, in the table's order (run count outer, channel set inner).
-CHANNEL_CELLS = [f"{DISC}/channel_sets/{s}/{n}.json" for n in CHANNEL_TABLE["runs"] for s in CHANNEL_TABLE["sets"]]
+#: The detection table's cells, one job each, in the table's order (run count, channel set, case).
+CHANNEL_CELLS = [f"{DISC}/channel_sets/{s}/{n}/{c}.json" for n in CHANNEL_TABLE["runs"] for s in CHANNEL_TABLE["sets"] for c in CHANNEL_TABLE["cases"]]
 
 
 rule discrepancy_channel_cell:
     input:
         src("studies.discrepancy", "studies.hidden_effects", "inference.discrepancy"),
     output:
-        f"{DISC}/channel_sets/{{channel_set}}/{{runs}}.json",
+        f"{DISC}/channel_sets/{{channel_set}}/{{runs}}/{{table_case}}.json",
     params:
         **reads(*DISC_KEYS),
     wildcard_constraints:
         channel_set="|".join(CHANNEL_TABLE["sets"]) or "none",
         runs=r"\d+",
+        table_case="|".join(CHANNEL_TABLE["cases"]) or "none",
     threads: 1
-    # config/config.yaml: one discover per table case (5), at most 1511 MB and 6.3 min a job (margins 1.5x, 3x)
+    # config/config.yaml: one discover, at most 1483 MB and 12.5 min (actuator_lag_200ms along the speed profile, 20 runs, load 5-10; margins 1.5x, 3x)
     resources:
         mem_mb=2500,
-        runtime=20,
+        runtime=40,
     group: "discrepancy"
     log:
-        f"{OUT}/logs/discrepancy_channel_cell_{{channel_set}}_{{runs}}.log",
+        f"{OUT}/logs/discrepancy_channel_cell_{{channel_set}}_{{runs}}_{{table_case}}.log",
     benchmark:
-        f"{OUT}/benchmarks/discrepancy_channel_cell/discrepancy_channel_cell_{{channel_set}}_{{runs}}.tsv",
+        f"{OUT}/benchmarks/discrepancy_channel_cell/discrepancy_channel_cell_{{channel_set}}_{{runs}}_{{table_case}}.tsv",
     conda:
         "../envs/uqdrive.yaml"
     script:
