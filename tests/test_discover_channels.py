@@ -111,7 +111,7 @@ def test_the_channel_table_runs_discover_on_each_cell_without_the_posterior(conf
     that set's channels and run count (a speed falling for imu_speed), the emcee posterior off
     (the table reports verdicts; the full config samples it for tyre_saturation, minutes a cell)."""
     import uqdrive.inference.discrepancy as discrepancy
-    from uqdrive.studies.discrepancy import channel_detection
+    from uqdrive.studies.discrepancy import channel_detection, channel_detection_cell
     from uqdrive.studies.hidden_effects import HiddenEffectCase
 
     seen = []
@@ -135,3 +135,7 @@ def test_the_channel_table_runs_discover_on_each_cell_without_the_posterior(conf
     assert all(s["posterior"] is False for s in seen)
     assert [(s["channels"], s["runs"], s["braking"]) for s in seen[:2]] == [(["a_y", "beta", "psi", "psi_dot", "y"], 10, False),
                                                                             (["a_y", "psi_dot"], 10, True)]
+    # one cell (the workflow's job) is its column of the table: the same row, built alone
+    cell = channel_detection_cell(cfg, [case], "imu_speed", 12)
+    drop = lambda r: {k: v for k, v in r.items() if k != "seconds"}  # noqa: E731
+    assert [drop(r) for r in cell] == [drop(rows[3])] and (seen[-1]["channels"], seen[-1]["runs"], seen[-1]["braking"]) == (["a_y", "psi_dot"], 12, True)

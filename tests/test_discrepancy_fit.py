@@ -417,3 +417,60 @@ def test_intervals_of_a_two_parameter_effect_take_their_own_variances():
             est, lo, hi = f.effect_intervals(2.0)[name]
             half = 1.959963984540054 * np.sqrt(2.0 * cov[offset + i, offset + i])
             assert (est, lo, hi) == pytest.approx((f.effect_values_[i], est - half, est + half), rel=1e-8)
+
+
+class _CountingSimulate:
+    """The simulator, counting its single simulations (a linear model's only kind)."""
+
+    def __init__(self, sim):
+        self.sim, self.calls = sim, 0
+
+    def __getattr__(self, name):
+        return getattr(self.sim, name)
+
+    def simulate(self, theta, structure=ModelStructure(), germs=None):
+        self.calls += 1
+        return self.sim.simulate(theta, structure, germs)
+
+    def simulate_many(self, thetas, structures, groups=None):
+        return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+
+
+def test_fits_sharing_a_memo_simulate_a_linear_model_once_with_the_same_numbers(sim):
+    """Two fits of a road bank on one simulator with a shared memo: the first has every number of
+    a fit without one, bit for bit; the second, from the same start, simulates nothing (all its
+    points are the first's); held screening fits of output-only effects at one estimate simulate
+    the model there once between them, with the numbers of a fit without the memo. The memo
+    keeps its newest ``size`` entries, per simulator."""
+    from uqdrive.inference.discrepancy.fit import SimulationMemo
+
+    index = np.arange(1, sim.output_time.size)
+    structure = EFFECTS["road_bank"].augment(ModelStructure(), [1.5])
+    measured = StructureFit(sim, index, np.full(4, 1e-6)).statistics(THETA * [1.1, 1, 1, 1, 1, 1], structure)
+    scale = np.full_like(measured, 1e-2)
+    start = THETA * [0.9, 1.2, 1.05, 0.8, 1, 1]
+
+    def fit(simulator, memo, effect="road_bank", **kwargs):
+        f = StructureFit(simulator, index, np.full(4, 1e-6), effect=EFFECTS[effect], max_nfev=8, memo=memo, **kwargs)
+        return f.fit(measured, scale, start if kwargs.get("fit_theta", True) else alone.theta_)
+
+    alone = fit(sim, None)
+    memo, counted = SimulationMemo(size=64), _CountingSimulate(sim)
+    first = fit(counted, memo)
+    for name in ("theta_", "effect_values_", "statistics_", "z_", "jacobian_", "parameter_cov_"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(alone, name))
+    assert first.chi2_ == alone.chi2_ and counted.calls > 8
+    calls = counted.calls
+    second = fit(counted, memo)
+    assert counted.calls == calls and second.chi2_ == first.chi2_
+    fit(counted, memo, effect="sensor_bias_psi_dot", fit_theta=False)
+    assert counted.calls == calls + 1  # the baseline at alone's estimate, once
+    other = fit(counted, memo, effect="sensor_scale_psi_dot", fit_theta=False)
+    assert counted.calls == calls + 1 and other.chi2_ == fit(sim, None, effect="sensor_scale_psi_dot", fit_theta=False).chi2_
+
+    small, key = SimulationMemo(size=2), (b"k", ModelStructure())
+    for k, x in enumerate("abc"):
+        small.put(sim, (str(k).encode(), ModelStructure()), x)
+    assert small.get(sim, (b"0", ModelStructure())) is None and small.get(sim, (b"2", ModelStructure())) == "c"
+    small.put(sim, key, "x")
+    assert small.get(counted, key) is None and small.get(sim, key) == "x"  # another simulator's entry is not this one's

@@ -145,21 +145,51 @@ rule discrepancy_thesis_figures:
         "(cp {input}/bands.png {output.bands} && cp {input}/localisation.png {output.localisation}) 2> {log}"
 
 
+CHANNEL_TABLE = config["discrepancy"]["channel_sets"]
+#: The detection table's cells, one job each, in the table's order (run count, channel set, case).
+CHANNEL_CELLS = [f"{DISC}/channel_sets/{s}/{n}/{c}.json" for n in CHANNEL_TABLE["runs"] for s in CHANNEL_TABLE["sets"] for c in CHANNEL_TABLE["cases"]]
+
+
+rule discrepancy_channel_cell:
+    input:
+        src("studies.discrepancy", "studies.hidden_effects", "inference.discrepancy"),
+    output:
+        f"{DISC}/channel_sets/{{channel_set}}/{{runs}}/{{table_case}}.json",
+    params:
+        **reads(*DISC_KEYS),
+    wildcard_constraints:
+        channel_set="|".join(CHANNEL_TABLE["sets"]) or "none",
+        runs=r"\d+",
+        table_case="|".join(CHANNEL_TABLE["cases"]) or "none",
+    threads: 1
+    # config/config.yaml: one discover, at most 1483 MB and 12.5 min (actuator_lag_200ms along the speed profile, 20 runs, load 5-10; margins 1.5x, 3x)
+    resources:
+        mem_mb=2500,
+        runtime=40,
+    group: "discrepancy"
+    log:
+        f"{OUT}/logs/discrepancy_channel_cell_{{channel_set}}_{{runs}}_{{table_case}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/discrepancy_channel_cell/discrepancy_channel_cell_{{channel_set}}_{{runs}}_{{table_case}}.tsv",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/discrepancy_channel_cell.py"
+
+
 rule discrepancy_channels:
     input:
-        src("studies.discrepancy", "studies.hidden_effects", "inference.discrepancy", "plots.discrepancy"),
+        src("plots.discrepancy", "plots.figure", "io"),
+        cells=CHANNEL_CELLS,
     output:
         table=report(f"{DISC}/channel_sets.csv", caption="../report/discrepancy_channels_table.rst", category="uqdrive discrepancy workflow",
                      labels={"figure": "detection by channel set (table)", "case": "IMU, speed profile, few runs"}),
         figure=report(f"{FIG}/fig_discrepancy_channel_sets.png", caption="../report/discrepancy_channels.rst", category="uqdrive discrepancy workflow",
                       labels={"figure": "detection by channel set and run count", "case": "IMU, speed profile, few runs"}),
-    params:
-        **reads(*DISC_KEYS),
     threads: 1
-    # config/config.yaml: 45 discovers in one job, 1511 MB and 37.6 min at load 3-5 (margins 1.5x, 3x)
     resources:
-        mem_mb=2500,
-        runtime=120,
+        mem_mb=1000,
+        runtime=2,
     group: "summary"
     log:
         f"{OUT}/logs/discrepancy_channels.log",

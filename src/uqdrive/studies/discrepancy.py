@@ -15,7 +15,8 @@ from .scorecard import ScoreRow
 from ..settings import Settings
 
 __all__ = ["exact_set", "case_outcome", "detection_limits", "benchmark_dataset", "benchmark_rows", "thesis_posterior_rows", "clopper_pearson",
-           "false_alarm_row", "CHANNEL_SETS", "BRAKING", "channel_detection"]
+           "false_alarm_row", "CHANNEL_SETS", "BRAKING", "channel_detection",
+           "channel_detection_cell"]
 
 #: Channel sets of the detection table (docs/discovery.md): name -> (channels recorded, speed falling while braking).
 CHANNEL_SETS = {
@@ -230,13 +231,13 @@ def false_alarm_row(alarms: int, replicates: int, max_rate: float = 0.05, eviden
 
 
 def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], runs: Sequence[int]) -> list[dict]:
-    """``discover`` on each benchmark case recorded by each channel set at each run count.
+    """``discover`` on each benchmark case recorded by each channel set at each run count: the
+    rows of :func:`channel_detection_cell` for every run count (outer) and channel set (inner).
 
     Parameters
     ----------
     config : mapping
-        Validated configuration (its ``discrepancy`` settings run every discovery, without the
-        emcee posterior: the table reports verdicts).
+        Validated configuration (see :func:`channel_detection_cell`).
     cases : sequence of HiddenEffectCase
         Benchmark cases (:func:`.hidden_effects.benchmark_cases`); their seeds, manoeuvres and noise.
     sets : sequence of str
@@ -247,7 +248,31 @@ def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], run
     Returns
     -------
     list of dict
-        Per cell: case, truth (effect), magnitude, set, runs, verdict (first named effect or
+        One row per case, channel set and run count (:func:`channel_detection_cell`).
+    """
+    return [row for n in runs for name in sets for row in channel_detection_cell(config, cases, name, n)]
+
+
+def channel_detection_cell(config: Mapping, cases: Sequence, channel_set: str, runs: int) -> list[dict]:
+    """``discover`` on each benchmark case recorded by one channel set at one run count (one
+    column of the detection table; the cells of a table do not depend on each other).
+
+    Parameters
+    ----------
+    config : mapping
+        Validated configuration (its ``discrepancy`` settings run every discovery, without the
+        emcee posterior: the table reports verdicts).
+    cases : sequence of HiddenEffectCase
+        Benchmark cases (:func:`.hidden_effects.benchmark_cases`); their seeds, manoeuvres and noise.
+    channel_set : str
+        Key of :data:`CHANNEL_SETS`.
+    runs : int
+        Run count of the files (>= 10).
+
+    Returns
+    -------
+    list of dict
+        Per case: case, truth (effect), magnitude, set, runs, verdict (first named effect or
         ``none``), correct (the truth named, or ``none`` for a null case), untestable, seconds.
     """
     import dataclasses
@@ -256,16 +281,14 @@ def channel_detection(config: Mapping, cases: Sequence, sets: Sequence[str], run
     from ..inference.discrepancy import DiscrepancyFinder
     from .hidden_effects import generate
 
+    channels, braking = CHANNEL_SETS[channel_set]
     rows = []
-    for n in runs:
-        for name in sets:
-            channels, braking = CHANNEL_SETS[name]
-            for case in cases:
-                data = generate(config, dataclasses.replace(case, samples=int(n), speed=BRAKING if braking else {}), channels=channels)
-                clock = time.perf_counter()
-                v = DiscrepancyFinder(Settings.from_config(config), posterior=False).fit(data).verdict_  # the table reports verdicts: no posterior
-                named = {v["effect"], *v.get("ambiguous_with", [])}
-                rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": name, "runs": int(n),
-                             "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",
-                             "untestable": ";".join(u["effect"] for u in v["untestable"]), "seconds": round(time.perf_counter() - clock, 1)})
+    for case in cases:
+        data = generate(config, dataclasses.replace(case, samples=int(runs), speed=BRAKING if braking else {}), channels=channels)
+        clock = time.perf_counter()
+        v = DiscrepancyFinder(Settings.from_config(config), posterior=False).fit(data).verdict_  # the table reports verdicts: no posterior
+        named = {v["effect"], *v.get("ambiguous_with", [])}
+        rows.append({"case": case.name, "truth": case.effect, "magnitude": float(case.magnitude), "set": channel_set, "runs": int(runs),
+                     "verdict": v["effect"], "correct": bool(case.effect in named) if case.effect != "none" else v["effect"] == "none",
+                     "untestable": ";".join(u["effect"] for u in v["untestable"]), "seconds": round(time.perf_counter() - clock, 1)})
     return rows

@@ -19,7 +19,7 @@ from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
 from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, fitted_values, testable
-from .fit import StructureFit
+from .fit import SimulationMemo, StructureFit
 from .posterior import AugmentedPosterior
 from .ranking import screen
 from .selection import backward_check, forward_selection, size_check
@@ -187,10 +187,11 @@ class DiscrepancyFinder:
 
         ctx = _Context(sim, index, noise, spin, n, delta, float(t[1] - t[0]))
         self._n = n
+        self._memo = SimulationMemo()  # the linear simulations the fits of this dataset share
         if start_effects:
             base = self._joint(ctx, theta0, list(start_effects), start_effects)
         else:
-            base = StructureFit(sim, index, noise, spin, fixed=dict(self.settings.layout.known)).fit(self.measured_, self.scale_, theta0)
+            base = StructureFit(sim, index, noise, spin, fixed=dict(self.settings.layout.known), memo=self._memo).fit(self.measured_, self.scale_, theta0)
         lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
         self.baseline_ = base
         self.band_ = band = self._null_band(ctx, base, key=0)
@@ -218,6 +219,7 @@ class DiscrepancyFinder:
         if self.log is not None:
             self.log(f"discover: verdict {[e['effect'] for e in self.verdict_['effects']] or self.verdict_['effect']}, "
                      f"gap {self.verdict_['gap_before']:.3g} -> {self.verdict_['gap_after']:.3g}")
+        self._memo = None  # the fits are done: the posterior batches its own simulations
         self.posterior_ = None
         if self.steps_ and self._wants_posterior(self.verdict_["effect"]):
             self.posterior_ = AugmentedPosterior(**self.settings.discover.posterior).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
@@ -364,7 +366,7 @@ class DiscrepancyFinder:
         def held(name, theta):
             structure = EFFECTS[name].augment(base, EFFECTS[name].start)
             f = StructureFit(self._sim_for(ctx.sim, structure.nonlinear), ctx.index, ctx.noise, ctx.spin, effect=EFFECTS[name], base=base,
-                             fit_theta=False, max_nfev=40)
+                             fit_theta=False, max_nfev=40, memo=getattr(self, "_memo", None))
             return f.fit(self.measured_, self._scale_for(structure.nonlinear, ctx.n), theta)
 
         fixed = {c: [self.settings.vehicle.E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if self._nonlinear(c)}
@@ -389,7 +391,8 @@ class DiscrepancyFinder:
         # at zero size (refitted after its fit went there) may grow during the fit
         nonlinear = any(self._nonlinear(k) for k in names)
         budget = max_nfev or (25 if nonlinear else 60)
-        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=dict(self.settings.layout.known))
+        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=dict(self.settings.layout.known),
+                         memo=getattr(self, "_memo", None))
         return f.fit(self.measured_, self._scale_for(nonlinear, ctx.n), theta_start)
 
     # -- verdict ------------------------------------------------------------------------------

@@ -15,12 +15,43 @@ from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "StructureFit"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "SimulationMemo", "StructureFit"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
 THETA_BOUNDS = ParameterLayout.bounds
 #: Typical magnitudes, so that the optimiser steps every parameter alike.
 THETA_SCALE = ParameterLayout.scales
+
+
+class SimulationMemo:
+    """Simulations of linear models shared by the fits of one dataset, the most recent ``size``.
+
+    A linear model is simulated by a call of its own (:meth:`AugmentedSimulator.simulate_many`
+    batches only numerically integrated ones), so its realisations are a function of the
+    simulator, theta and the structure's dynamic part alone: a fit that asks for one another fit
+    already simulated (a screening held at the same distributions, an effect on the outputs only,
+    a refit from the point a short fit stopped at) gets the same array, bit for bit. Entries hold
+    their simulator, so a key's ``id`` cannot be reused by another simulator while it is stored.
+    """
+
+    def __init__(self, size: int = 32):
+        self.size = int(size)
+        self._entries: dict = {}
+
+    def get(self, simulator, key):
+        """The stored simulation of ``key`` on ``simulator`` (moved to the most recent), or None."""
+        entry = self._entries.pop((id(simulator), key), None)
+        if entry is None or entry[0] is not simulator:
+            return None
+        self._entries[(id(simulator), key)] = entry
+        return entry[1]
+
+    def put(self, simulator, key, x) -> None:
+        """Store ``x``, the simulation of ``key`` on ``simulator``, dropping the oldest beyond ``size``."""
+        self._entries.pop((id(simulator), key), None)
+        self._entries[(id(simulator), key)] = (simulator, x)
+        while len(self._entries) > self.size:
+            self._entries.pop(next(iter(self._entries)))
 
 
 class StructureFit:
@@ -48,6 +79,8 @@ class StructureFit:
     fixed : mapping of int to float, optional
         Known distribution parameters (index into :data:`THETA_NAMES` -> value): held at their
         value, not fitted (their columns of ``jacobian_`` are zero).
+    memo : SimulationMemo, optional
+        Linear models' simulations shared with other fits on the same simulator.
 
     Attributes
     ----------
@@ -73,8 +106,10 @@ class StructureFit:
     """
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
-                 base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None):
+                 base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None,
+                 memo: SimulationMemo | None = None):
         self.simulator = simulator
+        self.memo = memo
         self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
         self.index = np.asarray(index, int)
         self.noise_variance = np.asarray(noise_variance, float)
@@ -148,12 +183,25 @@ class StructureFit:
                 later, again = self._todo(then_keys, cached)
                 later = [] if again else [(then[i], then_keys[i]) for i in later]
             batch = [(pairs[i][0], keys[i][1]) for i in todo] + [(pair[0], key[1]) for pair, key in later]
-            sims = self.simulator.simulate_many([th for th, _ in batch], [st for _, st in batch], groups=[len(todo)] + ([len(later)] if later else []))
+            if self.memo is not None and not any(st.nonlinear for _, st in batch):
+                sims = self._linear_simulations([keys[i] for i in todo], batch)
+            else:
+                sims = self.simulator.simulate_many([th for th, _ in batch], [st for _, st in batch],
+                                                    groups=[len(todo)] + ([len(later)] if later else []))
             if later:
                 self._ahead = ([key for _, key in later], sims[len(todo):])
         for i, x in zip(todo, sims):
             self._cache[keys[i]] = x
         return [self._cache[k] for k in keys]
+
+    def _linear_simulations(self, keys, batch):
+        """Simulations of linear (theta, dynamic structure) pairs, those another fit made taken
+        from the memo (each is a call of its own either way: the same numbers)."""
+        sims = [self.memo.get(self.simulator, k) for k in keys]
+        for i in (i for i, x in enumerate(sims) if x is None):
+            sims[i] = self.simulator.simulate(*batch[i])
+            self.memo.put(self.simulator, keys[i], sims[i])
+        return sims
 
     def statistics(self, theta, structure: ModelStructure):
         """Model [mean, std] (2, C, K) with the noise variance added to the model's variance."""
