@@ -32,7 +32,7 @@ def _verdict(rest, max_effects, whole=False):
     aug = _fit(rng.standard_normal((2, 4, K)) + rest, ("actuator_lag",))
     step = {"name": "actuator_lag", "fit": aug, "band": band, "band_kind": "own", "explains": False, "gap_after": 0.5, "ambiguous": [], "candidates": {}}
     finder = SimpleNamespace(augmented_=aug, augmented_band_=band, steps_=[step], fits_={"actuator_lag": aug}, unresolved_={}, removed_=[], rejected_=[],
-                             screening_={}, max_effects=max_effects, config={"montecarlo": {"spin_policy": "exclude"}}, spun_=np.array([], int),
+                             screening_={}, max_effects=max_effects, settings=SimpleNamespace(spin=SimpleNamespace(policy="exclude")), spun_=np.array([], int),
                              samples_used_=100, noise_variance_=np.ones(4), channels_=("psi", "psi_dot", "beta", "y"), untestable_=[], speed_profile_=None, model_samples=400, interpolation_="linear", level=0.01,
                              time_=np.arange(1, K + 1) * 0.1, _criterion=lambda b: (2.0 * b.chi2_null_sd, 2.0 * b.inflation),
                              _chi2=lambda f: f.chi2_, _footing=lambda f: 1.0, _band_of=lambda f: band, band_=band)

@@ -16,7 +16,7 @@ import numpy as np
 from ..settings import Vehicle
 from .single_track import STATES
 
-__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
+__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
 
 
 @dataclass(frozen=True)
@@ -354,6 +354,12 @@ VANISHES: dict[str, tuple[str, float]] = {
     **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
     **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
 }
+
+#: The one value a parameter has by its physics, where it has one: the exact course angle is
+#: y_dot = v sin(psi + beta), k = 1 (a k of 0.8 is no car's kinematics). Discovery fits such an
+#: effect at that value; a departure the data want from it is the rest of the gap acting through
+#: the parameter, reported beside it, and the physics is judged at its value.
+PHYSICAL: dict[str, tuple[str, float]] = {"lateral_kinematics": ("k", 1.0)}
 
 #: Families that name several registry entries at once.
 FAMILIES = {"sensor_bias": tuple(f"sensor_bias_{c}" for c in SENSOR_CHANNELS), "sensor_scale": tuple(f"sensor_scale_{c}" for c in SENSOR_CHANNELS)}
