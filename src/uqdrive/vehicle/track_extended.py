@@ -74,7 +74,7 @@ __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "i
 
 def uses_chassis_terms(s) -> bool:
     """True when structure ``s`` needs this right-hand side in a numerical integration (load
-    transfer, relaxation, compliance or roll steer)."""
+    transfer, relaxation, compliance or roll steer, combined slip)."""
     return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
                 or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0)
                 or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0) or np.any(np.asarray(getattr(s, "combined_slip", 0.0)) != 0))
@@ -99,7 +99,8 @@ class ExtendedSingleTrackRHS:
         Per-realisation parameters (mu, l_f, m_load of shape (n,) or scalars).
     s : ModelStructure
         Structure; ``pitch_height`` (m), ``load_sensitivity`` (-), ``roll_share_front`` (-),
-        ``compliance_steer`` (deg/g), ``relaxation_length`` (m), ``course_weight``,
+        ``compliance_steer`` (deg/g), ``relaxation_length`` (m), ``combined_slip`` (-),
+        ``drive_share_front`` (-), ``course_weight``,
         ``lateral_acceleration`` (scalars or arrays (n,)).
     E : float or ndarray, shape (n,)
         Magic-Formula curvature factor (-).
