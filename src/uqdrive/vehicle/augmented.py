@@ -28,7 +28,7 @@ THETA_NAMES = ParameterLayout.names
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
-                   "roll_frequency", "roll_damping")
+                   "roll_frequency", "roll_damping", "combined_slip", "drive_share_front")
 
 
 class AugmentedSimulator:
@@ -231,7 +231,8 @@ class AugmentedSimulator:
         tyre, the kinematics, which terms are on, the step; None: not a chassis structure."""
         if not uses_chassis_terms(s):
             return None
-        on = tuple(bool(getattr(s, f) != 0) for f in ("pitch_height", "load_sensitivity", "compliance_steer", "relaxation_length", "roll_steer"))
+        on = tuple(bool(getattr(s, f) != 0) for f in ("pitch_height", "load_sensitivity", "compliance_steer", "relaxation_length", "roll_steer",
+                                                      "combined_slip"))
         return (s.tyre, bool(s.course_exact), on, self._substeps(s))
 
     def _substeps(self, s: ModelStructure) -> int:

@@ -1,9 +1,6 @@
-"""Named physical effects that the thesis' single-track models leave out, as a registry: each is
-a small class with 1-3 parameters that says how it enters the model (past the thesis).
-
-An effect never simulates anything itself: ``apply`` returns a new :class:`ModelStructure`, the
-declarative description of the model that :mod:`uqdrive.vehicle.augmented` simulates. Adding an
-effect is one class here and one entry in :data:`EFFECTS`.
+"""Named physical effects that the thesis' single-track models leave out, as a registry: each a small
+class with 1-3 parameters whose ``apply`` returns the :class:`ModelStructure` that
+:mod:`uqdrive.vehicle.augmented` simulates (an effect simulates nothing itself).
 """
 
 from __future__ import annotations
@@ -16,7 +13,7 @@ import numpy as np
 from ..settings import Vehicle
 from .single_track import STATES
 
-__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
+__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +61,8 @@ class ModelStructure:
         (deg/g) through the body's roll, positive: out of the turn; 0: none.
     roll_frequency, roll_damping : float
         Natural frequency (Hz) and damping ratio (-) of the roll mode the roll steer follows.
+    combined_slip, drive_share_front : float
+        Friction-ellipse weight kappa (-) of the longitudinal force (0: none) and chi_d (-) (:class:`CombinedSlip`).
     a_y_offset, a_y_gain : float
         Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
         bias and scale error (the states' are in ``output_offset``, ``output_gain``).
@@ -90,6 +89,8 @@ class ModelStructure:
     roll_damping: float = 0.6
     a_y_offset: float = 0.0
     a_y_gain: float = 1.0
+    combined_slip: float = 0.0
+    drive_share_front: float = 0.0
 
     def output_map(self, channels=STATES) -> tuple[np.ndarray, np.ndarray]:
         """Gain and offset (each shape (C,)) of the measured ``channels`` (names of
@@ -101,10 +102,11 @@ class ModelStructure:
     @property
     def nonlinear(self) -> bool:
         """True when the model needs numerical integration (no exact discretisation): a
-        Magic-Formula tyre, load transfer, tyre relaxation or roll steer (compliance steer alone
-        is linear: a softer front axle)."""
+        Magic-Formula tyre, load transfer, tyre relaxation, roll steer or combined slip
+        (compliance steer alone is linear: a softer front axle)."""
         return bool(self.tyre != "linear" or np.any(np.asarray(self.pitch_height) != 0) or np.any(np.asarray(self.load_sensitivity) != 0)
-                    or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0))
+                    or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0)
+                    or np.any(np.asarray(self.combined_slip) != 0))
 
 
 @dataclass(frozen=True)
@@ -258,6 +260,13 @@ class TyreRelaxation(Effect):
         return replace(s, relaxation_length=float(v[0]))
 
 
+class CombinedSlip(Effect):
+    """Friction ellipse per axle, F_y = F_y0 sqrt(1 - (kappa F_x,i / (mu F_z,i))^2), F_x = m a_x split by drive layout chi_d."""
+
+    def apply(self, s, v):
+        return replace(s, combined_slip=float(v[0]), drive_share_front=float(v[1]))
+
+
 _BIAS_BOUND = {"psi": 0.2, "psi_dot": 0.2, "beta": 0.05, "y": 5.0, "a_y": 2.0}
 #: Channels a sensor effect can act on: the four states and the lateral acceleration (m/s^2).
 SENSOR_CHANNELS = STATES + ("a_y",)
@@ -341,6 +350,11 @@ EFFECTS: dict[str, Effect] = {
         "slip angles lag their steady values by the tyre's relaxation length: time constant sigma / v",
         "every channel's response delayed and its yaw-rate peak raised at high input frequencies; "
         "steady states untouched"),
+    "combined_slip": CombinedSlip(
+        "combined_slip", ("kappa", "chi_d"), ("-", "-"), ((0.0, 3.0), (0.0, 1.0)), (1.0, 0.5),
+        "the longitudinal force F_x = m a_x that follows the speed (a_x = v' cos(beta) - tan(beta) (a_y - v' sin(beta))) takes lateral "
+        "capacity by the friction ellipse: an axle keeps sqrt(1 - (kappa F_x,i / (mu F_z,i))^2); drive split chi_d front, brakes by static loads",
+        "none at held speed straight ahead; braking or driving in a turn: rear-axle force raises yaw rate and beta, front lowers them"),
 }
 
 #: The value of an effect's magnitude parameter at which the effect vanishes (the baseline's model):
@@ -350,10 +364,14 @@ EFFECTS: dict[str, Effect] = {
 VANISHES: dict[str, tuple[str, float]] = {
     "actuator_lag": ("T", 0.0), "actuator_delay": ("tau", 0.0), "road_bank": ("phi", 0.0), "wind_gust": ("gust_scale", 1.0),
     "lateral_kinematics": ("k", 0.0), "longitudinal_load_transfer": ("h", 0.0), "lateral_load_transfer": ("p_Dz", 0.0),
-    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0), "roll_steer": ("K", 0.0),
+    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0), "roll_steer": ("K", 0.0), "combined_slip": ("kappa", 0.0),
     **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
     **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
 }
+
+#: The one value a parameter has by its physics (the exact course angle: k = 1); discovery judges the
+#: effect there and reports a free fit's departure beside it (the rest of the gap acting through it).
+PHYSICAL: dict[str, tuple[str, float]] = {"lateral_kinematics": ("k", 1.0)}
 
 #: Families that name several registry entries at once.
 FAMILIES = {"sensor_bias": tuple(f"sensor_bias_{c}" for c in SENSOR_CHANNELS), "sensor_scale": tuple(f"sensor_scale_{c}" for c in SENSOR_CHANNELS)}

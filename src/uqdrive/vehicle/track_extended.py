@@ -50,7 +50,10 @@ yield to it without a loop. Roll steer turns the front wheels by -eps, the steer
 tyres' force through the body's roll mode: eps'' = omega^2 (kappa_r T - eps) - 2 zeta omega eps',
 kappa_r = K / (m_base g) (K in rad per g at the base mass; a roll angle phi'' = omega^2 (h T / (K_phi - m g h) - phi) -
 2 zeta omega phi' times the steer per roll angle), two extra states. Tyre relaxation lags each axle's slip angle: alpha' = (alpha_ss - alpha) v cos(beta) / sigma
-(Pacejka sec. 7.2), two extra states.
+(Pacejka sec. 7.2), two extra states. Combined slip (the friction ellipse, Wong, *Theory of Ground
+Vehicles*, sec. 1.4.4): the longitudinal force F_x = m a_x that follows the speed, shared
+chi_d : 1 - chi_d front : rear when it drives and by the static loads when it brakes, leaves axle i
+the share sqrt(1 - (kappa F_x,i / (mu P_i))^2) of its lateral force (none when it takes all).
 """
 
 from __future__ import annotations
@@ -71,10 +74,10 @@ __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "i
 
 def uses_chassis_terms(s) -> bool:
     """True when structure ``s`` needs this right-hand side in a numerical integration (load
-    transfer, relaxation, compliance or roll steer)."""
+    transfer, relaxation, compliance or roll steer, combined slip)."""
     return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
                 or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0)
-                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0))
+                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0) or np.any(np.asarray(getattr(s, "combined_slip", 0.0)) != 0))
 
 
 def chassis_max_step(s, v: float, max_step: float) -> float:
@@ -96,7 +99,8 @@ class ExtendedSingleTrackRHS:
         Per-realisation parameters (mu, l_f, m_load of shape (n,) or scalars).
     s : ModelStructure
         Structure; ``pitch_height`` (m), ``load_sensitivity`` (-), ``roll_share_front`` (-),
-        ``compliance_steer`` (deg/g), ``relaxation_length`` (m), ``course_weight``,
+        ``compliance_steer`` (deg/g), ``relaxation_length`` (m), ``combined_slip`` (-),
+        ``drive_share_front`` (-), ``course_weight``,
         ``lateral_acceleration`` (scalars or arrays (n,)).
     E : float or ndarray, shape (n,)
         Magic-Formula curvature factor (-).
@@ -138,7 +142,13 @@ class ExtendedSingleTrackRHS:
         self.i_roll = 6 if self.relaxed else 4
         self.pitching = bool(np.any(self.h_x != 0))
         self.transferring = bool(np.any(self.p_Dz != 0) or np.any(self.lateral_arm != 0))
-        self.loaded = self.pitching or bool(np.any(self.p_Dz != 0))
+        self.kappa_x = np.asarray(getattr(s, "combined_slip", 0.0), float)
+        self.slipping = bool(np.any(self.kappa_x != 0))
+        chi_d = np.asarray(getattr(s, "drive_share_front", 0.0), float)
+        share = np.stack(np.broadcast_arrays(chi_d, 1.0 - chi_d))
+        self.drive_share = share[:, None] if share.ndim == 1 else share  # (2, 1) or (2, n)
+        self.brake_share = self.static / self.static.sum(axis=0)
+        self.loaded = self.pitching or bool(np.any(self.p_Dz != 0)) or self.slipping
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
         self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
@@ -260,12 +270,23 @@ class ExtendedSingleTrackRHS:
             q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
         return q
 
-    def _at_loads(self, P, q_steady, delta, lagged):
+    def lateral_capacity(self, tyres, beta, v_dot, F_w, P):
+        """Share (2, n) of each axle's lateral force the longitudinal force leaves (1 without
+        combined slip): sqrt(max(1 - (kappa F_x,i / (mu P_i))^2, 0)), F_x = m a_x (N) with the body's
+        a_x of :meth:`axle_loads` while the tyres carry ``tyres`` (n,) (N), on the loads ``P`` (2, n)."""
+        if not self.slipping:
+            return 1.0
+        a_y = (tyres + F_w) / self.m + self.a_lat
+        F_x = self.m * (v_dot * np.cos(beta) - np.tan(beta) * (a_y - v_dot * np.sin(beta)))
+        used = self.kappa_x * np.where(F_x > 0, self.drive_share, self.brake_share) * F_x / np.maximum(self.mu * P, 1e-3 * self.static)
+        return np.sqrt(np.maximum(1.0 - used * used, 0.0))
+
+    def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0):
         """Slip angles (2, n), front wheel angle (n,) and axle forces (2, n) on the effective loads
-        ``P`` (2, n): the force of the ``lagged`` slip angles where the tyres relax (the wheels
-        yield to it, which moves the slip's target), the front wheels yielding to their force
-        where the steering is compliant."""
-        peak = P * self.mu
+        ``P`` (2, n), each axle's peak times its lateral ``capacity``: the force of the ``lagged``
+        slip angles where the tyres relax (the wheels yield to it, which moves the slip's target),
+        the front wheels yielding to their force where the steering is compliant."""
+        peak = P * self.mu * capacity
         q = q_steady.copy()
         if lagged is not None:
             F = self._curve(peak, lagged)
@@ -302,14 +323,15 @@ class ExtendedSingleTrackRHS:
         trig = self._trig(beta)
         for _ in range(LOAD_NEWTON_STEPS):
             P, dP = self._loads(T, trig, v_dot, F_w, True)
-            _, d, F = self._at_loads(P, q_steady, delta, lagged)
+            _, d, F = self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P))
             dF = F / np.maximum(P, floor)
             if self.compliant and lagged is None:
                 dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0, 0] * self.C
             front = np.cos(d) if self.saturating else 1.0
-            gain = front * dF[0] * dP[0] + dF[1] * dP[1]
+            gain = front * dF[0] * dP[0] + dF[1] * dP[1] if np.ndim(dP) else 0.0  # static loads (combined slip alone): none
             T = T + (front * F[0] + F[1] - T) / np.maximum(1.0 - gain, 0.05)
-        return self._at_loads(self._loads(T, trig, v_dot, F_w, False), q_steady, delta, lagged)
+        P = self._loads(T, trig, v_dot, F_w, False)
+        return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P))
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force

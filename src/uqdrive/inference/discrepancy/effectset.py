@@ -9,7 +9,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...vehicle.augmented import actual_steering, reconstruction_error
-from ...vehicle.effects import EFFECTS, FAMILIES, ModelStructure, SensorBias, SensorScale, acts_on
+from ...vehicle.effects import EFFECTS, FAMILIES, PHYSICAL, ModelStructure, SensorBias, SensorScale, acts_on
 
 __all__ = ["EffectSet", "family_of", "fitted_values", "resolvable", "testable"]
 
@@ -93,6 +93,11 @@ class EffectSet:
         for n, v in self.split(values).items():
             structure = EFFECTS[n].augment(structure, v)
         return structure
+
+    def physical(self, release: Sequence[str] = ()) -> dict[int, float]:
+        """{index into ``parameters``: value} of the parameters held at their one physical value
+        (:data:`uqdrive.vehicle.effects.PHYSICAL`), except those of the effects in ``release``."""
+        return {self.parameters.index(f"{n}.{PHYSICAL[n][0]}"): PHYSICAL[n][1] for n in self.names if n in PHYSICAL and n not in release}
 
     def intervals(self, flat: Mapping[str, Sequence[float]]) -> dict[str, dict[str, list[float]]]:
         """{effect: {parameter: [estimate, lo95, hi95]}} from StructureFit.effect_intervals."""

@@ -14,15 +14,15 @@ import numpy as np
 from ...numerics.threads import single_blas_thread
 from ...rng import rng_stream
 from ...settings import Settings
-from ...vehicle.augmented import AugmentedSimulator
+from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import EFFECTS, ModelStructure, expand_names
 from .data import prepare_measured, speed_profile
-from .band import bootstrap_band, excess_rms, moment_statistics, statistic_scale
+from .band import bootstrap_band, moment_statistics, statistic_scale
 from .effectset import EffectSet, family_of, fitted_values, testable
 from .fit import SimulationMemo, StructureFit
 from .posterior import AugmentedPosterior
 from .ranking import screen
-from .selection import backward_check, forward_selection, size_check
+from .selection import acceptance, backward_check, departures, forward_selection, size_check
 from .separate import suggest_input
 from .verdict import assemble_verdict, model_document
 
@@ -108,6 +108,9 @@ class DiscrepancyFinder:
     time_ : ndarray, shape (K,)
     fits_ : dict
         Joint fit per re-identified candidate of the first step.
+    acceptance_, departures_ : dict
+        Why the named set was kept or rejected (:func:`.selection.acceptance`); per named effect
+        held at its physical value, the departure its free refit wants (:func:`.selection.departures`).
     posterior_ : AugmentedPosterior or None
         The posterior of ``augmented_``'s parameters when it was sampled.
     """
@@ -200,6 +203,7 @@ class DiscrepancyFinder:
         significant = band.gate(base.z_)
         lap("null_band", f" ({self.bootstrap} replicates; max statistic {stat0:.3g}, threshold {band.threshold:.3g})")
         self.fits_, self.screening_, self.steps_, self.removed_, self.unresolved_, self.rejected_ = {}, {}, [], [], {}, []
+        self.acceptance_, self.departures_ = {}, {}
         final, final_band = base, band
         if significant:
             final, final_band = self._forward(ctx, base, band, start_effects, lap)
@@ -207,12 +211,11 @@ class DiscrepancyFinder:
                 final, final_band = self._backward(ctx, final, final_band, start_effects)
                 lap("backward", f" ({len(self.removed_)} removed)")
             final, final_band = size_check(self, ctx, base, final, final_band, start_effects)
-            if self.steps_ and not (final_band.max_statistic(final.z_) <= final_band.threshold
-                                    or excess_rms(final.z_, final_band) <= 0.5 * excess_rms(base.z_, band)):
-                # the effects together neither explain the gap nor halve it: none of them is
-                # trusted (a partial fit of an unknown gap), the verdict is unrecognised
+            self.acceptance_ = acceptance(self, base, band, final, final_band) if self.steps_ else {}
+            if self.acceptance_.get("rule") == "rejected":  # too small a part of an unknown gap to trust
                 self.rejected_, self.steps_ = [s["name"] for s in self.steps_], []
                 final, final_band = base, band
+            self.departures_ = departures(self, ctx, final, band) if self.steps_ else {}
         self.augmented_, self.augmented_band_ = final, final_band
         self.verdict_ = self._decide(base, band, stat0, significant, ctx)
         self.verdict_["separating_input"] = self._separating_input(delta, n)
@@ -384,15 +387,17 @@ class DiscrepancyFinder:
         gain = self._chi2(cur) - min((self._chi2(f) for f in others), default=self._chi2(cur))
         return gain <= 0 or self._chi2(cur) - self._chi2(probe) >= PROBE_SHARE * gain
 
-    def _joint(self, ctx, theta_start, names, values, max_nfev: int | None = None):
-        """Distributions and the parameters of every effect in ``names`` fitted jointly."""
+    def _joint(self, ctx, theta_start, names, values, max_nfev: int | None = None, release=()):
+        """Distributions and the parameters of every effect in ``names`` fitted jointly; a parameter
+        with one physical value is held there (:meth:`.effectset.EffectSet.physical`) unless its effect is in ``release``."""
         eff = EffectSet(names, {k: values[k] for k in names if k in values})
+        held = {len(THETA_NAMES) + i: v for i, v in eff.physical(release).items()}
         # the footing follows the names, not the start values: a non-linear effect that starts
         # at zero size (refitted after its fit went there) may grow during the fit
         nonlinear = any(self._nonlinear(k) for k in names)
         budget = max_nfev or (25 if nonlinear else 60)
-        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget, fixed=dict(self.settings.layout.known),
-                         memo=getattr(self, "_memo", None))
+        f = StructureFit(self._sim_for(ctx.sim, nonlinear), ctx.index, ctx.noise, ctx.spin, effect=eff, max_nfev=budget,
+                         fixed={**dict(self.settings.layout.known), **held}, memo=getattr(self, "_memo", None))
         return f.fit(self.measured_, self._scale_for(nonlinear, ctx.n), theta_start)
 
     # -- verdict ------------------------------------------------------------------------------

@@ -61,6 +61,8 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     # Gauss-Newton covariance is in)
     misfit = lack_of_fit(aug.chi2_, aug.z_.size, after_band.mean_square_null) if named else 1.0
     per_effect = aug.effect.intervals(aug.effect_intervals(band.inflation * misfit)) if named else {}
+    held = getattr(finder, "departures_", {})  # effects held at their physical value: a free fit's departure
+    accepted = getattr(finder, "acceptance_", {})
     effects = []
     for step in finder.steps_:
         name = step["name"]
@@ -69,6 +71,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
                  "ambiguous_with": step["ambiguous"], "gap_after": round(step["gap_after"], 4)}
         if family_of(name) in FAMILIES:
             entry["parameters"]["channel"] = EFFECTS[name].channel
+        if name in held:
+            entry["physical"] = {held[name]["parameter"]: held[name]["physical"]}
+            entry["departure"] = held[name]
         effects.append(entry)
     catch_z, p_catch = smooth_discrepancy(base.z_)
     margin, per_param = finder._criterion(band)
@@ -77,7 +82,9 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     # still outside its own band by the null-calibrated gate: a part of the gap is real and no
     # candidate explains it, so it is named as unexplained after the effects that explain the rest
     rest = named and not explains and after_band.gate(aug.z_)
-    left = significant and not finder.unresolved_.get("explains_gap") and (not named or (not explains and (catch_better or rest)))
+    # a partial truth (it closes half the chi2 excess but neither explains nor halves the gap) always leaves a rest
+    partial = accepted.get("rule") == "partial"
+    left = significant and not finder.unresolved_.get("explains_gap") and (not named or partial or (not explains and (catch_better or rest)))
     if left:  # nothing named, or a part explained: the rest is real but unnamed
         effects.append({"effect": "unrecognised", "registry_name": "", "parameters": {}, "ambiguous_with": [], "gap_after": round(gap1, 4)})
     effect_name = effects[0]["effect"] if effects else "none"
@@ -135,6 +142,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
                        "screening": s.get("screening", {}), **({"pair": s["pair"]} if s.get("pair") else {})} for s in finder.steps_],
             "removed": finder.removed_,
             "rejected": finder.rejected_,
+            "acceptance": dict(accepted),
             "unresolved": dict(finder.unresolved_),
             "catch_all": {"chi2": round(float(np.sum(catch_z**2)), 2), "parameters": p_catch, "max_statistic": round(band.max_statistic(catch_z), 3)},
             "screening": {c: round(v["chi2"], 2) for c, v in sorted(finder.screening_.items(), key=lambda kv: kv[1]["chi2"]) if np.isfinite(v["chi2"])},
