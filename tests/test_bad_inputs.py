@@ -15,33 +15,10 @@ from uqdrive._yaml import DuplicateKeyError, load_yaml
 from uqdrive.cli.main import _speed_notice, main
 from uqdrive.config import ConfigError, load_config
 
-from conftest import REPO, tiny_config
+from conftest import REPO
+from test_edge_validation import files_under, refused, tiny  # noqa: F401 - the same fixture and checks
 
 VEHICLES = REPO / "config" / "vehicles"
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    """(config file, NLST ensemble file of 12 samples x 41 time points)."""
-    folder = tmp_path_factory.mktemp("tiny")
-    config = folder / "tiny.yaml"
-    config.write_text(yaml.safe_dump(tiny_config()))
-    data = folder / "tiny.nc"
-    assert main(["simulate", "--model", "nlst", "--config", str(config), "--out", str(data)]) == 0
-    return config, data
-
-
-def files_under(folder: Path) -> set:
-    return {p.relative_to(folder) for p in folder.rglob("*")}
-
-
-def refused(capsys, rc, *needles):
-    err = capsys.readouterr().err
-    assert rc == 2, err
-    assert err.count("\n") == 1 and "Traceback" not in err and err.startswith("uqdrive"), err
-    for needle in needles:
-        assert needle in err, err
-    return err
 
 
 # -- model.yaml ------------------------------------------------------------------------------------

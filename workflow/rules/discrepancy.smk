@@ -166,7 +166,8 @@ rule discrepancy_channel_cell:
     resources:
         mem_mb=2500,
         runtime=40,
-    group: "discrepancy"
+    # one group of its own: the table's 45 cells travel as a few submissions (profiles' group-components)
+    group: "detection"
     log:
         f"{OUT}/logs/discrepancy_channel_cell_{{channel_set}}_{{runs}}_{{table_case}}.log",
     benchmark:
