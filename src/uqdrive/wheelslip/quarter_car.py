@@ -34,16 +34,17 @@ class QuarterCar:
     (-); omega_0d : desired bandwidth (rad/s).
     """
 
-    r: float = 0.35
-    F_z: float = 250 * 9.81
-    mass: float = 250.0
-    J: float = 0.68
-    T_a: float = 0.014
-    k: float = 28.0
-    mu_H: float = 0.9
-    lambda_star: float = 0.15
-    zeta_d: float = 0.5
-    omega_0d: float = 20 * np.pi
+    # the paper's car, held once in the settings
+    r: float = WheelSlipCar.r
+    F_z: float = WheelSlipCar.F_z
+    mass: float = WheelSlipCar.mass
+    J: float = WheelSlipCar.J
+    T_a: float = WheelSlipCar.T_a
+    k: float = WheelSlipCar.k
+    mu_H: float = WheelSlipCar.mu_H
+    lambda_star: float = WheelSlipCar.lambda_star
+    zeta_d: float = WheelSlipCar.zeta_d
+    omega_0d: float = WheelSlipCar.omega_0d
 
     @classmethod
     def from_settings(cls, car: WheelSlipCar) -> "QuarterCar":
