@@ -17,6 +17,7 @@ from uqdrive.config import ConfigError, load_config
 
 from conftest import REPO
 from test_edge_validation import files_under, refused, tiny  # noqa: F401 - the same fixture and checks
+from test_vehicles import _car_file
 
 VEHICLES = REPO / "config" / "vehicles"
 
@@ -151,14 +152,9 @@ def test_the_ignored_v_c_is_said_once(tiny, tmp_path, capsys):
 
 # -- vehicle files --------------------------------------------------------------------------------
 def _car(tmp_path, text=None, **changes):
-    spec = yaml.safe_load((VEHICLES / "rajamani_sedan.yaml").read_text())
-    for key, value in changes.items():
-        if value is None:
-            spec.pop(key)
-        else:
-            spec[key] = value
-    path = tmp_path / "car.yaml"
-    path.write_text(text if text is not None else yaml.safe_dump(spec))
+    path = Path(_car_file(tmp_path, **changes))
+    if text is not None:
+        path.write_text(text)
     return path
 
 

@@ -57,44 +57,47 @@ def _load(args) -> dict:
     return load_config(args.config, vehicle=getattr(args, "vehicle", None))
 
 
-def _speed_notice(config, measured: Path) -> None:
-    """One line when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced the
-    config's vehicle.speed_kmh or a v_c beside v was ignored, once the command succeeded (a refusal
-    stays one line: the reader names what is wrong)."""
+def _speed_said(config, ds) -> str | None:
+    """The note when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced
+    the config's vehicle.speed_kmh or a v_c beside v was ignored; None when there is nothing to say."""
     from ..io import data_speed
 
-    try:
-        import xarray as xr
-
-        with xr.open_dataset(measured) as ds:
-            v_c, ignored = data_speed(ds)
-            name = "v" if "v" in ds else "v_c"
-    except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
-        return
+    v_c, ignored = data_speed(ds)
+    name = "v" if "v" in ds else "v_c"
     kmh = float(config["vehicle"]["speed_kmh"])
     said = [ignored] if ignored else []
     if v_c is not None and abs(v_c * 3.6 - kmh) > 1e-9 * kmh:
         said.insert(0, f"the data's speed {name} = {v_c:.6g} m/s ({v_c * 3.6:.6g} km/h) replaces the config's vehicle.speed_kmh = {kmh:g} km/h")
-    if said:
-        stderr_line(f"uqdrive: note: {'; '.join(said)}")
+    return f"uqdrive: note: {'; '.join(said)}" if said else None
 
 
-def _car_notice(args, config) -> None:
-    """One line when neither --vehicle nor --config named a car and the data do not record theirs:
+def _car_said(args, config, ds) -> str | None:
+    """The note when neither --vehicle nor --config named a car and the data do not record theirs:
     the packaged car is then used, which is rarely the user's."""
-    if args.vehicle is not None or args.config is not None:
-        return
+    if args.vehicle is not None or args.config is not None or "vehicle" in ds.attrs:
+        return None
+    v = config["vehicle"]
+    return (f"uqdrive: note: no --vehicle given: fitted with the packaged config's car (mass {v['m_base']:g} kg, wheelbase "
+            f"{v['wheelbase']:g} m); give your car with --vehicle NAME|FILE ('uqdrive vehicles' lists the packaged ones)")
+
+
+def _notes(config, measured: Path, args=None) -> None:
+    """The data's notes once the command succeeded (a refusal stays one line: the reader names
+    what is wrong), from one read of the file's header: the speed, then (with ``args``) the car."""
     try:
         import xarray as xr
 
-        with xr.open_dataset(args.measured) as ds:
-            if "vehicle" in ds.attrs:
-                return
+        with xr.open_dataset(measured) as ds:
+            said = [_speed_said(config, ds), None if args is None else _car_said(args, config, ds)]
     except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
         return
-    v = config["vehicle"]
-    stderr_line(f"uqdrive: note: no --vehicle given: fitted with the packaged config's car (mass {v['m_base']:g} kg, wheelbase "
-                f"{v['wheelbase']:g} m); give your car with --vehicle NAME|FILE ('uqdrive vehicles' lists the packaged ones)")
+    for line in filter(None, said):
+        stderr_line(line)
+
+
+def _speed_notice(config, measured: Path) -> None:
+    """The speed's note alone (:func:`_notes` without the car)."""
+    _notes(config, measured)
 
 
 # -- subcommands --------------------------------------------------------------------------------
@@ -187,8 +190,7 @@ def _identify(args) -> int:
     progress("writing estimate.json and fit.png")
     estimate.save(args.out, overwrite=args.force)
     progress("done")
-    _speed_notice(config, args.measured)
-    _car_notice(args, config)
+    _notes(config, args.measured, args)
     print(estimate.summary(args.out))
     _report_warnings(estimate.document)
     if args.strict and estimate.model_fits is False:
@@ -282,8 +284,7 @@ def _discover(args) -> int:
     progress("writing verdict.json, model.yaml and the figures")
     verdict.save(out)
     progress("done")
-    _speed_notice(config, args.measured)
-    _car_notice(args, config)
+    _notes(config, args.measured, args)
     print(verdict.summary(out))
     _report_warnings(verdict.document)
     return EXIT_MODEL_DOES_NOT_FIT if args.strict and not verdict.model_fits else 0
