@@ -52,11 +52,6 @@ class Interrupted(BaseException):
         self.signum = signum
 
 
-def _load(args) -> dict:
-    """The config of ``--config`` with the car of ``--vehicle`` (if given)."""
-    return load_config(args.config, vehicle=getattr(args, "vehicle", None))
-
-
 def _speed_said(config, ds) -> str | None:
     """The note when the data's speed (its v, else its v_c: :func:`uqdrive.io.data_speed`) replaced
     the config's vehicle.speed_kmh or a v_c beside v was ignored; None when there is nothing to say."""
