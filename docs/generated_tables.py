@@ -50,7 +50,8 @@ def candidates_table() -> str:
                                for p, u, b, s in zip(e.parameters, e.units, e.bounds, e.start))
             vanish = fx.VANISHES.get(name)
             row = (f"`{name}`", params, f"{vanish[0]} = {vanish[1]:g}" if vanish else "never (differs at every value)",
-                   "yes" if name in searched else "no", e.description, e.signature)
+                   ("yes" + (f", when the car gives {' and '.join(e.requires)}" if e.requires else "")) if name in searched else "no",
+                   e.description, e.signature)
         lines.append("| " + " | ".join(_cell(c) for c in row) + " |")
     return "\n".join(lines) + "\n"
 

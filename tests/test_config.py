@@ -66,18 +66,24 @@ def test_config_hash_is_stable_and_sensitive(cfg):
     assert config_hash(cfg) != h
 
 
-def test_packaged_default_config_is_the_repository_config():
-    """The CLI's default (package data, so that it works from any folder and from a wheel) is a
-    byte-for-byte copy of the workflow's config/config.yaml."""
+def test_packaged_default_config_is_the_repository_config_searching_every_candidate():
+    """The CLI's default (package data, so that it works from any folder and from a wheel) is the
+    workflow's config/config.yaml with one line apart: discover searches every registered
+    candidate (``all``), the reproduction its own list."""
+    import importlib.util
     from importlib.resources import files
 
     from uqdrive.config import DEFAULT_CONFIG_NAME, default_config_text
 
+    spec = importlib.util.spec_from_file_location("config_docs", REPO / "tools" / "config_docs.py")
+    config_docs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(config_docs)
     packaged = files("uqdrive").joinpath(DEFAULT_CONFIG_NAME).read_bytes()
-    assert packaged == (REPO / "config" / "config.yaml").read_bytes(), (
-        "config/config.yaml changed: run  cp config/config.yaml src/uqdrive/default_config.yaml")
+    assert packaged.decode() == config_docs.packaged_default(), "config/config.yaml changed: run  python tools/config_docs.py"
     assert default_config_text().encode() == packaged
-    assert load_config() == load_config(REPO / "config" / "config.yaml")
+    default, repository = load_config(), load_config(REPO / "config" / "config.yaml")
+    assert default["discrepancy"].pop("candidates") == "all" and repository["discrepancy"].pop("candidates") != "all"
+    assert default == repository
 
 
 @pytest.mark.parametrize(

@@ -1,8 +1,9 @@
 """Write config/README.md from config/config.yaml (defaults and the comments that give units and
-seed tables), the JSON schema (types and ranges) and the rules (which rule reads which key).
+seed tables), the JSON schema (types and ranges) and the rules (which rule reads which key), and the
+packaged default src/uqdrive/default_config.yaml: config/config.yaml searching every candidate.
 
 Run `python tools/config_docs.py` after changing the config, the schema or a rule's params;
-tests/test_config_docs.py fails while the committed file differs from what this writes.
+tests/test_config_docs.py fails while a committed file differs from what this writes.
 """
 
 from __future__ import annotations
@@ -19,6 +20,10 @@ CONFIG = ROOT / "config" / "config.yaml"
 SCHEMA = ROOT / "src" / "uqdrive" / "config_schema.yaml"
 RULES = ROOT / "workflow" / "rules"
 TARGET = ROOT / "config" / "README.md"
+PACKAGED = ROOT / "src" / "uqdrive" / "default_config.yaml"
+#: The packaged default's one line apart from config/config.yaml: the command line searches every
+#: registered candidate, the workflow's reproduction its own list.
+PACKAGED_CANDIDATES = "  candidates: all             # every registered effect; one whose constants the car lacks (cg_height, ...) is reported untestable"
 
 _KEY = re.compile(r"^(?P<indent> *)(?P<key>[A-Za-z_][\w ]*?):(?P<value>[^#]*?)\s*(?:#\s*(?P<comment>.*))?$")
 
@@ -57,8 +62,15 @@ def schema_constraint(schema: dict, dotted: str) -> str:
         node = node.get("properties", {}).get(part) or node.get("additionalProperties") or {}
         while "$ref" in node:
             node = defs[node["$ref"].rsplit("/", 1)[-1]]
+    return _constraint(node)
+
+
+def _constraint(node) -> str:
+    """Type and range of one schema node; the alternatives of a ``oneOf`` joined by "or"."""
     if not isinstance(node, dict):
         return ""
+    if "oneOf" in node:
+        return " or ".join(f'"{alt["const"]}"' if "const" in alt else _constraint(alt) for alt in node["oneOf"])
     kind = node.get("type", "enum" if "enum" in node else "")
     if isinstance(kind, list):
         kind = " | ".join(kind)
@@ -250,6 +262,16 @@ def optional_keys(schema: dict, node: dict | None = None, prefix: str = "") -> l
     return out
 
 
+def packaged_default() -> str:
+    """The text of the packaged default config: config/config.yaml with ``discrepancy.candidates``
+    set to ``all``."""
+    text, n = re.subn(r"^  candidates: .*$", PACKAGED_CANDIDATES, CONFIG.read_text(), count=1, flags=re.M)
+    if n != 1:
+        raise SystemExit(f"{CONFIG}: no line '  candidates: ...' (discrepancy.candidates) to replace")
+    return text
+
+
 if __name__ == "__main__":
     TARGET.write_text(render())
-    print(f"wrote {TARGET}", file=sys.stderr)
+    PACKAGED.write_text(packaged_default())
+    print(f"wrote {TARGET} and {PACKAGED}", file=sys.stderr)

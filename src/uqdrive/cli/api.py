@@ -151,6 +151,10 @@ class Verdict:
         The excess misfit of the baseline and of the final model (0: none beyond sampling).
     model_fits : bool
         The final model leaves no unexplained gap.
+    untestable : list of dict
+        The candidates not searched, each with the reason: ``{"effect", "registry_name", "reason"}``,
+        plus ``"needs"`` (the car's missing constants, e.g. ``["cg_height"]``) for one the car
+        cannot test; the others act only on channels the data lack.
     finder : uqdrive.inference.discrepancy.DiscrepancyFinder
         The fitted finder (bands, fits, the augmented model document).
     """
@@ -185,12 +189,15 @@ class Verdict:
         raise ValueError(f"kind must be 'bands' or 'localisation', not {kind!r}")
 
     def summary(self, out: str | Path | None = None) -> str:
-        """The line ``uqdrive discover`` prints (naming ``out/verdict.json`` when ``out`` is given)."""
+        """The line ``uqdrive discover`` prints (naming ``out/verdict.json`` when ``out`` is given), with
+        the candidates the car or the channels could not test and what each needs."""
         v = self.document
         named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
         where = f"wrote {Path(out) / 'verdict.json'}: " if out is not None else ""
+        untested = [f"{u['registry_name']} (needs {', '.join(u['needs']) if u.get('needs') else 'other channels'})" for u in v.get("untestable", [])]
         return (f"{where}effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
-                + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)")
+                + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)"
+                + (f"; untestable: {', '.join(untested)}" if untested else ""))
 
     def save(self, out: str | Path) -> None:
         """Write verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing)."""
@@ -259,8 +266,9 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     config, vehicle
         As for :func:`identify`.
     candidates : sequence of str, optional
-        Candidate effects or families (default: the config's ``discrepancy.candidates``);
-        ``"all"``: every registered effect.
+        Candidate effects or families, ``"all"`` every registered one (default: the config's
+        ``discrepancy.candidates``, ``all`` in the packaged config); an effect that needs a constant
+        the car lacks is not searched but listed in ``untestable`` with the reason.
     model : path, optional
         A model.yaml of a previous discover to start from.
     progress : callable, optional

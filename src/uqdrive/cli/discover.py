@@ -13,13 +13,15 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 import yaml
 
-from ..inference.discrepancy import DiscrepancyFinder
+from ..inference.discrepancy import DEFAULT_CANDIDATES, DiscrepancyFinder, family_of
 from ..io import MIN_RUNS, DataError, OutputError, check_run_count, read_ensemble, speed_profile
 from ..studies.manoeuvres import steering_command
-from ..vehicle.effects import expand_names
-from ..settings import Settings
+from ..vehicle.effects import EFFECTS, expand_names
+from ..vehicle_spec import OPTIONAL_QUANTITIES
+from ..settings import Settings, Vehicle
 
-__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "discover_dataset", "baseline_warnings", "write_outputs"]
+__all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "discover_dataset", "baseline_warnings", "write_outputs",
+           "testable_on_car"]
 
 #: Fewer realisations give moment statistics too noisy for a verdict; the null band is bootstrapped
 #: at the data's own run count, so it widens as the runs get fewer.
@@ -49,6 +51,22 @@ def _checked_candidates(candidates: Sequence[str] | None):
         return expand_names(candidates)
     except KeyError as err:
         raise DataError(str(err).strip("'\"")) from None
+
+
+def testable_on_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str], list[dict]]:
+    """The candidates ``names`` (registry names) whose required constants (``Effect.requires``) the
+    car's settings ``vehicle`` give, and an ``untestable`` entry {"effect", "registry_name",
+    "reason", "needs"} for each of the others: searching them would need a value the car lacks."""
+    keep, untestable = [], []
+    for name in names:
+        missing = EFFECTS[name].missing(vehicle)
+        if not missing:
+            keep.append(name)
+            continue
+        what = " and ".join(f"{k} ({OPTIONAL_QUANTITIES[k][1]}, {OPTIONAL_QUANTITIES[k][0]})" for k in missing)
+        untestable.append({"effect": family_of(name), "registry_name": name, "needs": list(missing),
+                           "reason": f"{name}: the car gives no {what}; add it to the vehicle file (or the config's vehicle section) to test this effect"})
+    return keep, untestable
 
 
 def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
@@ -90,12 +108,17 @@ def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: S
     v_c, kmh = float(ds.attrs["v_c"]), float(config["vehicle"]["speed_kmh"])
     # the data's speed wins, as in identify (the CLI says so)
     settings = Settings.from_config(config, speed=v_c if abs(v_c * 3.6 - kmh) > 1e-9 * kmh else None)
+    requested = names if names is not None else expand_names(settings.discover.candidates or DEFAULT_CANDIDATES)
+    names, lacking = testable_on_car(requested, settings.vehicle)
+    if not names:
+        raise DataError(f"no candidate can be tested on this car: {'; '.join(u['reason'] for u in lacking)}")
     finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
     if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > settings.spin.threshold, axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)
     verdict = dict(finder.verdict_, measured=str(measured), warnings=baseline_warnings(finder),
                    fixed=settings.uncertainty.known())
+    verdict["untestable"] = lacking + list(verdict.get("untestable", []))
     verdict["model_fits"] = not any(e["effect"] == "unrecognised" for e in verdict["effects"])
     return finder, verdict
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import re
 
-__all__ = ["HelpFormatter", "EXAMPLES", "candidate_listing", "epilog"]
+__all__ = ["HelpFormatter", "EXAMPLES", "CANDIDATES_TEXT", "candidate_listing", "epilog"]
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -29,10 +29,10 @@ EXAMPLES = {
                  "uqdrive identify runs.nc --vehicle my_car.yaml --out fit/",
                  "# the same with the effects discover found; exit 3 if the model still does not fit",
                  "uqdrive identify runs.nc --model gap/model.yaml --strict --out refit/"),
-    "discover": ("# what the linear model misses in your runs, among the config's candidates",
+    "discover": ("# what the linear model misses in your runs, among every candidate your car's constants allow",
                  "uqdrive discover runs.nc --vehicle my_car.yaml --out gap/",
-                 "# every registered candidate effect, the chassis ones included",
-                 "uqdrive discover runs.nc --vehicle my_car.yaml --candidates all --out gap/",
+                 "# the sensors' errors and a road bank only",
+                 "uqdrive discover runs.nc --candidates sensor_bias,sensor_scale,road_bank --out gap/",
                  "# only two chassis effects, no posterior sampling",
                  "uqdrive discover runs.nc --candidates longitudinal_load_transfer,compliance_steer --no-posterior --out gap/"),
     "config": ("uqdrive config --dump my.yaml      # write the default config to edit",
@@ -40,6 +40,13 @@ EXAMPLES = {
     "vehicles": ("uqdrive vehicles                   # every packaged car",
                  "uqdrive vehicles my_car.yaml       # check a vehicle file"),
 }
+
+
+#: What discover searches by default and how it reports a candidate it cannot test.
+CANDIDATES_TEXT = ("candidate effects (--candidates): the packaged config searches every one of them\n"
+                   "(discrepancy.candidates: all). One that needs a constant your car lacks (\"needs cg_height\")\n"
+                   "is not searched: the printed line and verdict.json's 'untestable' name it with the reason,\n"
+                   "as they name one that acts only on channels the data lack.\n")
 
 
 def _few_words(description: str, limit: int = 100) -> str:
@@ -70,7 +77,8 @@ def candidate_listing() -> str:
             lines += [f"  {fam}_<channel> ({effect.parameters[0].split('_', 1)[0]} [{unit}])",
                       f"      {words}: {', '.join(members)}"]
             continue
-        lines += [f"  {name} ({params})", f"      {_few_words(effect.description)}"]
+        needs = f"; needs {', '.join(effect.requires)}" if effect.requires else ""
+        lines += [f"  {name} ({params}){needs}", f"      {_few_words(effect.description)}"]
     return "\n".join(lines)
 
 

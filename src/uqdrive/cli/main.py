@@ -20,7 +20,7 @@ from pathlib import Path
 from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_folder, check_writable
-from .help_text import HelpFormatter, candidate_listing, epilog
+from .help_text import CANDIDATES_TEXT, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
 from ..settings import Settings
@@ -239,17 +239,16 @@ _model_choice.__name__ = "model (lst, nlst or a model.yaml)"
 def _add_discover(sub) -> None:
     p = sub.add_parser("discover", help="find what the model misses in an ensemble, name the effect, add it, show the gap shrink",
                        formatter_class=HelpFormatter,
-                       epilog=epilog("discover", "candidate effects (--candidates; the packaged config searches "
-                                     "discrepancy.candidates):\n" + candidate_listing() + "\n\n" + STATUS_TEXT),
+                       epilog=epilog("discover", CANDIDATES_TEXT + candidate_listing() + "\n\n" + STATUS_TEXT),
                        description="Fit the complete stochastic LST to an ensemble in the uqdrive data schema, calibrate a null "
                                    "band by parametric bootstrap, localise where the data leave it, name the missing physical "
                                    "effect among the candidates (or 'none' / 'unrecognised'), re-identify with it and write "
                                    "verdict.json, model.yaml, bands.png and localisation.png into --out.")
     p.add_argument("measured", type=Path, metavar="MEASURED.nc", help=f"ensemble in the uqdrive data schema, at least {MIN_RUNS} runs (that kept control)")
     p.add_argument("--candidates", default=None, metavar="a,b,...",
-                   help="comma-separated candidate effects or families (default: config discrepancy.candidates); every "
-                        "registered effect is listed below, a family (sensor_bias, sensor_scale) names one per channel, "
-                        "'all' every registered effect")
+                   help="comma-separated candidate effects or families (default: config discrepancy.candidates, 'all' in "
+                        "the packaged config); every registered effect is listed below, a family (sensor_bias, sensor_scale) "
+                        "names one per channel, 'all' every registered effect")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="DIR",

@@ -136,7 +136,8 @@ class Discover:
         """The settings of a config's ``discrepancy`` section (missing keys take the defaults)."""
         p = dict(d.get("posterior", {}))
         fields = {k: d[k] for k in ("model_samples", "nonlinear_samples", "bootstrap", "level", "max_times", "top", "max_effects") if k in d}
-        return cls(candidates=tuple(d["candidates"]) if "candidates" in d else None, **fields,
+        c = d.get("candidates")
+        return cls(candidates=None if c is None else (c,) if isinstance(c, str) else tuple(c), **fields,
                    posterior_enabled=bool(p.get("enabled", False)), posterior_effects=tuple(p.get("effects") or ()),
                    posterior=MappingProxyType({k: v for k, v in p.items() if k not in ("enabled", "effects")}))
 

@@ -412,7 +412,7 @@ def benchmark_cases(config: Mapping[str, Any], samples: int | None = None) -> li
                                                                                  + tables["chassis_roll"]):
         (effect, size, channel), extra = effects[0], effects[1:]  # a chassis_speed row holds the speed profile before the shift
         chassis.append(HiddenEffectCase(name, effect, size, manoeuvre, params, n, start + i, channel, shift, noise, extra=extra, speed=(speed or [()])[0]))
-    candidates = set(config["discrepancy"]["candidates"])
+    candidates = set(CHASSIS_EFFECTS) if config["discrepancy"]["candidates"] == "all" else set(config["discrepancy"]["candidates"])
     cases += [c for c in chassis if {e for e, _, _ in c.effects if e in CHASSIS_EFFECTS} <= candidates]
     st = config["steering"]
     thesis = HiddenEffectCase("thesis_nlst", "tyre_saturation", float(st["delta_max_deg"]), "slalom",

@@ -26,10 +26,8 @@ class ModelStructure:
         Linear tyre forces c alpha (5.4), or Pacejka's Magic Formula (2.2) as in the NLST (5.3).
     tyre_curvature : float or None
         Magic-Formula curvature factor E (-); None takes ``tyre.E`` of the config.
-    steering_lag : float
-        Time constant (s) of a first-order lag between commanded and actual steering angle.
-    steering_delay : float
-        Dead time (s) between commanded and actual steering angle.
+    steering_lag, steering_delay : float
+        Time constant (s) of a first-order lag, and dead time (s), between commanded and actual steering angle.
     lateral_acceleration : float
         Constant lateral acceleration (m/s^2) on the body without yaw moment (road bank: g sin phi).
     gust_scale : float
@@ -101,9 +99,8 @@ class ModelStructure:
 
     @property
     def nonlinear(self) -> bool:
-        """True when the model needs numerical integration (no exact discretisation): a
-        Magic-Formula tyre, load transfer, tyre relaxation, roll steer or combined slip
-        (compliance steer alone is linear: a softer front axle)."""
+        """True when the model needs numerical integration (no exact discretisation): a Magic-Formula tyre, load
+        transfer, tyre relaxation, roll steer or combined slip (compliance steer alone is linear: a softer front axle)."""
         return bool(self.tyre != "linear" or np.any(np.asarray(self.pitch_height) != 0) or np.any(np.asarray(self.load_sensitivity) != 0)
                     or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0)
                     or np.any(np.asarray(self.combined_slip) != 0))
@@ -116,6 +113,7 @@ class Effect:
     Subclasses implement :meth:`apply` (how the parameters enter the :class:`ModelStructure`).
     ``signature`` says in words which statistics the effect moves first; it is what a reader of
     the verdict needs to judge a candidate, not an input to the ranking (the fits rank them).
+    ``requires``: the car's optional constants (``cg_height``, ...) it needs; without them it is untestable.
     """
 
     name: str
@@ -125,6 +123,11 @@ class Effect:
     start: tuple
     description: str
     signature: str
+    requires: tuple = field(default=(), kw_only=True)
+
+    def missing(self, vehicle: Vehicle | None) -> tuple:
+        """The constants of ``requires`` that the car's settings ``vehicle`` lack."""
+        return tuple(k for k in self.requires if getattr(vehicle, k, None) is None)
 
     def apply(self, structure: ModelStructure, values) -> ModelStructure:  # pragma: no cover - abstract
         """The structure with this effect's parameters ``values`` (physical units, in ``parameters``
@@ -224,8 +227,7 @@ class LongitudinalLoadTransfer(Effect):
 
     def prior_start(self, vehicle=None):
         """The car's ``cg_height`` where given."""
-        h = None if vehicle is None else vehicle.cg_height
-        return self.start if h is None else (float(h),)
+        return self.start if getattr(vehicle, "cg_height", None) is None else (float(vehicle.cg_height),)
 
 
 class LateralLoadTransfer(Effect):
@@ -278,10 +280,9 @@ def channel_effects(kind: str) -> dict[str, Effect]:
     out = {}
     for ch in SENSOR_CHANNELS:
         if kind == "sensor_bias":
-            b = _BIAS_BOUND[ch]
             out[f"sensor_bias_{ch}"] = SensorBias(
                 f"sensor_bias_{ch}", (f"offset_{ch}",), (_UNITS[ch],),
-                ((-b, b),), (0.0,), f"constant offset on the measured {ch}",
+                ((-_BIAS_BOUND[ch], _BIAS_BOUND[ch]),), (0.0,), f"constant offset on the measured {ch}",
                 f"{ch}: mean shifted by a constant at every time, std unchanged, other channels untouched", channel=ch)
         else:
             out[f"sensor_scale_{ch}"] = SensorScale(
@@ -325,14 +326,14 @@ EFFECTS: dict[str, Effect] = {
         "F_zf = m (g l_r - a_x h) / L with a_x = -tan(beta) a_y (and v' cos(beta) along a speed profile); "
         "h the centre-of-gravity height",
         "grows with psi_dot * beta: the yaw-rate gain and beta change where the side slip is large, "
-        "nothing in straight driving; stronger with a saturating tyre"),
+        "nothing in straight driving; stronger with a saturating tyre", requires=("cg_height",)),
     "lateral_load_transfer": LateralLoadTransfer(
         "lateral_load_transfer", ("chi_f", "p_Dz"), ("-", "-"), ((0.0, 1.0), (-1.0, 0.0)), (0.55, -0.1),
         "load moved from the inner to the outer wheels by the roll moment of the tyres' lateral force T, h T / t "
         "split chi_f : 1 - chi_f front : rear, "
         "with a load-sensitive tyre peak mu F_z (1 + p_Dz dfz): the axle's force falls by p_Dz (dF / F_z0)^2",
         "psi_dot and beta peaks change quadratically in the lateral acceleration (none at small a_y); "
-        "chi_f > l_r / L adds understeer"),
+        "chi_f > l_r / L adds understeer", requires=("cg_height", "track_width")),
     "compliance_steer": ComplianceSteer(
         "compliance_steer", ("K",), ("deg/g",), ((-1.0, 3.0),), (0.3,),
         "front wheels yield to their lateral force: -K per g of F_f / F_zf,static (at steady cornering -K a_y / g, "
@@ -393,15 +394,14 @@ def effect(name: str) -> Effect:
     try:
         return EFFECTS[name]
     except KeyError:
-        known = sorted(set(EFFECTS) | set(FAMILIES))
-        raise KeyError(f"unknown effect '{name}'; known effects: {', '.join(known)}") from None
+        raise KeyError(f"unknown effect '{name}'; known effects: {', '.join(sorted(set(EFFECTS) | set(FAMILIES) | {'all'}))}") from None
 
 
 def expand_names(names) -> list[str]:
-    """Registry names of ``names``, with families expanded (order kept, duplicates dropped)."""
+    """Registry names of ``names`` (``"all"``: every effect), families expanded (order kept, duplicates dropped)."""
     out: list[str] = []
-    for n in names:
-        for m in FAMILIES.get(n, (n,)):
+    for n in [names] if isinstance(names, str) else names:
+        for m in EFFECTS if n == "all" else FAMILIES.get(n, (n,)):
             effect(m)
             if m not in out:
                 out.append(m)
