@@ -21,7 +21,7 @@ from ..vehicle_spec import OPTIONAL_QUANTITIES
 from ..settings import Settings, Vehicle
 
 __all__ = ["MIN_SAMPLES", "SEPARATING_INPUTS", "separating_inputs", "discover_file", "discover_dataset", "baseline_warnings", "write_outputs",
-           "testable_on_car"]
+           "candidates_for_car"]
 
 #: Fewer realisations give moment statistics too noisy for a verdict; the null band is bootstrapped
 #: at the data's own run count, so it widens as the runs get fewer.
@@ -53,7 +53,7 @@ def _checked_candidates(candidates: Sequence[str] | None):
         raise DataError(str(err).strip("'\"")) from None
 
 
-def testable_on_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str], list[dict]]:
+def candidates_for_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str], list[dict]]:
     """The candidates ``names`` (registry names) whose required constants (``Effect.requires``) the
     car's settings ``vehicle`` give, and an ``untestable`` entry {"effect", "registry_name",
     "reason", "needs"} for each of the others: searching them would need a value the car lacks."""
@@ -109,7 +109,7 @@ def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: S
     # the data's speed wins, as in identify (the CLI says so)
     settings = Settings.from_config(config, speed=v_c if abs(v_c * 3.6 - kmh) > 1e-9 * kmh else None)
     requested = names if names is not None else expand_names(settings.discover.candidates or DEFAULT_CANDIDATES)
-    names, lacking = testable_on_car(requested, settings.vehicle)
+    names, lacking = candidates_for_car(requested, settings.vehicle)
     if not names:
         raise DataError(f"no candidate can be tested on this car: {'; '.join(u['reason'] for u in lacking)}")
     finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start)
