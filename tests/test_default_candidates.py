@@ -29,6 +29,16 @@ def test_the_packaged_default_searches_every_registered_candidate():
     assert set(listed) == set(EFFECTS) | set(FAMILIES) | {"all"}
 
 
+def test_every_required_constant_is_an_optional_quantity_of_the_car():
+    """An effect's ``requires`` names constants the car's settings hold and the vehicle file
+    documents (the untestable reason is worded from them); the two load transfers require some."""
+    from uqdrive.settings import Vehicle
+    from uqdrive.vehicle_spec import OPTIONAL_QUANTITIES
+
+    required = {k for e in EFFECTS.values() for k in e.requires}
+    assert required and required <= set(OPTIONAL_QUANTITIES) <= set(Vehicle.__dataclass_fields__)
+
+
 def test_an_effect_is_untestable_exactly_when_the_car_lacks_what_it_requires(tmp_path):
     """The thesis car has no cg_height nor track_width: the two load transfers are set aside with
     the constant each lacks; with cg_height the longitudinal one is searched, the lateral one

@@ -3,7 +3,7 @@
 Errors name the offending key (dotted) and say how to fix it; a config hash goes into provenance.
 Beyond the schema: every number finite, physical ranges of what the models read
 (:data:`PHYSICAL_RANGES`) and cross-field checks. The default configuration ships inside the
-package (``default_config.yaml``, a byte-for-byte copy of the repository's ``config/config.yaml``).
+package (``default_config.yaml``: the repository's ``config/config.yaml`` searching every candidate).
 A validated config holds the car in the model's internal terms: a ``vehicle_file`` is applied and
 the vehicle section's engineering keys are converted by :mod:`uqdrive.vehicle_spec`.
 """
