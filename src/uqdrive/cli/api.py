@@ -194,7 +194,9 @@ class Verdict:
         v = self.document
         named = ", ".join(e["effect"] for e in v["effects"]) or v["effect"]
         where = f"wrote {Path(out) / 'verdict.json'}: " if out is not None else ""
-        untested = [f"{u['registry_name']} (needs {', '.join(u['needs']) if u.get('needs') else 'other channels'})" for u in v.get("untestable", [])]
+        from ..vehicle.effects import acts_on  # an entry without "needs" lacks the channels the effect acts on
+
+        untested = [f"{u['registry_name']} (needs {', '.join(u.get('needs') or acts_on(u['registry_name']) or ())})" for u in v.get("untestable", [])]
         return (f"{where}effects {named}" + (f" (first ambiguous with {', '.join(v['ambiguous_with'])})" if v["ambiguous_with"] else "")
                 + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)"
                 + (f"; untestable: {', '.join(untested)}" if untested else ""))
