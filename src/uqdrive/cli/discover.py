@@ -65,7 +65,8 @@ def candidates_for_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str
             continue
         what = " and ".join(f"{k} ({OPTIONAL_QUANTITIES[k][1]}, {OPTIONAL_QUANTITIES[k][0]})" for k in missing)
         untestable.append({"effect": family_of(name), "registry_name": name, "needs": list(missing),
-                           "reason": f"{name}: the car gives no {what}; add it to the vehicle file (or the config's vehicle section) to test this effect"})
+                           "reason": f"{name}: the car gives no {what}; add {'them' if len(missing) > 1 else 'it'} "
+                                     "to the vehicle file (or the config's vehicle section) to test this effect"})
     return keep, untestable
 
 
