@@ -56,7 +56,7 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="reduced discover settings (docs/discovery.md), no posterior")
     parser.add_argument("--keep", type=Path, help="copy discover's output folder (verdict.json, figures) to this new folder")
     args = parser.parse_args(argv)
-    config = load_config(None)
+    config = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")  # the reproduction's candidates
     if args.chassis:
         config["vehicle"].update(CHASSIS_CAR)
         config["discrepancy"]["candidates"] = list(config["discrepancy"]["candidates"]) + list(CHASSIS)

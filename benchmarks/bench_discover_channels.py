@@ -23,6 +23,7 @@ import dataclasses
 import json
 import time
 from collections import defaultdict
+from pathlib import Path
 
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
@@ -62,7 +63,7 @@ def main():
     parser.add_argument("--sets", default="all,imu,imu_speed")
     parser.add_argument("--cases", default=None, help="comma-separated case names (default: the part's)")
     args = parser.parse_args()
-    config = load_config(None)
+    config = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")  # the reproduction's candidates
     config = copy.deepcopy(config)
     config["discrepancy"].update(SETTINGS, posterior={"enabled": False})
     cases = {c.name: c for c in benchmark_cases(config)}

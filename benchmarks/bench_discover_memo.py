@@ -15,6 +15,7 @@ import argparse
 import dataclasses
 import json
 import time
+from pathlib import Path
 
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
@@ -61,7 +62,7 @@ def main(argv=None):
     parser.add_argument("--cells", default=CELLS, help="case:channel_set:runs, comma separated")
     parser.add_argument("--repeats", type=int, default=2)
     args = parser.parse_args(argv)
-    config = load_config(None)
+    config = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")  # the reproduction's candidates
     cases = {c.name: c for c in benchmark_cases(config)}
     rows, warm = [], False
     for cell in args.cells.split(","):

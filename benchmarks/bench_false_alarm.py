@@ -56,7 +56,7 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=Path("false_alarm.json"))
     ap.add_argument("--resume", action="store_true")
     args = ap.parse_args(argv)
-    config = load_config(None)
+    config = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")  # the reproduction's candidates
     templates = null_templates(config, args.samples)
     rows = json.loads(args.out.read_text())["runs"] if args.resume and args.out.exists() else []
     for i in range(len(rows), args.replicates):
