@@ -112,3 +112,14 @@ def test_a_candidate_set_the_car_cannot_test_at_all_is_refused(tmp_path, capsys)
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "add it to the vehicle file" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_discover_help_says_what_is_searched_by_default_and_what_each_effect_needs():
+    from uqdrive.cli.main import build_parser
+
+    text = " ".join(build_parser()._subparsers._group_actions[0].choices["discover"].format_help().split())
+    assert "the packaged config searches every one of them (discrepancy.candidates: all)" in text
+    assert "verdict.json's 'untestable' name it with the reason" in text
+    for name, e in EFFECTS.items():
+        if e.requires:
+            assert f"{name} ({', '.join(f'{p} [{u}]' for p, u in zip(e.parameters, e.units))}); needs {', '.join(e.requires)}" in text
