@@ -14,6 +14,8 @@ The convention the README follows (and this file checks):
   may carry it, and every fenced block that shows a command is either a console block or marked.
 * The tour's prose quotes no decimal number that its console blocks do not print, so that a
   number in the text cannot drift from the run.
+* The tour's figures in the docs (``tools/tour_figures.py`` copies them from the tour's discover
+  folder) equal, pixel for pixel, the ones this run draws.
 
 The runs are seeded (the config's ``seed``), so the lines match exactly; no tolerance is used.
 """
@@ -26,9 +28,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+import tour_figures  # noqa: E402
+
+sys.path.pop(0)
 README = ROOT / "README.md"
 NOT_RUN_MARK = "<!-- console: not run -->"
 #: The only commands a marked block may hold: a full reproduction, the test suite, the docs build
@@ -161,6 +169,11 @@ def test_every_console_block_prints_what_the_readme_shows(tmp_path):
         assert run.returncode == 0, f"$ {command}\nexit status {run.returncode}:\n{run.stdout[-3000:]}"
         bad = mismatches(shown, printed)
         assert not bad, f"$ {command}\nprints other lines than the README shows (paste the printed ones):\n" + "\n".join(bad)
+    folder = next(c.split("--out", 1)[1].split()[0] for c, _ in steps if c.startswith("uqdrive discover"))
+    for name, target in tour_figures.FIGURES.items():
+        drawn, committed = plt.imread(work / folder / name), plt.imread(ROOT / "docs" / target)
+        assert drawn.shape == committed.shape and np.array_equal(drawn, committed), (
+            f"docs/{target} is not the tour's {name}: run `python tools/tour_figures.py`")
     printed_numbers = set(re.findall(r"\d+\.\d+", "\n".join(printed_all)))
     stray = tour_prose_numbers(text) - printed_numbers
     assert not stray, f"the tour's prose quotes numbers its commands do not print: {sorted(stray)}"
