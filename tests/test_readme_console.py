@@ -151,7 +151,7 @@ def _shim(folder: Path) -> Path:
     return bin_
 
 
-@pytest.mark.long(60)
+@pytest.mark.long(90)
 def test_every_console_block_prints_what_the_readme_shows(tmp_path):
     text = README.read_text(encoding="utf-8")
     steps = [s for lang, _, lines, marked in blocks(text) if lang == "console" and not marked for s in session(lines)]
