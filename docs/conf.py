@@ -25,11 +25,15 @@ sys.path.insert(0, str(HERE))
 import equations  # noqa: E402
 import generated_tables  # noqa: E402
 import import_example  # noqa: E402
+import measured_tables  # noqa: E402
 import your_car_example  # noqa: E402
 
 equations.write_index(HERE.parent / "src" / "uqdrive", HERE / "api" / "generated" / "equations.md")
 # The candidate effects of discover (from the registry) and the workflow's rules (from its files).
 generated_tables.write_all(HERE.parent, HERE / "api" / "generated")
+# The measurements no build can repeat (benchmarks, cluster runs), from their committed records in
+# docs/measurements/, with what the code defines (declared resources, binomial bands) computed.
+measured_tables.write_all(HERE.parent, HERE / "api" / "generated")
 # The import guide's worked example runs here: its logs, the import and the identification, so
 # that every number the page shows comes from this build (docs/import_example.py).
 import_example.write_example(HERE / "api" / "generated" / "import_example.md")
@@ -57,7 +61,7 @@ templates_path = ["_templates"]
 # Topic pages are Markdown; headings get anchors so that pages can link to sections.
 myst_enable_extensions = ["colon_fence", "deflist", "dollarmath", "substitution"]
 # Numbers quoted in running text ({{ min_runs }}), read from the code at build time.
-myst_substitutions = generated_tables.substitutions()
+myst_substitutions = {**generated_tables.substitutions(), **measured_tables.substitutions(HERE.parent)}
 myst_heading_anchors = 3
 
 # API reference: one page per public module, written at build time into api/generated

@@ -115,7 +115,7 @@ class Estimate:
         return _json(self.document)
 
     def plot(self):
-        """fit.png as a matplotlib Figure: measured mean +- 3 std per channel against the model's."""
+        """fit.png as a matplotlib Figure: measured mean +- 2 std per channel against the model's."""
         return self._draw(None)
 
     def summary(self, out: str | Path | None = None) -> str:

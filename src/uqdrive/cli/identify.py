@@ -290,8 +290,8 @@ def identify_dataset(config: Mapping[str, Any], ds, source: str, cost: str = "st
     })
     if flagged is not None:
         summary["spun_in_file_indices"] = flagged
-    moments, title = est.moments_, f"Identified model vs measured ensemble, mean +- 3 std: {fit_status(summary)}"
-    return summary, lambda path=None: _figure(stats, moments, path, title)
+    moments, status = est.moments_, fit_status(summary)
+    return summary, lambda path=None: _figure(stats, moments, path, status)
 
 
 def fit_status(summary: Mapping[str, Any]) -> str:
@@ -382,9 +382,9 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, fi
         raise
 
 
-def _figure(stats, moments, path, title="Identified model vs measured ensemble, mean +- 3 std"):
-    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments
-    (saved to ``path``; returned as a Figure when ``path`` is None)."""
+def _figure(stats, moments, path, status=None):
+    """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments, the
+    fit's ``status`` in the title (saved to ``path``; returned as a Figure when ``path`` is None)."""
     model = None if moments is None else (moments.mean, moments.std)
-    return fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path, title=title,
-                      channels=[str(c) for c in stats["state"].values])
+    return fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path,
+                      channels=[str(c) for c in stats["state"].values], status=status)

@@ -23,6 +23,7 @@ from ..inference.sampling import run_influence, sampling_errors
 from ..io import DataError, check_run_count, read_ensemble, speed_profile
 from ..rng import rng_stream
 from ..vehicle.augmented import AugmentedSimulator
+from ..vehicle.channels import CHANNELS
 from ..vehicle.effects import EFFECTS, ModelStructure, structure_from_effects
 from ..vehicle.montecarlo import STEERS, spin_mask
 from ..vehicle.noise import estimate_noise_variance
@@ -203,7 +204,8 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
                         f"{'lacks ' + ', '.join(missing) if missing else 'has a changing v'}: identify it without --model")
     if "v_c" not in ds.attrs:
         ds.attrs["v_c"] = float(np.ravel(ds["v"].values)[0])
-    x = np.stack([np.asarray(ds[s].values, float) for s in STATES])
+    channels = tuple(c for c in CHANNELS if c in ds)  # the four states, and a_y where measured (fitted as discover does)
+    x = np.stack([np.asarray(ds[s].values, float) for s in channels])
     thr = config["montecarlo"]["spin_threshold"]
     spun = spin_mask(x[2], thr)
     keep = ~spun if config["montecarlo"]["spin_policy"] == "exclude" else np.ones_like(spun)
@@ -211,10 +213,10 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
         raise DataError(f"{measured}: fewer than 2 realisations kept control; nothing to identify")
     x = x[:, keep]
     t = ds["time"].values
-    noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(4)])
+    noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(len(channels))])
     stride = max(1, int(np.ceil((t.size - 1) / 150)))
     sim = AugmentedSimulator.drawn(Settings.from_config(config), t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
-                                   interpolation=str(ds["delta"].attrs.get("interpolation", "linear")))
+                                   interpolation=str(ds["delta"].attrs.get("interpolation", "linear")), channels=channels)
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])
     measured_stats = moment_statistics(x, index)
@@ -252,9 +254,9 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
                "message": fit.message_, "measured": str(measured)}
     time = sim.output_time[index]
     model_stats = fit.statistics_
-    title = f"Identified augmented model vs measured ensemble, mean +- 3 std: {fit_status(summary)}"
+    status = fit_status(summary)
     draw = lambda p=None: fit_figure(time, measured_stats[0], measured_stats[1], (model_stats[0], model_stats[1]), p,  # noqa: E731
-                                     title=title)
+                                     title="Identified augmented model vs measured ensemble", channels=channels, status=status)
     if out is None:
         return summary, draw
     write_outputs(out, summary, draw)

@@ -8,15 +8,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..studies.discrepancy import detection_limits
-from ..vehicle.channels import CHANNEL_UNITS
+from ..vehicle.channels import CHANNEL_NAMES
 from ..vehicle.single_track import STATES
-from .figure import label_state, state_axes, time_axis
+from .figure import BAND_SIGMAS, channel_grid, grid_legend
 
-__all__ = ["bands_before_after", "localisation_map", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect",
+__all__ = ["bands_before_after", "localisation_map", "threshold_outlines", "confusion_matrix", "detection_vs_magnitude", "combined_confusion", "gap_per_effect",
            "channel_detection_table"]
 
 
-def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = 2.0, channels=STATES):
+def bands_before_after(time, measured, before, after, effect: str, band_sigmas: float = BAND_SIGMAS, channels=STATES):
     """Measured mean +- k std against the baseline and the augmented model, per measured channel.
 
     Parameters
@@ -24,29 +24,57 @@ def bands_before_after(time, measured, before, after, effect: str, band_sigmas: 
     time : ndarray, shape (K,)
     measured, before, after : ndarray, shape (2, C, K)
         [mean, std] of the data, the baseline model and the augmented model.
+    effect : str
+        The named effect (or ``none``), for the title and the legend.
+    band_sigmas : float
+        Half-width of the bands in standard deviations (the one convention of fit.png too).
     channels : sequence of str
         The C measured channels (default the four states).
     """
-    title = f"Measured vs model, mean +- {band_sigmas:g} std: baseline (LST) and with '{effect}'"
-    fig, axes = state_axes(nrows=(len(channels) + 1) // 2, ncols=2 if len(channels) > 1 else 1, title=title)
-    for ax in axes[len(channels):]:
-        ax.remove()
-    axes = axes[: len(channels)]
-    for i, (ax, state) in enumerate(zip(axes, channels)):
+    k = f"{band_sigmas:g}"
+    title = f"Measured vs model, mean +- {k} std: the baseline (LST) and with '{effect}'"
+    fig, axes, spare = channel_grid(channels, title)
+    for i, ax in enumerate(axes):
         m, s = measured[0, i], measured[1, i]
-        ax.fill_between(time, m - band_sigmas * s, m + band_sigmas * s, color="0.75", label="measured")
-        ax.plot(time, m, color="k", lw=1.0)
+        ax.fill_between(time, m - band_sigmas * s, m + band_sigmas * s, color="0.8", label=f"measured mean +- {k} std")
+        ax.plot(time, m, color="k", lw=1.0, label="measured mean")
         for stats, colour, name in ((before, "C3", "baseline"), (after, "C0", f"with {effect}")):
-            ax.plot(time, stats[0, i], color=colour, lw=1.0, label=name)
-            ax.plot(time, stats[0, i] + band_sigmas * stats[1, i], color=colour, lw=0.6, ls="--")
-            ax.plot(time, stats[0, i] - band_sigmas * stats[1, i], color=colour, lw=0.6, ls="--")
-        label_state(ax, state)
-    axes[0].legend(fontsize=7)
-    return time_axis(fig, axes)
+            ax.plot(time, stats[0, i], color=colour, lw=1.0, label=f"{name} mean")
+            ax.plot(time, stats[0, i] + band_sigmas * stats[1, i], color=colour, lw=0.7, ls="--", label=f"{name} mean +- {k} std")
+            ax.plot(time, stats[0, i] - band_sigmas * stats[1, i], color=colour, lw=0.7, ls="--")
+    grid_legend(fig, axes, spare)
+    return fig
+
+
+def threshold_outlines(values, threshold: float):
+    """The cells above ``threshold``, row by row: (row, first index, last index) of each run of
+    consecutive cells of a row whose value exceeds it (a row's runs never join another row's).
+
+    Parameters
+    ----------
+    values : ndarray, shape (R, K)
+        A non-negative map, one row per signal and statistic.
+    threshold : float
+        The level (same units).
+
+    Returns
+    -------
+    list of tuple of int
+    """
+    runs = []
+    for r, row in enumerate(np.asarray(values) > threshold):
+        edges = np.diff(np.concatenate([[0], row.astype(int), [0]]))
+        runs += [(r, int(a), int(b) - 1) for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))]
+    return runs
 
 
 def localisation_map(time, z, threshold: float, title: str = "Localisation of the gap", channels=STATES):
-    """|z| of the baseline per signal and statistic over time, with the scan threshold.
+    """|z| of the baseline per signal and statistic over time, the cells above the scan
+    threshold outlined row by row.
+
+    The colour scale stops at three times the threshold (brighter cells are all "far beyond
+    it"), so that a few very large cells, e.g. early in a run where the spread is small and the
+    mean is pinned to a small fraction of itself, do not leave the rest of the map dark.
 
     Parameters
     ----------
@@ -58,18 +86,25 @@ def localisation_map(time, z, threshold: float, title: str = "Localisation of th
     channels : sequence of str
         The measured channels (default the four states).
     """
+    from matplotlib.patches import Rectangle
+
     rows = [f"{s} {stat}" for stat in ("mean", "std") for s in channels]
     values = np.abs(np.asarray(z)).reshape(len(rows), -1)
-    fig, ax = plt.subplots(figsize=(10, 4), constrained_layout=True)
-    top = max(float(values.max()), threshold * 1.5)
+    time = np.asarray(time, float)
+    fig, ax = plt.subplots(figsize=(10, 1.2 + 0.42 * len(rows)), constrained_layout=True)
+    top = 3.0 * threshold
     mesh = ax.pcolormesh(time, np.arange(len(rows)), values, shading="nearest", cmap="magma", vmin=0, vmax=top)
-    if len(rows) > 1:  # a contour needs a 2-D grid
-        ax.contour(time, np.arange(len(rows)), values, levels=[threshold], colors="c", linewidths=0.8)
-    ax.set_yticks(np.arange(len(rows)), [f"{r} [{CHANNEL_UNITS[r.split()[0]]}]" for r in rows], fontsize=8)
+    step = float(np.median(np.diff(time))) if time.size > 1 else 1.0
+    for r, a, b in threshold_outlines(values, threshold):
+        ax.add_patch(Rectangle((time[a] - step / 2, r - 0.5), time[b] - time[a] + step, 1.0, fill=False, edgecolor="c", lw=0.9))
+    ax.axhline(len(channels) - 0.5, color="w", lw=1.5)  # the means below, the stds above
+    ax.set_yticks(np.arange(len(rows)), [f"{CHANNEL_NAMES[r.split()[0]]}: {r.split()[1]}" for r in rows], fontsize=8)
+    ax.set_ylim(-0.5, len(rows) - 0.5)
     ax.set_xlabel("time [s]")
-    cb = fig.colorbar(mesh, ax=ax)
-    cb.set_label("|z| [units of the null band]")
-    ax.set_title(f"{title} (cyan: family-wise threshold {threshold:.2f})")
+    cb = fig.colorbar(mesh, ax=ax, extend="max" if values.max() > top else "neither")
+    cb.set_label("|z|: gap in units of the null band")
+    ax.set_title(f"{title}: |measured - baseline| per signal and statistic\n"
+                 f"cyan outlines: the cells above the family-wise threshold {threshold:.2f}", fontsize=10)
     return fig
 
 

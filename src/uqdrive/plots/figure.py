@@ -16,7 +16,11 @@ import numpy as np  # noqa: E402
 from ..io import atomic_path  # noqa: E402
 from ..vehicle.channels import CHANNEL_NAMES, CHANNEL_UNITS  # noqa: E402
 
-__all__ = ["save_figure", "state_axes", "time_axis", "label_state"]
+__all__ = ["save_figure", "state_axes", "time_axis", "label_state", "channel_grid", "grid_legend", "BAND_SIGMAS"]
+
+#: Half-width, in standard deviations, of every ensemble band uqdrive draws (fit.png, bands.png):
+#: about 95 % of a normal channel's runs lie inside it.
+BAND_SIGMAS = 2.0
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> None:
@@ -52,3 +56,40 @@ def label_state(ax, state):
     ax.set_ylabel(f"{state} [{CHANNEL_UNITS[state]}]")
     ax.set_title(CHANNEL_NAMES[state])
     ax.grid(alpha=0.3)
+
+
+def channel_grid(channels, title=""):
+    """One panel per channel in two columns, each with its own time tick labels, the last row
+    of each column labelled with time, a spare last panel (odd counts) kept for the legend.
+
+    Returns the figure, the channels' axes (in ``channels`` order) and the spare axes or None.
+    """
+    channels = list(channels)
+    ncols = 2 if len(channels) > 1 else 1
+    nrows = -(-len(channels) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.3 * nrows + 1.2), sharex=True, constrained_layout=True, squeeze=False)
+    if title:
+        fig.suptitle(title)
+    flat = axes.ravel()
+    for ax in flat:
+        ax.tick_params(labelbottom=True)  # a reader of an upper panel sees its times too
+    for ax in flat[max(len(channels) - ncols, 0):len(channels)]:
+        ax.set_xlabel("time [s]")
+    spare = flat[len(channels)] if len(flat) > len(channels) else None
+    for ax in flat[len(channels) + 1:]:
+        ax.remove()
+    if spare is not None:
+        spare.axis("off")
+    for ax, channel in zip(flat, channels):
+        label_state(ax, channel)
+    return fig, flat[: len(channels)], spare
+
+
+def grid_legend(fig, axes, spare):
+    """The legend of the first panel, in the spare panel where there is one, else below the
+    panels, so that it covers no band."""
+    handles, labels = axes[0].get_legend_handles_labels()
+    if spare is not None:
+        spare.legend(handles, labels, loc="center", fontsize=9, frameon=False)
+    else:
+        fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 4), fontsize=8, frameon=False)

@@ -1,18 +1,18 @@
-"""fit.png of ``uqdrive identify``: the measured mean +- 3 std of each channel against the
+"""fit.png of ``uqdrive identify``: the measured mean +- 2 std of each channel against the
 identified model's, with the fit's status in the title."""
 
 from __future__ import annotations
 
-from ..vehicle.channels import CHANNEL_UNITS
-from ..vehicle.single_track import STATE_UNITS, STATES
-from .figure import save_figure, state_axes
+from ..vehicle.single_track import STATES
+from .figure import BAND_SIGMAS, channel_grid, grid_legend, save_figure
 
 __all__ = ["fit_figure"]
 
 
-def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble: mean +- 3 std",
-               channels=STATES):
-    """fit.png: measured mean +- 3 std per channel (band) and the model's (lines).
+def fit_figure(time, measured_mean, measured_std, model, path, title="Identified model vs measured ensemble", channels=STATES,
+               status=None):
+    """fit.png: measured mean +- 2 std per channel (band) and the model's (lines), the bands of
+    bands.png (:data:`~uqdrive.plots.figure.BAND_SIGMAS`).
 
     Parameters
     ----------
@@ -25,30 +25,24 @@ def fit_figure(time, measured_mean, measured_std, model, path, title="Identified
     path : path of the PNG, or None
         None: the Figure is returned instead of saved.
     title : str
-        Figure title.
+        What the figure compares; the band's width and the status follow it.
     channels : sequence of str, length C
         The channels' names, in the order of the rows.
+    status : str, optional
+        The fit's status in words (:func:`uqdrive.cli.identify.fit_status`), on the title's second line.
     """
-    channels = list(channels)
-    fig, axes = state_axes(nrows=(len(channels) + 1) // 2 if len(channels) > 1 else 1, ncols=2 if len(channels) > 1 else 1,
-                           title=title)
-    for ax in axes[len(channels):]:
-        ax.axis("off")  # a spare panel holds the legend
-    for i, (ax, state) in enumerate(zip(axes, channels)):
+    k = f"{BAND_SIGMAS:g}"
+    heading = f"{title}, mean +- {k} std" + (f"\nfit: {status}" if status else "")
+    fig, axes, spare = channel_grid(channels, heading)
+    for i, ax in enumerate(axes):
         m, s = measured_mean[i], measured_std[i]
-        ax.fill_between(time, m - 3 * s, m + 3 * s, color="C0", alpha=0.25, label="measured mean +- 3 std")
-        ax.plot(time, m, color="C0", label="measured mean")
+        ax.fill_between(time, m - BAND_SIGMAS * s, m + BAND_SIGMAS * s, color="0.8", label=f"measured mean +- {k} std")
+        ax.plot(time, m, color="k", lw=1.0, label="measured mean")
         if model is not None:
-            ax.plot(time, model[0][i], "C3--", label="identified mean")
-            ax.plot(time, model[0][i] + 3 * model[1][i], "C3:", lw=0.8, label="identified +- 3 std")
-            ax.plot(time, model[0][i] - 3 * model[1][i], "C3:", lw=0.8)
-        ax.set_title(f"{state} [{STATE_UNITS[state] if state in STATES else CHANNEL_UNITS[state]}]")
-        ax.grid(alpha=0.3)
-    for ax in axes[max(len(channels) - 2, 0):len(channels)]:
-        ax.set_xlabel("time [s]")
-        ax.tick_params(labelbottom=True)  # the last row of each column, also above a hidden panel
-    spare = axes[len(channels):]
-    (spare[0].legend(*axes[0].get_legend_handles_labels(), loc="center") if len(spare) else axes[0].legend(fontsize=8))
+            ax.plot(time, model[0][i], color="C3", lw=1.0, label="identified model mean")
+            ax.plot(time, model[0][i] + BAND_SIGMAS * model[1][i], color="C3", lw=0.7, ls="--", label=f"identified model mean +- {k} std")
+            ax.plot(time, model[0][i] - BAND_SIGMAS * model[1][i], color="C3", lw=0.7, ls="--")
+    grid_legend(fig, axes, spare)
     if path is None:
         return fig
     save_figure(fig, path)
