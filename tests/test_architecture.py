@@ -163,3 +163,36 @@ def test_the_config_reader_check_can_fail():
                "def k(finder):\n    return finder.config['seed']\n")
     assert len(_config_readers(planted)) == 5
     assert _config_readers("def f(settings):\n    self.settings = settings\n") == []
+
+
+#: Packages whose modules talk to each other's classes through public methods only.
+NARROW_INTERFACES = ("inference/discrepancy",)
+
+
+def _private_reach_ins(source: str) -> list[str]:
+    """Uses of another object's private attribute (``finder._chi2``, ``f._joint = ...``): an
+    attribute named ``_x`` (not a dunder) on anything but ``self``, ``cls`` or ``super()``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+            owner = node.value
+            if isinstance(owner, ast.Name) and owner.id in ("self", "cls"):
+                continue
+            if isinstance(owner, ast.Call) and isinstance(owner.func, ast.Name) and owner.func.id == "super":
+                continue
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return found
+
+
+def test_discovery_parts_use_each_other_through_public_methods():
+    """The finder orchestrates; the comparison, the candidate fitter, the selection and the verdict
+    call each other's public methods and return data, never reach into another's private state."""
+    reach = [f"{p.relative_to(PACKAGE_ROOT)} {r}" for part in NARROW_INTERFACES for p in sorted((PACKAGE_ROOT / part).rglob("*.py"))
+             for r in _private_reach_ins(p.read_text())]
+    assert not reach, "give the other part a public method:\n" + "\n".join(reach)
+
+
+def test_the_reach_in_check_can_fail():
+    planted = ("def f(finder, ctx):\n    finder._joint(ctx)\n    finder.steps_.append(finder._chi2(ctx))\n"
+               "class A(B):\n    def g(self):\n        self._x = super()._y()\n        return type(self)._z, self.__class__\n")
+    assert [r.split(": ", 1)[1] for r in _private_reach_ins(planted)] == ["finder._joint", "finder._chi2", "type(self)._z"]
