@@ -26,7 +26,7 @@ from ..vehicle.montecarlo import STEERS, simulate_ensemble, wind_kle
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.statistics import kl_divergence_series
 from ..vehicle.single_track import STATES, steering_input
-from .experiments import EXPERIMENTS
+from .experiments import EXPERIMENTS, experiment_provenance, experiment_settings
 from ..settings import Settings, TimeGrid
 
 __all__ = ["MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan",
@@ -138,7 +138,7 @@ def run_experiment(
         Per run, a substitution of data keys (the noise test uses one data set per run).
     """
     ident = config["identification"]
-    settings = Settings.from_config(config)
+    settings = experiment_settings(Settings.from_config(config), name)
     truth = settings.uncertainty.theta(UNCERTAIN)
     m_true = settings.uncertainty.m_load.mean
     n_runs, n_tasks = len(deviations), len(tasks)
@@ -182,7 +182,7 @@ def run_experiment(
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
             "state_scales": ",".join(sorted({t.state_scale or settings.identify.scale() for t in tasks})),
-            "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
+            "seed": int(config["seed"]), "config_hash": config_hash(experiment_provenance(config, name)), "uqdrive_version": __version__,
         },
     )
 
