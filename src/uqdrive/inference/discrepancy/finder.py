@@ -23,7 +23,7 @@ from .fit import SimulationMemo
 from .fitter import CandidateFitter, nonlinear
 from .posterior import AugmentedPosterior
 from .selection import backward_check, forward_selection, size_check
-from .separate import suggest_input
+from .separate import separating_inputs
 from .verdict import assemble_verdict, model_document
 
 __all__ = ["DEFAULT_CANDIDATES", "family_of", "DiscrepancyFinder"]
@@ -216,7 +216,8 @@ class DiscrepancyFinder:
             self.departures_ = departures(comparison, fitter, final, band) if self.steps_ else {}
         self.augmented_, self.augmented_band_ = final, final_band
         self.verdict_ = assemble_verdict(self, base, band, stat0, significant, data)
-        self.verdict_["separating_input"] = self._separating_input(delta, n)
+        self.verdict_["separating_input"] = separating_inputs(self.fits_, self.verdict_["evidence"]["registry_name"], self.verdict_["ambiguous_with"],
+                                                             self.inputs, delta, n)
         if self.log is not None:
             self.log(f"discover: verdict {[e['effect'] for e in self.verdict_['effects']] or self.verdict_['effect']}, "
                      f"gap {self.verdict_['gap_before']:.3g} -> {self.verdict_['gap_after']:.3g}")
@@ -229,15 +230,6 @@ class DiscrepancyFinder:
         self.verdict_["evidence"]["seconds"] = round(_time.perf_counter() - clock, 1)
         self.verdict_["evidence"]["stage_seconds"] = {k: round(v, 1) for k, v in stages.items()}
         return self
-
-    def _separating_input(self, delta, n):
-        """Per candidate ambiguous with the first named one: the input that tells them apart best."""
-        chosen = self.verdict_["evidence"]["registry_name"]
-        ambiguous = set(self.verdict_["ambiguous_with"])
-        pairs = [(chosen, c) for c in self.fits_ if c != chosen and family_of(c) in ambiguous]
-        if not (pairs and self.inputs):
-            return []
-        return suggest_input(self.fits_, pairs, {"measured": delta, **dict(self.inputs)}, n)
 
     def _wants_posterior(self, effect: str) -> bool:
         if self.posterior is not None:
