@@ -10,7 +10,7 @@ from uqdrive.dependencies import PACKAGE_ROOT, _import_nodes, import_graph, modu
 # Layer of each top-level part of the package; a module may import its own layer or lower ones.
 LAYERS = {
     "_version": 0, "_lazy": 0, "_errors": 0, "_yaml": 0, "config": 0, "vehicle_spec": 0, "rng": 0, "dependencies": 0,
-    "settings": 0,
+    "settings": 0, "workflow_config": 0,
     "numerics": 1,
     "vehicle": 2,
     "io": 3, "outputs": 3, "recordings": 3, "inference": 3, "control": 3, "wheelslip": 3,
@@ -163,3 +163,95 @@ def test_the_config_reader_check_can_fail():
                "def k(finder):\n    return finder.config['seed']\n")
     assert len(_config_readers(planted)) == 5
     assert _config_readers("def f(settings):\n    self.settings = settings\n") == []
+
+
+#: Packages whose modules talk to each other's classes through public methods only.
+NARROW_INTERFACES = ("inference/discrepancy",)
+
+
+def _private_reach_ins(source: str) -> list[str]:
+    """Uses of another object's private attribute (``finder._chi2``, ``f._joint = ...``): an
+    attribute named ``_x`` (not a dunder) on anything but ``self``, ``cls`` or ``super()``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+            owner = node.value
+            if isinstance(owner, ast.Name) and owner.id in ("self", "cls"):
+                continue
+            if isinstance(owner, ast.Call) and isinstance(owner.func, ast.Name) and owner.func.id == "super":
+                continue
+            found.append(f"line {node.lineno}: {ast.unparse(node)}")
+    return found
+
+
+def test_discovery_parts_use_each_other_through_public_methods():
+    """The finder orchestrates; the comparison, the candidate fitter, the selection and the verdict
+    call each other's public methods and return data, never reach into another's private state."""
+    reach = [f"{p.relative_to(PACKAGE_ROOT)} {r}" for part in NARROW_INTERFACES for p in sorted((PACKAGE_ROOT / part).rglob("*.py"))
+             for r in _private_reach_ins(p.read_text())]
+    assert not reach, "give the other part a public method:\n" + "\n".join(reach)
+
+
+def test_the_reach_in_check_can_fail():
+    planted = ("def f(finder, ctx):\n    finder._joint(ctx)\n    finder.steps_.append(finder._chi2(ctx))\n"
+               "class A(B):\n    def g(self):\n        self._x = super()._y()\n        return type(self)._z, self.__class__\n")
+    assert [r.split(": ", 1)[1] for r in _private_reach_ins(planted)] == ["finder._joint", "finder._chi2", "type(self)._z"]
+
+
+#: Where the car's settings are defined: their own methods are not a module they pass through.
+SETTINGS_HOME = ("uqdrive.settings", "uqdrive.settings.car", "uqdrive.settings.run")
+
+
+def _settings_path(argv):
+    """Run ``uqdrive argv`` and follow the car's settings: the uqdrive modules (outside
+    :data:`SETTINGS_HOME`) of every frame that holds a ``Settings`` or ``Vehicle`` when it is
+    entered or left, and each step that enters a higher layer than the nearest such frame below it."""
+    import sys
+
+    from uqdrive.cli.main import main
+    from uqdrive.settings import Settings, Vehicle
+
+    def holds(frame):
+        return frame.f_globals.get("__name__", "").startswith("uqdrive") and any(isinstance(v, (Settings, Vehicle)) for v in frame.f_locals.values())
+
+    modules, climbs = {}, []
+
+    def follow(frame, event, arg):
+        if event not in ("call", "return") or not holds(frame):
+            return
+        name = frame.f_globals["__name__"]
+        if name not in SETTINGS_HOME:
+            modules.setdefault(name, frame.f_code.co_name)
+        caller = frame.f_back
+        while caller is not None and not holds(caller):
+            caller = caller.f_back
+        if event == "call" and caller is not None and layer(name[len("uqdrive."):]) > layer(caller.f_globals["__name__"][len("uqdrive."):]):
+            climbs.append(f"{caller.f_globals['__name__']}.{caller.f_code.co_name} -> {name}.{frame.f_code.co_name}")
+
+    sys.setprofile(follow)
+    try:
+        assert main(argv) == 0
+    finally:
+        sys.setprofile(None)
+    return modules, climbs
+
+
+def test_the_cars_settings_reach_the_right_hand_side_through_six_modules_at_most(tmp_path):
+    """``uqdrive identify`` on a tiny file: the settings are built at the edge and travel down to
+    the single-track equations (VehicleParameters.from_settings) through at most 6 modules,
+    never handed back up a layer."""
+    import yaml
+
+    import uqdrive
+    from conftest import REPO
+    from uqdrive.config import load_config
+    from uqdrive.io import write_dataset
+
+    config = load_config(REPO / "config" / "test.yaml")
+    config["time"].update(t_end=2.0, dt=0.05, step=0.025)
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(config))
+    write_dataset(uqdrive.simulate("lst", config=str(tmp_path / "c.yaml"), samples=12), tmp_path / "runs.nc")
+    modules, climbs = _settings_path(["identify", str(tmp_path / "runs.nc"), "--config", str(tmp_path / "c.yaml"), "--out", str(tmp_path / "out")])
+    assert {"uqdrive.cli.identify", "uqdrive.vehicle.single_track"} <= set(modules), modules  # the edge and the equations
+    assert len(modules) <= 6, modules
+    assert not climbs, climbs

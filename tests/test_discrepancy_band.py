@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uqdrive.inference.discrepancy.band import NullBand, excess_rms, moment_statistics, refit_projection, replicate_statistics, scan, scan_windows, statistic_scale
-from uqdrive.inference.discrepancy.catchall import smooth_discrepancy
+from uqdrive.inference.discrepancy.verdict import smooth_discrepancy
 
 
 def test_statistic_scale_matches_the_spread_of_repeated_estimates():

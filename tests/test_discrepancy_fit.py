@@ -7,14 +7,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-from uqdrive.inference.discrepancy import DiscrepancyFinder
+from types import SimpleNamespace
+
+from uqdrive.inference.discrepancy import selection
 from uqdrive.inference.discrepancy.band import NullBand, scan_windows, statistic_scale
+from uqdrive.inference.discrepancy.comparison import Compared, ModelComparison
 from uqdrive.inference.discrepancy.effectset import testable as _testable
-from uqdrive.inference.discrepancy.finder import _Context
 from uqdrive.inference.discrepancy.fit import StructureFit
+from uqdrive.inference.discrepancy.fitter import CandidateFitter
 from uqdrive.inference.discrepancy.ranking import gauss_newton_chi2
 from uqdrive.vehicle.augmented import THETA_NAMES, AugmentedSimulator
-from uqdrive.vehicle.effects import EFFECTS, Effect, ModelStructure
+from uqdrive.vehicle.effects import EFFECTS, Effect, ModelStructure, expand_names
 from uqdrive.settings import Settings
 
 THETA = np.array([1.0, 0.2, 1.55, 0.2, -400.0, 400.0])
@@ -276,18 +279,20 @@ def test_forward_selection_names_an_effect_the_distributions_absorbed(config):
     mean, std = sim.moments(TRUTH, a_lat, gust=6.0)
     measured = np.stack([mean, std])
     band = NullBand.from_replicates(np.random.default_rng(0).standard_normal((200, 2, 4, 12)), scan_windows(12), 0.01)
-    f = DiscrepancyFinder(Settings.from_config(config), candidates=["road_bank", "wind_gust", "sensor_scale", "sensor_bias"], top=1, max_effects=2)
-    f.measured_, f.scale_, f._n, f.band_ = measured, np.full_like(measured, 1e-2), 40, band  # z in units of a unit-normal null band
-    f.candidates_ = _testable(f.candidates, sim.channels)[0]
-    f.steps_, f.unresolved_, f.fits_, f.screening_ = [], {}, {}, {}
-    f._own_band = lambda ctx, name, fit, band, key=1: (band, "own")  # the stand-in has no bootstrap
-    ctx = _Context(sim, np.arange(12), np.zeros(4), None, 40, np.zeros(50), 0.01)
-    base = StructureFit(sim, ctx.index, ctx.noise).fit(measured, f.scale_, f._start()[0])
-    final, _ = f._forward(ctx, base, band, {}, lambda *a: None)
-    bank, gust = f.screening_["road_bank"], f.screening_["wind_gust"]
+    settings = Settings.from_config(config)
+    candidates = _testable(expand_names(["road_bank", "wind_gust", "sensor_scale", "sensor_bias"]), sim.channels)[0]
+    # z in units of a unit-normal null band; every model's own band is that band (the stand-in has no bootstrap)
+    data = Compared(sim, None, np.arange(12), np.zeros(4), None, 40, np.zeros(50), 0.01, measured, np.full_like(measured, 1e-2), 24, 24)
+    comparison = ModelComparison(band, data.scale, bands=SimpleNamespace(null=lambda fit, key=0: band))
+    start = list(settings.layout.start)
+    fitter = CandidateFitter(data, settings.layout.known, start, settings.vehicle.E, top=1)
+    base = StructureFit(sim, data.index, data.noise).fit(measured, data.scale, start)
+    fw = selection.forward_selection(comparison, fitter, candidates, 2, base, band, {}, lambda *a: None)
+    final = fw.final
+    bank, gust = fw.screening["road_bank"], fw.screening["wind_gust"]
     assert bank["held"] > gust["held"] and bank["chi2"] < gust["chi2"]  # held: the gusts first; predicted jointly: the bank
-    assert bank["chi2"] == pytest.approx(f.fits_["road_bank"].chi2_, rel=1e-3)  # the prediction is what the joint fit reaches
-    assert [s["name"] for s in f.steps_] == ["road_bank", "wind_gust"]
+    assert bank["chi2"] == pytest.approx(fw.fits["road_bank"].chi2_, rel=1e-3)  # the prediction is what the joint fit reaches
+    assert [s.name for s in fw.steps] == ["road_bank", "wind_gust"]
     # exact moments: only the joint fit's convergence (60 evaluations, gust within 1e-4) limits the estimates;
     # the spreads of mu and l_f are not checked, the gusts' variance and theirs trade on these 12 times
     np.testing.assert_allclose(final.effect_values_, [2.0, 6.0], rtol=1e-3)

@@ -10,7 +10,8 @@ import pytest
 
 from uqdrive.inference.discrepancy import DiscrepancyFinder
 from uqdrive.inference.discrepancy.effectset import EffectSet
-from uqdrive.inference.discrepancy.selection import PARTIAL_SHARE, acceptance
+from uqdrive.inference.discrepancy.acceptance import PARTIAL_SHARE, acceptance
+from uqdrive.inference.discrepancy.comparison import ModelComparison
 from uqdrive.settings import Settings
 from uqdrive.studies.hidden_effects import HiddenEffectCase, generate
 from uqdrive.vehicle.effects import EFFECTS, PHYSICAL, VANISHES
@@ -35,29 +36,22 @@ def _fit(chi2, peak=5.0):
     return SimpleNamespace(z_=z, chi2_=float(np.sum(z**2)), scale_=np.ones(CELLS), structure_=None)
 
 
-@pytest.fixture
-def finder(config):
-    f = DiscrepancyFinder(Settings.from_config(config))
-    f.scale_, f.band_ = np.ones(CELLS), _Band()
-    f.steps_ = [{"name": "lateral_kinematics"}]
-    return f
-
-
-def test_a_set_closing_half_the_excess_is_kept_as_partial_and_a_smaller_share_is_not(finder):
+def test_a_set_closing_half_the_excess_is_kept_as_partial_and_a_smaller_share_is_not():
     """Null level 80, base chi2 1080: excess 1000. A final chi2 of 480 (excess 400, 60 % closed)
     leaves an RMS gap of sqrt(400/80) = 2.24 of sqrt(1000/80) = 3.54, more than half: the halving
     rule alone rejects it, the partial rule keeps it. 640 (44 % closed) is rejected; so is a
     60 % share of an excess of 30, too small for the null's spread (saved 18 < penalty 2 + 2 sd 20)."""
-    band, base = finder.band_, _fit(1080.0)
-    kept = acceptance(finder, base, band, _fit(480.0), band)
+    comparison = ModelComparison(_Band(), np.ones(CELLS))
+    band, base, named = comparison.band, _fit(1080.0), ["lateral_kinematics"]
+    kept = acceptance(comparison, named, base, band, _fit(480.0), band)
     assert kept["rule"] == "partial" and kept["share_closed"] == pytest.approx(0.6, abs=1e-9)
     assert kept["chi2_excess_before"] == pytest.approx(1000.0) and kept["chi2_saved"] == pytest.approx(600.0)
     assert kept["chi2_needed"] == pytest.approx(2.0 * 1 + 2.0 * 10.0)  # penalty of one parameter + 2 null sd
-    assert acceptance(finder, base, band, _fit(640.0), band)["rule"] == "rejected"  # 44 % closed < PARTIAL_SHARE
-    small = acceptance(finder, _fit(110.0, peak=4.0), band, _fit(92.0, peak=4.0), band)
+    assert acceptance(comparison, named, base, band, _fit(640.0), band)["rule"] == "rejected"  # 44 % closed < PARTIAL_SHARE
+    small = acceptance(comparison, named, _fit(110.0, peak=4.0), band, _fit(92.0, peak=4.0), band)
     assert small["share_closed"] == pytest.approx(0.6) and small["rule"] == "rejected"
-    assert acceptance(finder, base, band, _fit(200.0), band)["rule"] == "halves"  # gap 1.22 <= half of 3.54
-    assert acceptance(finder, base, band, _fit(480.0, peak=2.0), band)["rule"] == "explains"  # inside the band's threshold
+    assert acceptance(comparison, named, base, band, _fit(200.0), band)["rule"] == "halves"  # gap 1.22 <= half of 3.54
+    assert acceptance(comparison, named, base, band, _fit(480.0, peak=2.0), band)["rule"] == "explains"  # inside the band's threshold
     assert "unrecognised" in kept["criterion"] and f"{PARTIAL_SHARE:g}" in kept["criterion"]
 
 

@@ -10,8 +10,9 @@ import pytest
 import yaml
 
 from uqdrive.cli import main
-from uqdrive.inference.discrepancy import DiscrepancyFinder
 from uqdrive.inference.discrepancy.band import NullBand
+from uqdrive.inference.discrepancy.comparison import Compared, ModelComparison
+from uqdrive.inference.discrepancy.fitter import CandidateFitter, in_reach
 from uqdrive.inference.discrepancy.effectset import EffectSet, family_of
 from uqdrive.io import write_dataset
 from uqdrive.studies.discrepancy import benchmark_dataset, case_outcome, exact_set
@@ -69,45 +70,45 @@ def test_combined_outcomes_and_their_confusion_table():
     assert int(ds["confusion_combined"].sel(true_set="road_bank+sensor_bias", named_set_column="sensor_bias")) == 1
 
 
-def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing(config):
+def test_effective_chi2_puts_a_non_linear_fit_on_the_linear_footing():
     """A model on fewer realisations is judged with a wider scale; its excess chi2 is scaled back
     by the squared ratio, so a non-linear fit that changes nothing is no better than the linear.
     The ratio is the one of the scale the fit was judged with: a non-linear candidate fitted to
     zero size has a linear structure, and its chi2 on the wide scale is not the linear one's. The
     excess counts from the non-linear footing's own null level, and a comparison with a fit on
     that footing has its margin."""
-    f = DiscrepancyFinder(Settings.from_config(config), model_samples=1000, nonlinear_samples=250)
-    f.scale_, f._n = np.ones((2, 4, 10)), 1000
-    f.band_ = SimpleNamespace(mean_square_null=1.0)
+    data = Compared(None, None, None, None, None, 1000, None, 0.01, None, np.ones((2, 4, 10)), model_samples=1000, nonlinear_samples=250)
+    f = ModelComparison(SimpleNamespace(mean_square_null=1.0), data.scale)
     z = np.zeros((2, 4, 10))  # 80 cells: the null level is 80
-    ratio = (1 + 1000 / 250) / (1 + 1000 / 1000)  # scale ratio squared (_scale_for)
-    wide_scale = f._scale_for(True, 1000)
-    assert np.mean((wide_scale / f.scale_) ** 2) == pytest.approx(ratio, rel=1e-12)
+    ratio = (1 + 1000 / 250) / (1 + 1000 / 1000)  # scale ratio squared (Compared.scale_for)
+    wide_scale = data.scale_for(True)
+    assert np.mean((wide_scale / f.scale) ** 2) == pytest.approx(ratio, rel=1e-12)
+    assert data.scale_for(False) is data.scale
     # the same systematic misfit (640) plus each model's own sampling (80 in its own units)
-    linear = SimpleNamespace(structure_=ModelStructure(), z_=z, chi2_=80.0 + 640.0, scale_=f.scale_)
+    linear = SimpleNamespace(structure_=ModelStructure(), z_=z, chi2_=80.0 + 640.0, scale_=f.scale)
     wide = SimpleNamespace(structure_=EFFECTS["tyre_saturation"].augment(ModelStructure(), [0.5]), z_=z, chi2_=80.0 + 640.0 / ratio, scale_=wide_scale)
-    assert f._chi2(linear) == pytest.approx(720.0)
-    assert f._chi2(wide) == pytest.approx(720.0)
-    assert wide.chi2_ < f._chi2(wide)  # the raw chi2 would have favoured it
+    assert f.chi2(linear) == pytest.approx(720.0)
+    assert f.chi2(wide) == pytest.approx(720.0)
+    assert wide.chi2_ < f.chi2(wide)  # the raw chi2 would have favoured it
     # a load transfer fitted to h = 0: its structure is the linear model's, its z on the wide scale
     zero = SimpleNamespace(structure_=EFFECTS["longitudinal_load_transfer"].augment(ModelStructure(), [0.0]), z_=z, chi2_=wide.chi2_, scale_=wide_scale)
     assert not zero.structure_.nonlinear
-    assert f._chi2(zero) == pytest.approx(720.0)  # by its structure it would score 336 and beat the linear model
+    assert f.chi2(zero) == pytest.approx(720.0)  # by its structure it would score 336 and beat the linear model
     # below the null level nothing systematic is left to convert: the sampling luck is not multiplied
     lucky = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=60.0, scale_=wide_scale)
-    assert f._chi2(lucky) == pytest.approx(60.0)  # scaled it would be 80 - 20 x 2.5 = 30
+    assert f.chi2(lucky) == pytest.approx(60.0)  # scaled it would be 80 - 20 x 2.5 = 30
     # with the non-linear footing's own band (its few raw realisations' luck: level 1.5 per cell)
     # the excess is counted from that level: a fit at it is at the linear null level
-    f.footing_band_ = SimpleNamespace(mean_square_null=1.5, chi2_null_sd=30.0)
-    f.band_ = SimpleNamespace(mean_square_null=1.0, chi2_null_sd=10.0)
+    f = ModelComparison(SimpleNamespace(mean_square_null=1.0, chi2_null_sd=10.0), data.scale,
+                        footing_band=SimpleNamespace(mean_square_null=1.5, chi2_null_sd=30.0))
     at_level = SimpleNamespace(structure_=wide.structure_, z_=z, chi2_=120.0, scale_=wide_scale)
-    assert f._chi2(at_level) == pytest.approx(80.0)
-    assert f._chi2(SimpleNamespace(**{**vars(at_level), "chi2_": 120.0 + 256.0})) == pytest.approx(80.0 + 256.0 * ratio)
-    assert f._chi2(linear) == pytest.approx(720.0)  # a linear fit keeps its chi2
+    assert f.chi2(at_level) == pytest.approx(80.0)
+    assert f.chi2(SimpleNamespace(**{**vars(at_level), "chi2_": 120.0 + 256.0})) == pytest.approx(80.0 + 256.0 * ratio)
+    assert f.chi2(linear) == pytest.approx(720.0)  # a linear fit keeps its chi2
     # a comparison with a fit on the wide footing: the margin is that footing's chi2 spread, converted
-    assert f._margin(20.0, linear, wide) == pytest.approx(2.0 * ratio * 30.0)
-    assert f._margin(20.0, wide, zero) == pytest.approx(2.0 * ratio * 30.0)
-    assert f._margin(20.0, linear, linear) == 20.0 and f._margin(500.0, linear, wide) == 500.0
+    assert f.margin(20.0, linear, wide) == pytest.approx(2.0 * ratio * 30.0)
+    assert f.margin(20.0, wide, zero) == pytest.approx(2.0 * ratio * 30.0)
+    assert f.margin(20.0, linear, linear) == 20.0 and f.margin(500.0, linear, wide) == 500.0
 
 
 def test_gate_needs_a_scan_crossing_and_an_excess_misfit():
@@ -190,17 +191,15 @@ def test_two_hidden_effects_are_both_named_and_the_model_continues(combined, cap
     capsys.readouterr()
 
 
-def test_a_non_linear_probe_is_finished_when_in_reach(config):
+def test_a_non_linear_probe_is_finished_when_in_reach():
     """The short fit of a non-linear candidate is continued when it closed a quarter of what the
     best linear candidate closed, or when no linear candidate closed anything; else dropped."""
-    f = DiscrepancyFinder(Settings.from_config(config))
-    f.scale_, f._n = np.ones((2, 4, 10)), 1000
-    f.band_ = SimpleNamespace(mean_square_null=1.0)
-    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, scale_=f.scale_)  # noqa: E731
+    f = ModelComparison(SimpleNamespace(mean_square_null=1.0), np.ones((2, 4, 10)))
+    fit = lambda chi2: SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, scale_=f.scale)  # noqa: E731
     cur, best_linear = fit(1000.0), fit(200.0)  # the linear candidate closes 800
-    assert f._in_reach(cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
-    assert not f._in_reach(cur, fit(810.0), [best_linear])  # 190 < 200
-    assert f._in_reach(cur, fit(1000.0), [fit(1100.0)]) and f._in_reach(cur, fit(1000.0), [])
+    assert in_reach(f, cur, fit(790.0), [best_linear])  # 210 >= 0.25 x 800
+    assert not in_reach(f, cur, fit(810.0), [best_linear])  # 190 < 200
+    assert in_reach(f, cur, fit(1000.0), [fit(1100.0)]) and in_reach(f, cur, fit(1000.0), [])
 
 
 def test_combined_figures_draw_one_line_per_case_and_a_note_without_cases():
@@ -228,24 +227,23 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     """The short fit is run from the current distributions and from the prior's and the better
     one kept: from a linear baseline's lowered mu a saturating tyre sits in a poor basin (the
     thesis' NLST data: chi2 5 times the baseline's), from the prior it reaches the truth."""
-    f = DiscrepancyFinder(Settings.from_config(config))
-    f.scale_, f._n = np.ones((2, 4, 10)), 1000
-    f.band_ = SimpleNamespace(mean_square_null=1.0)
-    prior = f._start()[0]
+    prior = list(Settings.from_config(config).layout.start)
+    f = CandidateFitter(None, {}, prior, 0.97, top=3)
+    chi2 = ModelComparison(SimpleNamespace(mean_square_null=1.0), np.ones((2, 4, 10))).chi2
     starts = []
 
-    def joint(ctx, theta, names, values, max_nfev=None):
+    def joint(theta, names, values, max_nfev=None):
         starts.append((list(theta), max_nfev))
         chi2 = 50.0 if list(theta) == list(prior) else 900.0  # only the prior's start reaches the good basin
-        return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta, scale_=f.scale_)
+        return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta, scale_=np.ones((2, 4, 10)))
 
-    f._joint = joint
+    f.joint = joint
     lowered = [0.84] + list(prior[1:])
-    best = f._probe(None, lowered, ["tyre_saturation"], {"tyre_saturation": [0.5]})
+    best = f.probe(lowered, ["tyre_saturation"], {"tyre_saturation": [0.5]}, chi2)
     assert best.chi2_ == 50.0 and list(best.theta_) == list(prior)
     assert starts == [(lowered, 6), (list(prior), 6)]  # both starts, each with the probe's budget
     starts.clear()
-    joint_lowered_wins = lambda ctx, theta, names, values, max_nfev=None: SimpleNamespace(  # noqa: E731
-        structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta, scale_=f.scale_)
-    f._joint = joint_lowered_wins
-    assert list(f._probe(None, lowered, ["tyre_saturation"], {}).theta_) == lowered
+    joint_lowered_wins = lambda theta, names, values, max_nfev=None: SimpleNamespace(  # noqa: E731
+        structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta, scale_=np.ones((2, 4, 10)))
+    f.joint = joint_lowered_wins
+    assert list(f.probe(lowered, ["tyre_saturation"], {}, chi2).theta_) == lowered

@@ -64,20 +64,17 @@ def test_a_fast_input_separates_lag_from_delay(setting):
     assert max(twins["by_input"].values()) < 1e-6
 
 
-def test_the_finder_suggests_an_input_only_for_its_ambiguity_set(config, setting):
+def test_an_input_is_suggested_only_for_the_ambiguity_set(setting):
     """The verdict's ``separating_input``: one entry per candidate ambiguous with the named one,
     the measured input ranked too; nothing without ambiguity or without proposed inputs."""
-    from uqdrive.inference.discrepancy import DiscrepancyFinder
+    from uqdrive.inference.discrepancy.separate import separating_inputs
 
     sim, inputs = setting
-    finder = DiscrepancyFinder(Settings.from_config(config), inputs={k: v for k, v in inputs.items() if k != "slow_step"})
-    finder.fits_ = {"actuator_lag": _fitted(sim, "actuator_lag", 0.15), "actuator_delay": _fitted(sim, "actuator_delay", 0.15),
-                    "road_bank": _fitted(sim, "road_bank", 0.0)}
-    finder.verdict_ = {"evidence": {"registry_name": "actuator_lag"}, "ambiguous_with": ["actuator_delay"]}
-    [entry] = finder._separating_input(inputs["slow_step"], 1000)
+    proposed = {k: v for k, v in inputs.items() if k != "slow_step"}
+    fits = {"actuator_lag": _fitted(sim, "actuator_lag", 0.15), "actuator_delay": _fitted(sim, "actuator_delay", 0.15),
+            "road_bank": _fitted(sim, "road_bank", 0.0)}
+    [entry] = separating_inputs(fits, "actuator_lag", ["actuator_delay"], proposed, inputs["slow_step"], 1000)
     assert entry["candidates"] == ["actuator_lag", "actuator_delay"] and entry["input"] in ("chirp", "fast_slalom")
     assert set(entry["by_input"]) == {"measured", "straight", "chirp", "fast_slalom"} and entry["by_input"]["measured"] < entry["separation"]
-    finder.verdict_["ambiguous_with"] = []
-    assert finder._separating_input(inputs["slow_step"], 1000) == []
-    finder.inputs, finder.verdict_["ambiguous_with"] = None, ["actuator_delay"]
-    assert finder._separating_input(inputs["slow_step"], 1000) == []
+    assert separating_inputs(fits, "actuator_lag", [], proposed, inputs["slow_step"], 1000) == []
+    assert separating_inputs(fits, "actuator_lag", ["actuator_delay"], None, inputs["slow_step"], 1000) == []

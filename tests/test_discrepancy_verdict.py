@@ -7,7 +7,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from uqdrive.inference.discrepancy.band import NullBand, scan_windows
+from uqdrive.inference.discrepancy.comparison import criterion
 from uqdrive.inference.discrepancy.effectset import EffectSet
+from uqdrive.inference.discrepancy.selection import Step
 from uqdrive.inference.discrepancy.verdict import assemble_verdict
 from uqdrive.vehicle.effects import ModelStructure
 
@@ -30,12 +32,12 @@ def _verdict(rest, max_effects, whole=False):
     band = NullBand.from_replicates(rng.standard_normal((300, 2, 4, K)), scan_windows(K))
     base = _fit(3.0 * rng.standard_normal((2, 4, K)))
     aug = _fit(rng.standard_normal((2, 4, K)) + rest, ("actuator_lag",))
-    step = {"name": "actuator_lag", "fit": aug, "band": band, "band_kind": "own", "explains": False, "gap_after": 0.5, "ambiguous": [], "candidates": {}}
+    step = Step("actuator_lag", aug, band, "own", explains=False, gap_after=0.5)
     finder = SimpleNamespace(augmented_=aug, augmented_band_=band, steps_=[step], fits_={"actuator_lag": aug}, unresolved_={}, removed_=[], rejected_=[],
                              screening_={}, max_effects=max_effects, settings=SimpleNamespace(spin=SimpleNamespace(policy="exclude")), spun_=np.array([], int),
                              samples_used_=100, noise_variance_=np.ones(4), channels_=("psi", "psi_dot", "beta", "y"), untestable_=[], speed_profile_=None, model_samples=400, interpolation_="linear", level=0.01,
-                             time_=np.arange(1, K + 1) * 0.1, _criterion=lambda b: (2.0 * b.chi2_null_sd, 2.0 * b.inflation),
-                             _chi2=lambda f: f.chi2_, _footing=lambda f: 1.0, _band_of=lambda f: band, band_=band)
+                             time_=np.arange(1, K + 1) * 0.1, band_=band,
+                             comparison_=SimpleNamespace(criterion=criterion, chi2=lambda f: f.chi2_, band_of=lambda f: band))
     ctx = SimpleNamespace(n=100)
     verdict = assemble_verdict(finder, base, band, band.max_statistic(base.z_), True, ctx)
     return (verdict, aug, band) if whole else [e["effect"] for e in verdict["effects"]]

@@ -52,21 +52,21 @@ def test_errors_that_ignore_the_sampling_structure_do_not_cover(results, config)
     thousands of samples), so coverage falls far outside the band. One replicate suffices to
     show the ratio, all 40 would only repeat it."""
     from uqdrive.inference.identify import DistributionEstimator
-    from uqdrive.studies.identification import UNCERTAIN, replicate_config
+    from uqdrive.studies.identification import UNCERTAIN, replicate_settings
     from uqdrive.vehicle.chaos import LSTChaosModel
     from uqdrive.vehicle.montecarlo import simulate_ensemble
     from uqdrive.vehicle.single_track import STATES
 
-    cfg = replicate_config(config, 0.1)
-    model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False)
-    ds = simulate_ensemble(Settings.from_config(cfg), "lst", samples=SAMPLES, seed=int(cfg["seed"]))
+    settings = replicate_settings(Settings.from_config(config), 0.1)
+    model = LSTChaosModel(settings, uncertain=UNCERTAIN, time_variant_wind=False)
+    ds = simulate_ensemble(settings, "lst", samples=SAMPLES, seed=settings.seed)
     runs = np.stack([ds[s].values for s in STATES]).astype(float)
     est = DistributionEstimator(model, "std", state_scale="rms_mean", optimiser="gauss_newton").fit(
-        runs.mean(axis=1), runs.std(axis=1, ddof=1), Settings.from_config(cfg).uncertainty.theta(UNCERTAIN) * 1.1, runs=runs)
+        runs.mean(axis=1), runs.std(axis=1, ddof=1), settings.uncertainty.theta(UNCERTAIN) * 1.1, runs=runs)
     first = results[results["replicate"] == 0].set_index("parameter")
     assert est.theta_std_ == pytest.approx(first["standard_error"].values, rel=1e-6)  # the study's numbers
     ratio = est.gauss_newton_std_ / est.theta_std_
     assert np.all(ratio < 0.3), ratio  # intervals a fraction as wide
-    truth = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
+    truth = settings.uncertainty.theta(UNCERTAIN)
     covered = np.abs(results["estimate"].values - np.tile(truth, REPLICATES)) <= Z95 * np.tile(est.gauss_newton_std_, REPLICATES)
     assert covered.mean() < 0.5  # far below the band's 0.85

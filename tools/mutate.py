@@ -181,8 +181,8 @@ EQUIVALENT: dict[str, list[dict[str, str]]] = {
     ],
     "selection": [
         *({"line": line, "mutation": "`+` -> `-`", "reason": "the key of a bootstrap's random stream: another key draws another, equally valid null band"}
-          for line in ("after_band, which = finder._own_band(ctx, c, fc, band, key=step + 1)",
-                       "pair = pair_step(finder, ctx, cur, cur_band, names, values, fits, screening, stalled, (after_band, which), prev_gap, key=step + 1)")),
+          for line in ("after_band, which = comparison.own_band(fc, key=step + 1)",
+                       "pair = pair_step(comparison, fitter, cur, cur_band, names, values, fits, screening, stalled, (after_band, which), prev_gap, key=step + 1)")),
         {"line": "excess_rms(fc.z_, band) <= 0.5 * prev_gap", "mutation": "`<=` -> `<`",
          "reason": "differs on an exact tie of two continuous gaps only"},
     ],

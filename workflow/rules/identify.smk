@@ -1,5 +1,5 @@
 # Identification of the parameter distributions (thesis sec. 5.3, ch. 6.2) and identifiability.
-from uqdrive.studies.experiments import APPENDIX_B_PLAN, EXPERIMENTS, experiment_config
+from uqdrive.studies.experiments import APPENDIX_B_PLAN, EXPERIMENTS
 
 ID_EXPERIMENTS = list(EXPERIMENTS)
 ID_STATS = {
@@ -21,9 +21,9 @@ ID_INPUTS = {
     "robust": _NORMAL, "no_wind_moment": ["lst_normal_no_wind_moment", "nlst_normal_no_wind_moment", "nlst_normal"],
     "normalised": _NORMAL, "normalised_inverted": _INVERTED,
 }
-#: The ensembles of the Table 6.2 variant without the wind's yaw moment: M_c = 0 (set by
-#: uqdrive.studies.experiments.experiment_config, so vehicle.M_c is not read), the rest as
-#: any ensemble; their statistics come from the rule statistics.
+#: The ensembles of the Table 6.2 variant without the wind's yaw moment: M_c = 0 (set on the
+#: settings by uqdrive.studies.experiments.experiment_settings, so vehicle.M_c is not read), the
+#: rest as any ensemble; their statistics come from the rule statistics.
 NO_WIND_MOMENT_KEYS = ("seed", "vehicle.m_base", "vehicle.J0", "vehicle.wheelbase", "vehicle.c_Sf", "vehicle.c_Sr", "vehicle.speed_kmh",
                        "vehicle.g", "tyre", "uncertainty", "wind", "steering", "time", "montecarlo.samples", "montecarlo.spin_threshold")
 #: What every identification reads: the model, the estimator's settings, the seed of its guesses.
@@ -41,14 +41,15 @@ ID_EXPERIMENT_KEYS = {
 
 rule ensemble_no_wind_moment:
     input:
-        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "io", "studies.identification"),
+        src("vehicle.single_track", "vehicle.uncertainty", "numerics.integrate", "vehicle.montecarlo", "io", "studies.identification", "studies.experiments"),
     output:
         f"{OUT}/data/ensemble_{{model}}_{{steer}}_no_wind_moment.nc",
     wildcard_constraints:
         model="lst|nlst",
         steer="normal",
     params:
-        **reads(*NO_WIND_MOMENT_KEYS, adjust=lambda c: experiment_config(c, "no_wind_moment")),
+        **reads(*NO_WIND_MOMENT_KEYS),
+        experiment="no_wind_moment",
     threads: 1
     resources:
         mem_mb=2000,

@@ -5,13 +5,13 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 import xarray as xr
 
-from uqdrive.studies.experiments import experiment_config, guess_stream_index
+from uqdrive.studies.experiments import guess_stream_index
 from uqdrive.studies.identification import experiment_plan, measured_data_sets, run_experiment
 from uqdrive.io import write_dataset
 from uqdrive.rng import rng_stream
 
 name = snakemake.wildcards.experiment  # noqa: F821
-config = experiment_config(snakemake.params.config, name)  # noqa: F821
+config = snakemake.params.config  # noqa: F821
 stats = {key: xr.load_dataset(snakemake.input[key]) for key in snakemake.params.stats_keys}  # noqa: F821
 data = measured_data_sets(config, stats)
 tasks, deviations, m_dev, run_data = experiment_plan(config, name)

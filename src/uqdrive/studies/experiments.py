@@ -4,10 +4,15 @@ that show them. Plain Python on purpose: the workflow imports it while it parses
 from __future__ import annotations
 
 import copy
-from typing import Any, Mapping
+from dataclasses import replace
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any, Mapping
 
-__all__ = ["EXPERIMENTS", "PAIRED_WITH", "guess_stream_index", "experiment_config", "NLST_ESTIMATES", "FIGURE_NAMES",
-           "APPENDIX_B_PLAN"]
+if TYPE_CHECKING:
+    from ..settings import Settings
+
+__all__ = ["EXPERIMENTS", "PAIRED_WITH", "guess_stream_index", "experiment_settings", "experiment_provenance", "NLST_ESTIMATES",
+           "FIGURE_NAMES", "APPENDIX_B_PLAN"]
 
 #: The thesis' four experiments (Section 6.2) and uqdrive's variants of them, in stream order.
 EXPERIMENTS = ("basic", "inverted", "initial_guess", "noise", "robust", "no_wind_moment", "normalised", "normalised_inverted")
@@ -31,10 +36,25 @@ def guess_stream_index(name: str) -> int:
     return EXPERIMENTS.index(PAIRED_WITH.get(name, name))
 
 
-def experiment_config(config: Mapping[str, Any], name: str) -> dict:
-    """The config an experiment runs with: the no-wind-moment variant sets M_c = 0 (thesis
-    Table 6.2's LST row is reproduced only so; see docs/reproduction.md)."""
+#: The yaw moment per unit side force (m) of the variant without the wind's yaw moment: thesis
+#: Table 6.2's LST row is reproduced only so (see docs/reproduction.md).
+NO_WIND_MOMENT_M_C = 0.0
+
+
+def experiment_settings(settings: Settings, name: str) -> Settings:
+    """The settings an experiment runs with: those of the config, but M_c = :data:`NO_WIND_MOMENT_M_C`
+    for ``no_wind_moment``, whose ensembles' provenance records it too (:func:`experiment_provenance`)."""
+    if name != "no_wind_moment":
+        return settings
+    prov = settings.ensemble_provenance
+    return replace(settings, vehicle=replace(settings.vehicle, M_c=NO_WIND_MOMENT_M_C),
+                   ensemble_provenance=None if prov is None else MappingProxyType(experiment_provenance(prov, name)))
+
+
+def experiment_provenance(config: Mapping[str, Any], name: str) -> dict:
+    """What an experiment's outputs record as their settings (their ``config_hash``): ``config``
+    with the values the experiment fixes (:func:`experiment_settings`)."""
     cfg = copy.deepcopy(dict(config))
     if name == "no_wind_moment":
-        cfg["vehicle"] = dict(cfg["vehicle"], M_c=0.0)
+        cfg["vehicle"] = dict(cfg["vehicle"], M_c=NO_WIND_MOMENT_M_C)
     return cfg

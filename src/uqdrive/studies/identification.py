@@ -8,17 +8,17 @@ the misfit must pass its 99 % threshold about 99 % of the time.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
-import copy
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
 from .._version import __version__
-from ..config import config_hash
+from ..config import config_hash, override_config
 from ..inference.identify import DistributionEstimator, WeightContext, initial_guess
 from ..numerics.metrics import normalised_w2_normal, normalised_w2_uniform
 from ..rng import rng_stream
@@ -26,11 +26,11 @@ from ..vehicle.montecarlo import STEERS, simulate_ensemble, wind_kle
 from ..vehicle.chaos import LSTChaosModel
 from ..vehicle.statistics import kl_divergence_series
 from ..vehicle.single_track import STATES, steering_input
-from .experiments import EXPERIMENTS
-from ..settings import Settings
+from .experiments import EXPERIMENTS, experiment_provenance, experiment_settings
+from ..settings import Settings, TimeGrid
 
 __all__ = ["MeasuredMoments", "Estimate", "true_theta", "w2_scores", "run_experiment", "measured_moments", "measured_data_sets", "experiment_plan",
-           "replicate_config", "coverage_study", "coverage_table", "binomial_band"]
+           "replicate_settings", "coverage_study", "coverage_table", "binomial_band"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 THETA_NAMES = ("mu_mean", "mu_std", "l_f_mean", "l_f_std", "F_w_mean_low", "F_w_mean_high")
@@ -138,7 +138,7 @@ def run_experiment(
         Per run, a substitution of data keys (the noise test uses one data set per run).
     """
     ident = config["identification"]
-    settings = Settings.from_config(config)
+    settings = experiment_settings(Settings.from_config(config), name)
     truth = settings.uncertainty.theta(UNCERTAIN)
     m_true = settings.uncertainty.m_load.mean
     n_runs, n_tasks = len(deviations), len(tasks)
@@ -182,7 +182,7 @@ def run_experiment(
             "experiment": name,
             "order": ident["order"], "quadrature_points": ident["quadrature_points"],
             "state_scales": ",".join(sorted({t.state_scale or settings.identify.scale() for t in tasks})),
-            "seed": int(config["seed"]), "config_hash": config_hash(config), "uqdrive_version": __version__,
+            "seed": int(config["seed"]), "config_hash": config_hash(experiment_provenance(config, name)), "uqdrive_version": __version__,
         },
     )
 
@@ -278,14 +278,16 @@ def measured_data_sets(config: Mapping[str, Any], stats: Mapping[str, xr.Dataset
 Z95 = 1.959963984540054
 
 
-def replicate_config(config: Mapping[str, Any], dt: float) -> dict:
-    """The config on a coarser output grid with m_load known (std 0) and no gusts: data the
-    identification model represents exactly, up to its PCE truncation."""
-    cfg = copy.deepcopy(dict(config))
-    cfg["uncertainty"]["m_load"] = dict(cfg["uncertainty"]["m_load"], std=0.0)
-    cfg["wind"] = dict(cfg["wind"], sigma=0.0)
-    cfg["time"] = dict(cfg["time"], dt=float(dt), step=float(dt) / 2.0)
-    return cfg
+def replicate_settings(settings: Settings, dt: float) -> Settings:
+    """The settings on a coarser output grid (``dt`` s, step dt / 2) with m_load known (std 0) and
+    no gusts: data the identification model represents exactly, up to its PCE truncation. Its
+    ensembles' provenance records the same changes."""
+    u, t = settings.uncertainty, settings.time
+    changes = {"uncertainty.m_load.std": 0.0, "wind.sigma": 0.0, "time.dt": float(dt), "time.step": float(dt) / 2.0}
+    prov = settings.ensemble_provenance
+    return replace(settings, uncertainty=replace(u, m_load=replace(u.m_load, std=0.0)), wind=replace(settings.wind, sigma=0.0),
+                   time=TimeGrid(t.t_end, float(dt), float(dt) / 2.0),
+                   ensemble_provenance=None if prov is None else MappingProxyType(override_config(prov, changes)))
 
 
 def coverage_study(config: Mapping[str, Any], replicates: int, samples: int, dt: float = 0.1, seed: int | None = None,
@@ -313,7 +315,7 @@ def coverage_study(config: Mapping[str, Any], replicates: int, samples: int, dt:
         One row per replicate and parameter: estimate, standard error, lo95, hi95, covered,
         and per replicate the misfit, its threshold and whether it passed.
     """
-    settings = Settings.from_config(replicate_config(config, dt))
+    settings = replicate_settings(Settings.from_config(config), dt)
     seed = int(settings.seed if seed is None else seed)
     ident = settings.identify
     model = LSTChaosModel(settings, uncertain=UNCERTAIN, time_variant_wind=False, order=ident.order, quadrature_points=ident.quadrature_points)

@@ -17,9 +17,10 @@ from ..numerics.batched_lti import foh_discretise_batched, lti_response_batched
 from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
 from ..settings import Settings
-from .montecarlo import STEERS, gust_input_column, wind_kle
+from .montecarlo import STEERS, gust_input_column
 from ..numerics.threads import with_single_blas_thread
 from .single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed, steering_input
+from .uncertainty import kle_of_wind
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]
 
@@ -142,7 +143,7 @@ class LSTChaosModel:
         self.uncertain = tuple(u for u in uncertain if u not in known)
         self.fixed = {**settings.uncertainty.nominal(), **dict(fixed or {})}
         self.vehicle = VehicleParameters.from_settings(settings)
-        kle = wind_kle(settings)
+        kle = kle_of_wind(settings.wind, settings.time.t_end)
         n_linear = kle.n_modes if time_variant_wind else 0
         self.wind_scale = settings.wind.sigma * np.sqrt(kle.eigenvalues[:n_linear])
         self.gust_yaw_moment = bool(settings.wind.gust_yaw_moment)

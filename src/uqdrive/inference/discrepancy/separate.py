@@ -14,9 +14,10 @@ from typing import Mapping
 
 import numpy as np
 
+from .effectset import family_of
 from .fit import StructureFit
 
-__all__ = ["separation", "predicted_statistics", "suggest_input"]
+__all__ = ["separation", "predicted_statistics", "suggest_input", "separating_inputs"]
 
 
 def separation(stats_a, stats_b, n: int, model_samples: int, floor: float = 1e-3) -> float:
@@ -88,3 +89,15 @@ def suggest_input(fits: Mapping[str, StructureFit], pairs, inputs: Mapping[str, 
         best = max(scores, key=scores.get)
         out.append({"candidates": [a, b], "input": best, "separation": scores[best], "by_input": scores})
     return out
+
+
+def separating_inputs(fits, named: str, ambiguous, inputs, measured, n: int) -> list:
+    """Per candidate of ``fits`` whose family is among ``ambiguous`` (those the named effect
+    ``named`` ties with): the input of ``inputs`` (name -> steering command, rad) or the
+    ``measured`` one that tells it from ``named`` best (:func:`suggest_input`, ``n`` realisations).
+    Empty without such a candidate or without proposed inputs."""
+    families = set(ambiguous)
+    pairs = [(named, c) for c in fits if c != named and family_of(c) in families]
+    if not (pairs and inputs):
+        return []
+    return suggest_input(fits, pairs, {"measured": measured, **dict(inputs)}, n)

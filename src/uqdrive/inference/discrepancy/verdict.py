@@ -5,16 +5,16 @@ parameters and ambiguity, the gaps, the localisation and the evidence behind eve
 from __future__ import annotations
 
 import numpy as np
+from scipy.interpolate import BSpline
 
 from ...settings import Settings
 from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, FAMILIES
 from ...vehicle.single_track import STATES
 from .band import STATISTICS, excess_rms
-from .catchall import smooth_discrepancy
 from .effectset import family_of
 
-__all__ = ["distributions", "assemble_verdict", "lack_of_fit", "localise", "model_document"]
+__all__ = ["distributions", "assemble_verdict", "lack_of_fit", "localise", "model_document", "spline_basis", "smooth_discrepancy"]
 
 
 def distributions(theta) -> dict:
@@ -36,7 +36,7 @@ def lack_of_fit(chi2: float, cells: int, mean_square_null: float) -> float:
     ----------
     chi2 : float
         The fit's own chi2 (-), on the footing its covariance is in (a non-linear model's on
-        its wide scale, with that footing's null band: :meth:`.finder.DiscrepancyFinder._band_of`).
+        its wide scale, with that footing's null band: :meth:`.comparison.ModelComparison.band_of`).
     cells : int
         Number of standardised residuals (statistics x channels x times).
     mean_square_null : float
@@ -49,8 +49,49 @@ def lack_of_fit(chi2: float, cells: int, mean_square_null: float) -> float:
     return max(1.0, float(chi2) / (mean_square_null * cells))
 
 
+# -- the generic catch-all: a smooth additive discrepancy on every statistic trajectory, fitted in z
+# units by linear least squares; when it fits far better than every named effect, the gap is real
+# but unnamed (``unrecognised``)
+def spline_basis(K: int, n_basis: int = 8, degree: int = 3):
+    """Clamped cubic B-spline basis on K equally spaced points, shape (K, n_basis)."""
+    n_basis = max(degree + 1, min(int(n_basis), K))
+    inner = np.linspace(0.0, 1.0, n_basis - degree + 1)
+    knots = np.concatenate([np.zeros(degree), inner, np.ones(degree)])
+    x = np.linspace(0.0, 1.0, K)
+    basis = BSpline(knots, np.eye(n_basis), degree)(x)
+    return np.nan_to_num(basis)
+
+
+def smooth_discrepancy(z, n_basis: int = 8):
+    """Remove the best smooth additive discrepancy from every row of z.
+
+    Parameters
+    ----------
+    z : ndarray, shape (2, 4, K)
+        Standardised gap of the baseline.
+    n_basis : int
+        Spline functions per row.
+
+    Returns
+    -------
+    residual : ndarray, shape (2, 4, K)
+        z minus its least-squares spline fit, row by row.
+    n_parameters : int
+        Number of fitted coefficients (8 rows x n_basis).
+    """
+    z = np.asarray(z, float)
+    K = z.shape[-1]
+    S = spline_basis(K, n_basis)
+    rows = z.reshape(-1, K)
+    coef, *_ = np.linalg.lstsq(S, rows.T, rcond=None)
+    residual = rows - (S @ coef).T
+    return residual.reshape(z.shape), int(rows.shape[0] * S.shape[1])
+
+
 def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
-    """The verdict of a fitted :class:`.finder.DiscrepancyFinder` (its steps, fits and bands)."""
+    """The verdict of a fitted :class:`.finder.DiscrepancyFinder`: its public fitted attributes
+    (steps, fits, bands, the comparison) and the baseline ``base`` with its ``band``."""
+    comparison = finder.comparison_
     gap0 = excess_rms(base.z_, band)
     aug, after_band = finder.augmented_, finder.augmented_band_
     named = bool(finder.steps_)
@@ -65,10 +106,10 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     accepted = getattr(finder, "acceptance_", {})
     effects = []
     for step in finder.steps_:
-        name = step["name"]
+        name = step.name
         entry = {"effect": family_of(name), "registry_name": name,
                  "parameters": {k: [float(v) for v in iv] for k, iv in per_effect.get(name, {}).items()},
-                 "ambiguous_with": step["ambiguous"], "gap_after": round(step["gap_after"], 4)}
+                 "ambiguous_with": step.ambiguous, "gap_after": round(step.gap_after, 4)}
         if family_of(name) in FAMILIES:
             entry["parameters"]["channel"] = EFFECTS[name].channel
         if name in held:
@@ -76,8 +117,8 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
             entry["departure"] = held[name]
         effects.append(entry)
     catch_z, p_catch = smooth_discrepancy(base.z_)
-    margin, per_param = finder._criterion(band)
-    catch_better = float(np.sum(catch_z**2)) + per_param * p_catch < finder._chi2(aug) + per_param * len(aug.parameter_names) - margin
+    margin, per_param = comparison.criterion(band)
+    catch_better = float(np.sum(catch_z**2)) + per_param * p_catch < comparison.chi2(aug) + per_param * len(aug.parameter_names) - margin
     # the selection stopped (its budget spent, or no further candidate justified) with the model
     # still outside its own band by the null-calibrated gate: a part of the gap is real and no
     # candidate explains it, so it is named as unexplained after the effects that explain the rest
@@ -91,17 +132,17 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
     first = finder.steps_[0] if named else None
     summary = {}
     for c, f in finder.fits_.items():
-        own = finder._band_of(f)  # a non-linear fit's z are judged on its footing's band
-        summary[c] = {"chi2": round(f.chi2_, 2), "chi2_linear_footing": round(finder._chi2(f), 2),
+        own = comparison.band_of(f)  # a non-linear fit's z are judged on its footing's band
+        summary[c] = {"chi2": round(f.chi2_, 2), "chi2_linear_footing": round(comparison.chi2(f), 2),
                       "max_statistic": round(own.max_statistic(f.z_), 3), "gap_after": round(excess_rms(f.z_, own), 4),
                       "parameters": {k.split(".", 1)[1]: [round(v, 6) for v in iv] for k, iv in
                                      f.effect_intervals(own.inflation * lack_of_fit(f.chi2_, f.z_.size, own.mean_square_null)).items()
                                      if k.startswith(c + ".")},
                       "explains": bool(own.max_statistic(f.z_) <= own.threshold)}
     if first is not None:
-        fb, fband = first["fit"], first["band"]
-        summary[first["name"]].update(max_statistic=round(fband.max_statistic(fb.z_), 3), gap_after=round(excess_rms(fb.z_, fband), 4),
-                                      explains=bool(first["explains"]))
+        fb, fband = first.fit, first.band
+        summary[first.name].update(max_statistic=round(fband.max_statistic(fb.z_), 3), gap_after=round(excess_rms(fb.z_, fband), 4),
+                                   explains=bool(first.explains))
     verdict = {
         "effect": effect_name,
         "ambiguous_with": effects[0]["ambiguous_with"] if effects else [],
@@ -116,7 +157,7 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
                       "z = (measured - model) / null-band scale (0 = no misfit beyond sampling); null mean(z^2) from each "
                       "model's own parametric bootstrap (gap_after: the final model's, evidence.named_band)",
         "evidence": {
-            "registry_name": first["name"] if first else "",
+            "registry_name": first.name if first else "",
             "registry_names": [e["registry_name"] for e in effects if e["registry_name"]],
             "start_model": [name for name, _ in base.structure_.effects],
             "significant": bool(significant),
@@ -136,11 +177,11 @@ def assemble_verdict(finder, base, band, stat0, significant, ctx) -> dict:
                                        "chi2_null_sd": round(finder.footing_band_.chi2_null_sd, 2), "inflation": round(finder.footing_band_.inflation, 3),
                                        "samples": finder.nonlinear_samples} if getattr(finder, "footing_band_", None) is not None else {},
             "interpolation": finder.interpolation_,
-            "named_band": {"effects": [s["name"] for s in finder.steps_], "band": finder.steps_[-1]["band_kind"], "threshold": round(after_band.threshold, 3),
+            "named_band": {"effects": [s.name for s in finder.steps_], "band": finder.steps_[-1].band_kind, "threshold": round(after_band.threshold, 3),
                            "mean_square_null": round(after_band.mean_square_null, 4), "replicates": int(after_band.max_null.size)} if named else {},
-            "steps": [{"effect": s["name"], "chi2": round(s["fit"].chi2_, 2), "explains": s["explains"], "candidates": s["candidates"],
-                       "screening": s.get("screening", {}), **({"pair": s["pair"]} if s.get("pair") else {})} for s in finder.steps_],
-            "removed": finder.removed_,
+            "steps": [{"effect": s.name, "chi2": round(s.fit.chi2_, 2), "explains": s.explains, "candidates": s.candidates,
+                       "screening": s.screening, **({"pair": s.pair} if s.pair else {})} for s in finder.steps_],
+            "removed": list(finder.removed_),
             "rejected": finder.rejected_,
             "acceptance": dict(accepted),
             "unresolved": dict(finder.unresolved_),

@@ -20,7 +20,7 @@ from ...rng import rng_stream
 from ...vehicle.four_wheel import FourWheelCar, simulate_four_wheel
 from ...vehicle.four_wheel.model import PSI, R, VX, VY, Y
 from ...vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
-from ..hidden_effects import wind_kle
+from ...vehicle.uncertainty import kle_of_wind
 from ..manoeuvres import MANOEUVRES, steering_command
 from ...settings import Settings
 
@@ -129,7 +129,8 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     draws : dict
         mu, m_load, l_f, F_w_mean (samples,).
     """
-    car = FourWheelCar.from_vehicle(Settings.from_config(config).vehicle) if car is None else car
+    settings = Settings.from_config(config)
+    car = FourWheelCar.from_vehicle(settings.vehicle) if car is None else car
     u, w = config["uncertainty"], config["wind"]
     n = int(case.samples)
     rng = rng_stream(case.seed, "hidden_parameters", STREAM_KEY)
@@ -138,7 +139,7 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     draws["F_w_mean"] = rng.uniform(u["F_w_mean"]["low"], u["F_w_mean"]["high"], size=n)
     L = car.wheelbase
     mu, l_f = np.maximum(draws["mu"], 0.05), np.clip(draws["l_f"], 0.05 * L, 0.95 * L)  # as the model's draws
-    kle = wind_kle({**config, "time": {**config["time"], "t_end": case.t_end}})
+    kle = kle_of_wind(settings.wind, case.t_end)  # over the case's own horizon
     xi = rng_stream(case.seed, "hidden_wind", STREAM_KEY).standard_normal((n, kle.n_modes))
     t, h, every, n_steps = _grid(config, case.t_end)
     t_half = np.arange(2 * n_steps + 1) * h / 2
@@ -148,7 +149,7 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     M_w = car.M_c * (F_w if w["gust_yaw_moment"] else np.broadcast_to(draws["F_w_mean"], F_w.shape))
     params = {**dict(case.manoeuvre_params), "amplitude_deg": amplitude_deg}
     d_half = steering_command(case.manoeuvre, t_half, params)
-    v = np.full(t_half.size, Settings.from_config(config).vehicle.v_c)
+    v = np.full(t_half.size, settings.vehicle.v_c)
     s, ex = simulate_four_wheel(car, mu, draws["m_load"], l_f, d_half, v, F_w, M_w, h, n_steps, every)
     x = np.stack([s[PSI], s[R], np.arctan2(s[VY], s[VX]), s[Y]])
     return t, steering_command(case.manoeuvre, t, params), x, ex["a_y"], draws

@@ -1,0 +1,132 @@
+"""The candidate fits of one dataset: the baseline, joint fits of the distributions with a set of
+effects, short probes of non-linear candidates, the screening and one forward step's pool.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ...vehicle.augmented import THETA_NAMES
+from ...vehicle.effects import EFFECTS, ModelStructure
+from .comparison import Compared, ModelComparison, criterion
+from .effectset import EffectSet, fitted_values
+from .fit import SimulationMemo, StructureFit
+from .ranking import screen
+
+__all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "in_reach", "nonlinear"]
+
+#: A non-linear candidate is first fitted with this budget of model evaluations (:meth:`CandidateFitter.probe`), then finished only
+#: when it closed PROBE_SHARE of what the best linear candidate closed (its chi2 can only fall further).
+PROBE_NFEV, PROBE_SHARE = 6, 0.25
+
+
+def nonlinear(name: str) -> bool:
+    """Whether the registered effect ``name`` needs numerical integration (at its start values)."""
+    return EFFECTS[name].augment(ModelStructure(), EFFECTS[name].start).nonlinear
+
+
+def in_reach(comparison: ModelComparison, cur, probe, others) -> bool:
+    """Whether a non-linear candidate's short fit is worth finishing: it already closed at
+    least :data:`PROBE_SHARE` of what the best linear candidate closed (a full fit only
+    lowers chi2 further), or no linear candidate closed anything."""
+    chi2 = comparison.chi2
+    gain = chi2(cur) - min((chi2(f) for f in others), default=chi2(cur))
+    return gain <= 0 or chi2(cur) - chi2(probe) >= PROBE_SHARE * gain
+
+
+class CandidateFitter:
+    """Least-squares fits of the distributions, alone or jointly with effects, on one dataset.
+
+    Parameters
+    ----------
+    data : Compared
+        The measured statistics, scales, simulators and compared grid.
+    known : mapping of int to float
+        Distribution parameters held at their known value (index into ``THETA_NAMES``).
+    start : sequence of float, length 6
+        The distributions' start (the prior's, or a start model's): the second start of a probe
+        and an anchor of the screening.
+    tyre_E : float
+        The car's Magic-Formula curvature, at which a saturating tyre is screened.
+    top : int
+        Linear candidates re-identified jointly per forward step.
+    memo : SimulationMemo, optional
+        Linear simulations shared by the fits (:meth:`release` drops it).
+    """
+
+    def __init__(self, data: Compared, known: Mapping[int, float], start: Sequence[float], tyre_E: float, top: int,
+                 memo: SimulationMemo | None = None):
+        self.data = data
+        self.known = dict(known)
+        self.start = start
+        self.tyre_E = tyre_E
+        self.top = int(top)
+        self.memo = memo
+
+    def release(self) -> None:
+        """Drop the shared simulations (a posterior batches its own)."""
+        self.memo = None
+
+    def baseline(self, theta0) -> StructureFit:
+        """The distributions alone fitted from ``theta0`` (the known ones held)."""
+        d = self.data
+        return StructureFit(d.sim, d.index, d.noise, d.spin, fixed=dict(self.known), memo=self.memo).fit(d.measured, d.scale, theta0)
+
+    def joint(self, theta_start, names, values, max_nfev: int | None = None, release=()) -> StructureFit:
+        """Distributions and the parameters of every effect in ``names`` fitted jointly; a parameter
+        with one physical value is held there (:meth:`.effectset.EffectSet.physical`) unless its effect is in ``release``."""
+        d = self.data
+        eff = EffectSet(names, {k: values[k] for k in names if k in values})
+        held = {len(THETA_NAMES) + i: v for i, v in eff.physical(release).items()}
+        # the footing follows the names, not the start values: a non-linear effect that starts
+        # at zero size (refitted after its fit went there) may grow during the fit
+        wide = any(nonlinear(k) for k in names)
+        budget = max_nfev or (25 if wide else 60)
+        f = StructureFit(d.sim_for(wide), d.index, d.noise, d.spin, effect=eff, max_nfev=budget,
+                         fixed={**dict(self.known), **held}, memo=self.memo)
+        return f.fit(d.measured, d.scale_for(wide), theta_start)
+
+    def probe(self, theta, names, values, chi2) -> StructureFit:
+        """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the start's distributions, the one lower by ``chi2``: a
+        linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's)."""
+        return min((self.joint(th, names, values, max_nfev=PROBE_NFEV) for th in (theta, self.start)), key=chi2)
+
+    def screen(self, cur, pool) -> dict:
+        """Rank the candidates by the prediction of their joint fit (:func:`.ranking.screen`), held at ``cur``'s distributions
+        and at the start's (the prior or the start model's, the one estimate no misfit has bent), a non-linear tyre linearised."""
+        d = self.data
+        start = np.asarray(self.start, float)
+        anchors = {"current": np.asarray(cur.theta_, float), **({} if np.allclose(start, cur.theta_, rtol=1e-9, atol=1e-12) else {"start": start})}
+        base = replace(cur.structure_, tyre="linear")  # a non-linear tyre's linearisation: a cheap ranking
+
+        def held(name, theta):
+            structure = EFFECTS[name].augment(base, EFFECTS[name].start)
+            f = StructureFit(d.sim_for(structure.nonlinear), d.index, d.noise, d.spin, effect=EFFECTS[name], base=base,
+                             fit_theta=False, max_nfev=40, memo=self.memo)
+            return f.fit(d.measured, d.scale_for(structure.nonlinear), theta)
+
+        fixed = {c: [self.tyre_E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if nonlinear(c)}
+        return screen(cur, pool, anchors, held, fixed)
+
+    def fit_pool(self, comparison: ModelComparison, cur, cur_band, pool, screening, names, values):
+        """Joint fits of one forward step: the ``top`` linear candidates by screening (one on a
+        non-linear model, finished when its short fit pays) and every non-linear one (a short
+        probe, finished when in reach, :func:`in_reach`). Returns {candidate: fit} and the candidates fitted."""
+        chi2, wide = comparison.chi2, comparison.footing(cur) > 1
+        linear = sorted((c for c in pool if not nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if wide else self.top]
+        tried = linear + [c for c in pool if nonlinear(c)]
+        fits, (margin, per_param) = {}, criterion(cur_band)
+        for c in linear:  # each from the distributions where its screening was best
+            budget = PROBE_NFEV if wide else None
+            fits[c] = self.joint(screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
+            if budget and chi2(cur) - chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
+                fits[c] = self.joint(fits[c].theta_, names + [c], fitted_values(fits[c]))
+        for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
+            short = self.probe(cur.theta_, names + [c], {**values, c: screening[c]["values"]}, chi2)
+            if in_reach(comparison, cur, short, [fits[k] for k in linear]):
+                short = self.joint(short.theta_, names + [c], fitted_values(short))
+            fits[c] = short
+        return fits, tried
