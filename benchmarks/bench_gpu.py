@@ -1,6 +1,6 @@
 """Benchmark: the default config's NLST Monte Carlo ensemble on JAX (a GPU when JAX sees one)
 against the NumPy path, in the same run: the kernel (states on the device), the kernel with the
-copy to the host, the whole `simulate_ensemble`, the compile time, and the largest relative
+copy to the host, the whole `simulate_ensemble` (its KLE given), the compile time, and the largest relative
 difference between the two paths.
 
     PYTHONPATH=src python3 benchmarks/bench_gpu.py [--sizes 2000 20000 200000] [--numpy-max 20000] [--json PATH]
@@ -82,13 +82,13 @@ def bench_size(settings: Settings, n: int, run_numpy: bool, whole: bool, repeats
         row["numpy_kernel_s"], reference = best_of(lambda: simulate_nlst(*args), few)
         row["max_relative_difference"] = _relative_difference(on_host, reference)
         row["speedup_kernel"] = row["numpy_kernel_s"] / row["jax_kernel_s"]
-    if whole:
-        device = "gpu" if gpu_visible() else None
-        if device:
-            simulate_ensemble(settings, "nlst", samples=n, device=device)  # compiles this shape's program once
-            row["jax_ensemble_s"], _ = best_of(lambda: simulate_ensemble(settings, "nlst", samples=n, device=device), few)
+    if whole:  # the KLE computed once, as a workflow job or a study passes it
+        kle = wind_kle(settings)
+        if gpu_visible():
+            simulate_ensemble(settings, "nlst", samples=n, kle=kle, device="gpu")  # compiles this shape's program once
+            row["jax_ensemble_s"], _ = best_of(lambda: simulate_ensemble(settings, "nlst", samples=n, kle=kle, device="gpu"), few)
         if run_numpy:
-            row["numpy_ensemble_s"], _ = best_of(lambda: simulate_ensemble(settings, "nlst", samples=n, device="cpu"), few)
+            row["numpy_ensemble_s"], _ = best_of(lambda: simulate_ensemble(settings, "nlst", samples=n, kle=kle, device="cpu"), few)
     return row
 
 
@@ -100,6 +100,12 @@ def machine() -> dict:
     return {"device": getattr(dev, "device_kind", str(dev)), "platform": jax.default_backend(), "jax": jax.__version__,
             "numpy": np.__version__, "python": platform.python_version(), "host_cpu": platform.processor() or platform.machine(),
             "date": time.strftime("%Y-%m-%d", time.gmtime())}
+
+
+def _options() -> list[str]:
+    """The command line's options without the JSON file's path (a machine's own folder)."""
+    words = sys.argv[1:]
+    return [w for i, w in enumerate(words) if w != "--json" and (i == 0 or words[i - 1] != "--json") and not w.startswith("--json=")]
 
 
 def main() -> None:
@@ -126,11 +132,11 @@ def main() -> None:
         rows.append(row)
         cell = lambda key, fmt: format(row[key], fmt) if key in row else "-"  # noqa: E731
         print(f"{n:7d} {cell('jax_compile_s', '11.2f')} {cell('jax_kernel_s', '14.4f')} {cell('jax_kernel_to_host_s', '13.4f')} "
-              f"{cell('numpy_kernel_s', '16.3f')} {cell('speedup_kernel', '7.0f')}x {cell('jax_ensemble_s', '16.3f')} "
+              f"{cell('numpy_kernel_s', '16.3f')} {cell('speedup_kernel', '7.3g')}x {cell('jax_ensemble_s', '16.3f')} "
               f"{cell('numpy_ensemble_s', '18.3f')} {cell('max_relative_difference', '12.1e')}", flush=True)
     if args.json:
         record = {"machine": info, "t_end_s": grid.t_end, "step_s": grid.step, "steps": grid.n_out * grid.substeps,
-                  "repeats": args.repeats, "unroll": args.unroll, "command": "PYTHONPATH=src python3 benchmarks/bench_gpu.py " + " ".join(sys.argv[1:]),
+                  "repeats": args.repeats, "unroll": args.unroll, "command": " ".join(["PYTHONPATH=src python3 benchmarks/bench_gpu.py", *_options()]),
                   "rows": rows}
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(record, indent=1) + "\n")

@@ -32,10 +32,11 @@ def _curved_slip_force(peak, stiffness, slip, C, E):
 
 
 def _rhs_constant_speed(q, x, delta, F_w, M_w):
-    """dx/dt of (5.3) at the constant speed q["v"]: :func:`make_nlst_rhs`'s operations."""
+    """dx/dt of (5.3) at the constant speed q["v"]: :func:`make_nlst_rhs`'s operations; ``x``
+    and the result are tuples of the four states' arrays (n,)."""
     import jax.numpy as jnp
 
-    psi, psi_dot, beta = x[0], x[1], x[2]
+    psi, psi_dot, beta, _ = x
     v = q["v"]
     sin_b, cos_b = jnp.sin(beta), jnp.cos(beta)
     vy, vx = v * sin_b, v * cos_b
@@ -46,7 +47,7 @@ def _rhs_constant_speed(q, x, delta, F_w, M_w):
     F_fy_cos = F_f * jnp.cos(delta)
     psi_ddot = (q["l_f"] * F_fy_cos - q["l_r"] * F_r + M_w) * q["inv_I_z"]
     beta_dot = (F_fy_cos + F_r + F_w) * cos_b * q["inv_mv"] - psi_dot
-    return jnp.stack([psi_dot, psi_ddot, beta_dot, v * jnp.sin(psi)])
+    return psi_dot, psi_ddot, beta_dot, v * jnp.sin(psi)
 
 
 def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
@@ -54,7 +55,7 @@ def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
     operations, then beta_dot - (v_dot / v) sin(beta) as :func:`simulate_nlst_ltv` adds it."""
     import jax.numpy as jnp
 
-    psi, psi_dot, beta = x[0], x[1], x[2]
+    psi, psi_dot, beta, _ = x
     vy, vx = v * jnp.sin(beta), v * jnp.cos(beta)
     alpha_f = delta - jnp.arctan((vy + q["l_f"] * psi_dot) / vx)
     alpha_r = -jnp.arctan((vy - q["l_r"] * psi_dot) / vx)
@@ -64,24 +65,27 @@ def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
     psi_ddot = (q["l_f"] * F_fy_cos - F_ry * q["l_r"] + M_w) / q["I_z"]
     beta_dot = (F_fy_cos + F_ry + F_w) * jnp.cos(beta) / (q["m"] * v) - psi_dot
     beta_dot = beta_dot - v_dot / v * jnp.sin(beta)
-    return jnp.stack([psi_dot, psi_ddot, beta_dot, jnp.sin(psi) * v])
+    return psi_dot, psi_ddot, beta_dot, jnp.sin(psi) * v
 
 
 def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: bool, unroll: int):
     """States (4, n, n_out + 1) of the RK4 recursion; ``delta`` (n_out, S, 3), ``modes``
     (n_out, S, 3, n_c) and ``speed`` (n_out, S, 3, 2) or None hold each step's inputs at its
-    start, middle and end (the half-step grid's j, j + 1, j + 2)."""
+    start, middle and end (the half-step grid's j, j + 1, j + 2).
+
+    The state is carried as four arrays (n,), not one (4, n): stacking and slicing it at every
+    stage split each step into more kernels, which took twice the time on a GPU."""
     import jax.numpy as jnp
     from jax import lax
 
     half, sixth = 0.5 * h, h / 6.0
-    n_modes = coeffs.shape[1]
+    columns = [coeffs[:, c] for c in range(coeffs.shape[1])]
 
     def stage(x, inputs, k):
         d, f = inputs[0][k], inputs[1][k]
-        gust = coeffs[:, 0] * f[0]
-        for c in range(1, n_modes):  # unrolled: the sums fuse with the right-hand side
-            gust = gust + coeffs[:, c] * f[c]
+        gust = columns[0] * f[0]
+        for c in range(1, len(columns)):  # unrolled: the sums fuse with the right-hand side
+            gust = gust + columns[c] * f[c]
         F_w = wind_mean + gust
         M_w = q["M_c"] * F_w if gust_yaw_moment else q["M_c"] * wind_mean
         if speed is None:
@@ -89,21 +93,24 @@ def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: boo
         v = inputs[2][k]
         return _rhs_speed_profile(q, x, d, F_w, M_w, v[0], v[1])
 
+    def shifted(x, k, scale):  # x + scale k, formed as scale k + x like the NumPy stepper
+        return tuple(k_i * scale + x_i for x_i, k_i in zip(x, k))
+
     def step(x, inputs):
         k1 = stage(x, inputs, 0)
-        k2 = stage(k1 * half + x, inputs, 1)
-        k3 = stage(k2 * half + x, inputs, 1)
-        k4 = stage(k3 * h + x, inputs, 2)
-        return x + ((((k2 + k3) * 2.0) + k1) + k4) * sixth, None
+        k2 = stage(shifted(x, k1, half), inputs, 1)
+        k3 = stage(shifted(x, k2, half), inputs, 1)
+        k4 = stage(shifted(x, k3, h), inputs, 2)
+        return tuple(x_i + ((((b + c) * 2.0) + a) + d) * sixth for x_i, a, b, c, d in zip(x, k1, k2, k3, k4)), None
 
     def interval(x, inputs):
         x, _ = lax.scan(step, x, inputs, unroll=True)
-        return x, x
+        return x, jnp.stack(x)
 
-    x0 = jnp.zeros((4, wind_mean.shape[0]), wind_mean.dtype)
+    zero = jnp.zeros_like(wind_mean)
     per_step = (delta, modes) if speed is None else (delta, modes, speed)
-    _, states = lax.scan(interval, x0, per_step, unroll=unroll)
-    return jnp.concatenate([x0[None], states]).transpose(1, 2, 0)
+    _, states = lax.scan(interval, (zero,) * 4, per_step, unroll=unroll)  # (n_out, 4, n)
+    return jnp.concatenate([jnp.zeros((1,) + states.shape[1:], states.dtype), states]).transpose(1, 2, 0)
 
 
 @lru_cache(maxsize=None)
