@@ -5,7 +5,8 @@ The right-hand sides repeat :func:`uqdrive.vehicle.single_track.make_nlst_rhs` (
 and :func:`uqdrive.vehicle.single_track.nlst_rhs` with the speed term of
 :func:`uqdrive.vehicle.channels.simulate_nlst_ltv` (a speed profile) operation for operation, and
 the stepper repeats :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`: the two paths differ
-by the last bits of the transcendental functions and of the gusts' sums, nothing else.
+by the last bits of the transcendental functions, of the gusts' sums and of the multiply-adds a
+compiler fuses, nothing else.
 """
 
 from __future__ import annotations
@@ -73,8 +74,8 @@ def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: boo
     (n_out, S, 3, n_c) and ``speed`` (n_out, S, 3, 2) or None hold each step's inputs at its
     start, middle and end (the half-step grid's j, j + 1, j + 2).
 
-    The state is carried as four arrays (n,), not one (4, n): stacking and slicing it at every
-    stage split each step into more kernels, which took twice the time on a GPU."""
+    The state is carried as four arrays (n,), not one (4, n): stacking and slicing a (4, n) array
+    at every stage splits each step into more GPU kernels (twice the time on an H100)."""
     import jax.numpy as jnp
     from jax import lax
 
@@ -163,8 +164,10 @@ def nlst_program(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigen
     -------
     function : callable
         The jitted ensemble with its static choices bound.
-    args : tuple of jax.Array
-        Its arguments, already on the device.
+    args : tuple
+        Its arguments, already on the device: the parameters (arrays of shape (n,) and scalars),
+        the wind coefficients (n, n_c), the mean wind (n,), each step's steering (n_out, S, 3),
+        KLE modes (n_out, S, 3, n_c) and speed (n_out, S, 3, 2) or None, and the step h (s).
     """
     import jax
 
