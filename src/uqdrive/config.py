@@ -84,18 +84,9 @@ def _schema() -> dict:
     return _yaml(files("uqdrive").joinpath("config_schema.yaml").read_text())
 
 
-def _best_match(errors):
-    """jsonschema's most relevant error of ``errors`` (None when there is none); jsonschema loads
-    here, not with the module, so that the settings and the simulators import without it."""
-    from jsonschema.exceptions import best_match
-
-    return best_match(errors)
-
-
 @functools.lru_cache(maxsize=1)
 def _validator():
-    from jsonschema import Draft202012Validator
-
+    from jsonschema import Draft202012Validator  # here: the settings and the simulators import without jsonschema
     return Draft202012Validator(_schema())
 
 
@@ -178,7 +169,8 @@ def validate_config(config: Mapping[str, Any]) -> dict:
         raise ConfigError("the configuration must be a mapping of keys")
     cfg = copy.deepcopy(dict(config))
     _check_leaves(cfg)
-    error = _best_match(_validator().iter_errors(cfg))
+    from jsonschema.exceptions import best_match
+    error = best_match(_validator().iter_errors(cfg))
     if error is not None:
         raise _schema_error(error)
     reference = cfg.pop("vehicle_file", None)
@@ -250,7 +242,8 @@ def read_vehicle_file(reference: str | Path) -> tuple[str, dict]:
 
 def _check_vehicle_schema(spec: dict, label: str) -> None:
     _check_leaves(spec, where=label)
-    error = _best_match(_vehicle_validator().iter_errors(spec))
+    from jsonschema.exceptions import best_match
+    error = best_match(_vehicle_validator().iter_errors(spec))
     if error is not None:
         raise _schema_error(error, label)
 
@@ -258,7 +251,6 @@ def _check_vehicle_schema(spec: dict, label: str) -> None:
 @functools.lru_cache(maxsize=1)
 def _vehicle_validator():
     from jsonschema import Draft202012Validator
-
     schema = _schema()
     return Draft202012Validator({"$defs": schema["$defs"], **schema["$defs"]["vehicle_file"]})
 
