@@ -85,6 +85,7 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "four_wheel_car.md", four_wheel_car())
     _write(outdir / "four_wheel_cases.md", four_wheel_cases(root))
     _write(outdir / "plausible_car.md", plausible_car())
+    _write(outdir / "gpu_ensembles.md", gpu_ensembles(root / "docs" / "measurements" / "gpu.json"))
 
 
 def substitutions() -> dict[str, str]:
@@ -150,3 +151,33 @@ def plausible_car() -> str:
         slip = lambda s: f"given in {s[0]}?" if s else "-"  # noqa: E731
         lines.append(f"| `{key}` | {lo:g} to {hi:g} | {unit} | {slip(below)} | {slip(above)} |")
     return "\n".join(lines) + "\n"
+
+
+def gpu_ensembles(measured: Path) -> str:
+    """Markdown sentence and table of the GPU benchmark's record (benchmarks/bench_gpu.py --json):
+    the machine it names, each ensemble size's times and the JAX path's difference from NumPy's."""
+    import json
+
+    record = json.loads(measured.read_text())
+    m = record["machine"]
+
+    def seconds(row, key):
+        value = row.get(key)
+        return "-" if value is None else (f"{value * 1e3:.1f} ms" if value < 1 else f"{value:.2f} s")
+
+    head = [f"Measured on {m['device']} (JAX {m['jax']}, platform `{m['platform']}`, NumPy {m['numpy']} on the same "
+            f"machine's CPU, Python {m['python']}), {m['date']}, with `{record['command']}`: {record['t_end_s']:g} s of "
+            f"the NLST, RK4 at {record['step_s'] * 1e3:g} ms ({record['steps']} steps), float64, best of "
+            f"{record['repeats']} (the NumPy path and the whole `simulate_ensemble` above 2000 runs: one call). A dash: not "
+            "timed at that size.", "",
+            "| runs | JAX kernel | + copy to the host | NumPy kernel | kernel speed-up | JAX `simulate_ensemble` | "
+            "NumPy `simulate_ensemble` | compile | largest relative difference |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = []
+    for r in record["rows"]:
+        speedup = f"{r['speedup_kernel']:.0f}x" if "speedup_kernel" in r else "-"
+        diff = f"{r['max_relative_difference']:.1e}" if "max_relative_difference" in r else "-"
+        rows.append(f"| {r['runs']} | {seconds(r, 'jax_kernel_s')} | {seconds(r, 'jax_kernel_to_host_s')} | "
+                    f"{seconds(r, 'numpy_kernel_s')} | {speedup} | {seconds(r, 'jax_ensemble_s')} | "
+                    f"{seconds(r, 'numpy_ensemble_s')} | {seconds(r, 'jax_compile_s')} | {diff} |")
+    return "\n".join(head + rows) + "\n"

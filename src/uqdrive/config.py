@@ -20,8 +20,6 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import yaml
-from jsonschema import Draft202012Validator
-from jsonschema.exceptions import best_match
 
 from ._errors import ConfigError
 from ._yaml import load_yaml
@@ -87,7 +85,8 @@ def _schema() -> dict:
 
 
 @functools.lru_cache(maxsize=1)
-def _validator() -> Draft202012Validator:
+def _validator():
+    from jsonschema import Draft202012Validator  # here: the settings and the simulators import without jsonschema
     return Draft202012Validator(_schema())
 
 
@@ -170,6 +169,7 @@ def validate_config(config: Mapping[str, Any]) -> dict:
         raise ConfigError("the configuration must be a mapping of keys")
     cfg = copy.deepcopy(dict(config))
     _check_leaves(cfg)
+    from jsonschema.exceptions import best_match
     error = best_match(_validator().iter_errors(cfg))
     if error is not None:
         raise _schema_error(error)
@@ -242,13 +242,15 @@ def read_vehicle_file(reference: str | Path) -> tuple[str, dict]:
 
 def _check_vehicle_schema(spec: dict, label: str) -> None:
     _check_leaves(spec, where=label)
+    from jsonschema.exceptions import best_match
     error = best_match(_vehicle_validator().iter_errors(spec))
     if error is not None:
         raise _schema_error(error, label)
 
 
 @functools.lru_cache(maxsize=1)
-def _vehicle_validator() -> Draft202012Validator:
+def _vehicle_validator():
+    from jsonschema import Draft202012Validator
     schema = _schema()
     return Draft202012Validator({"$defs": schema["$defs"], **schema["$defs"]["vehicle_file"]})
 

@@ -308,7 +308,7 @@ def candidate_names(candidates: str | Sequence[str] | None) -> list[str] | None:
 
 
 def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str = "normal", noise: float = 0.0,
-             samples: int | None = None, seed: int | None = None) -> xr.Dataset:
+             samples: int | None = None, seed: int | None = None, device: str = "cpu") -> xr.Dataset:
     """A Monte Carlo ensemble in the uqdrive data schema, as ``uqdrive simulate`` writes it.
 
     Parameters
@@ -323,6 +323,9 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
         Measurement-noise intensity A in [0, 1] (0: clean).
     samples, seed : int, optional
         Realisations and root seed (default: the config's).
+    device : {"cpu", "gpu", "auto"}
+        Where the NLST is integrated (:func:`uqdrive.simulate_ensemble`): cpu the NumPy reference,
+        gpu JAX on a GPU (``pip install "uqdrive[gpu]"``), auto the GPU when one is visible.
 
     Returns
     -------
@@ -330,11 +333,13 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
     """
     import numpy as np
 
+    from ..numerics.backend import resolve_device
     from ..rng import rng_stream
     from ..vehicle.montecarlo import simulate_ensemble
     from ..vehicle.noise import noisy_ensemble
     from ..vehicle.single_track import STATES
 
+    resolve_device(device)  # refused before any work
     cfg = resolve_config(config, vehicle)
     if str(model) not in ("lst", "nlst"):
         from .model import simulate_model
@@ -342,7 +347,7 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
         n = int(cfg["montecarlo"]["samples"] if samples is None else samples)
         ds = simulate_model(cfg, Path(model), steer, n, int(cfg["seed"] if seed is None else seed))
     else:
-        ds = simulate_ensemble(Settings.from_config(cfg), str(model), steer, samples=samples, seed=seed)
+        ds = simulate_ensemble(Settings.from_config(cfg), str(model), steer, samples=samples, seed=seed, device=device)
     bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]
     if bad:
         raise ConfigError(f"the simulation diverged ('{bad[0]}' not finite) with this config: vehicle.* and uncertainty.* "

@@ -114,6 +114,10 @@ def _add_simulate(sub) -> None:
                    help="realisations, 2..10^7 (default: config montecarlo.samples)")
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
                    help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
+    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"),
+                   help="where the NLST is integrated: cpu, the NumPy reference (default, the same bits on every machine); "
+                        "gpu, JAX in float64 on a GPU (install with pip install \"uqdrive[gpu]\"; the same numbers as cpu to 1e-10 relative); "
+                        "auto, the GPU when JAX sees one, else cpu. The LST always runs on the CPU")
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file (its folder must exist)")
@@ -127,7 +131,7 @@ def _simulate(args) -> None:
 
     config = resolve_config(args.config, args.vehicle)
     check_writable(args.out, overwrite=args.force)
-    ds = simulate(args.model, config=config, steer=args.steer, noise=args.noise, samples=args.samples, seed=args.seed)
+    ds = simulate(args.model, config=config, steer=args.steer, noise=args.noise, samples=args.samples, seed=args.seed, device=args.device)
     write_dataset(ds, args.out, overwrite=args.force)
     print(f"wrote {args.out}: {args.model.upper()}, {args.steer} steering, {ds.sizes['sample']} samples, "
           f"{ds.attrs['n_spun']} spun, noise A = {args.noise:g}")

@@ -12,6 +12,7 @@ import xarray as xr
 from .._version import __version__
 from ..settings import Settings, TimeGrid
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
+from ..numerics.backend import resolve_device
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
 from ..rng import rng_stream
 from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
@@ -144,6 +145,7 @@ def simulate_ensemble(
     seed: int | None = None,
     kle: KarhunenLoeve | None = None,
     chunk: int | None = None,
+    device: str = "cpu",
 ) -> xr.Dataset:
     """Simulate a Monte Carlo ensemble in the uqdrive data schema (see ``io.validate_ensemble``).
 
@@ -161,6 +163,11 @@ def simulate_ensemble(
     chunk : int, optional
         Index of an independent block of a larger ensemble: its draws come from their own
         random streams, so blocks can be simulated one after another in bounded memory.
+    device : {"cpu", "gpu", "auto"}
+        Where the NLST is integrated: cpu, the NumPy reference (bit for bit the same on every
+        machine); gpu, JAX in float64 on a GPU (:mod:`uqdrive.vehicle.accelerated`; the same numbers as
+        the NumPy path to 1e-10 relative, refused without JAX or without a GPU it sees); auto, the GPU
+        when there is one, else cpu. The LST's exact discretisation always runs on the CPU.
 
     Returns
     -------
@@ -171,6 +178,7 @@ def simulate_ensemble(
         raise ValueError(f"unknown model '{model}'; choose one of {', '.join(MODELS)}")
     if steer not in STEERS:
         raise ValueError(f"unknown steering '{steer}'; choose one of {', '.join(STEERS)}")
+    backend = resolve_device(device)
     n = int(settings.samples if samples is None else samples)
     seed = int(settings.seed if seed is None else seed)
     grid = settings.time
@@ -191,7 +199,13 @@ def simulate_ensemble(
     delta_fine = steering_input(t_fine, delta_max, st.period, STEERS[steer])
     f_fine = kle.eigenfunctions(t_fine)
     ramp = settings.speed
-    if ramp is None:
+    on_jax = backend == "jax" and model == "nlst"
+    if on_jax:
+        from .accelerated.nlst import simulate_nlst_jax
+
+        x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment,
+                              None if ramp is None else ramp.on(t_fine))
+    elif ramp is None:
         simulate = simulate_lst if model == "lst" else simulate_nlst
         x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment)
     else:
@@ -228,7 +242,7 @@ def simulate_ensemble(
         "spin_threshold": float(threshold),
         "wind_sigma": float(wind_settings.sigma),
         "gust_yaw_moment": int(wind_settings.gust_yaw_moment),
-        "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4",
+        "integrator": "exact first-order-hold discretisation" if model == "lst" else "classical RK4" + (" (JAX, float64)" if on_jax else ""),
         "integration_step": float(grid.step),
         "seed": seed,
         "config_hash": settings.ensemble_hash(n, seed, chunk),
