@@ -69,6 +69,9 @@ myst_heading_anchors = 3
 # module's own members only (each object is documented once, where it is defined), and the
 # package pages list their lazy exports with links through `exports` below.
 autosummary_generate = True
+# A module renamed or removed leaves its page behind, and autosummary would try to import it.
+for _stale in (HERE / "api" / "generated").glob("uqdrive*.rst"):
+    _stale.unlink()
 autosummary_imported_members = False
 autosummary_ignore_module_all = True
 autodoc_default_options = {"members": True, "undoc-members": True, "member-order": "bysource", "show-inheritance": True}
