@@ -13,6 +13,8 @@ import json
 import math
 from pathlib import Path
 
+from generated_tables import _write  # one writer that leaves unchanged pages to Sphinx's cache
+
 HERE = Path(__file__).resolve().parent
 RECORDS = HERE / "measurements"
 
@@ -152,12 +154,6 @@ def substitutions(root: Path) -> dict[str, str]:
             "job_alone_mb": str(over["job_alone"]), "rule_process_mb": str(over["rule_process"]),
             "memory_margin": f"{rr.MEMORY_MARGIN:g}", "runtime_margin": f"{rr.RUNTIME_MARGIN:g}",
             "groups_machine": ci["groups_machine"], "full_machine": _load("rule_resources.json")["full"]["machine"]}
-
-
-def _write(out: Path, text: str) -> None:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if not out.exists() or out.read_text() != text:  # unchanged file: Sphinx keeps its cache
-        out.write_text(text)
 
 
 def write_all(root: Path, outdir: Path) -> None:

@@ -194,28 +194,9 @@ def simulate_nlst_jax(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, 
     """:func:`uqdrive.vehicle.montecarlo.simulate_nlst` (``speed_half`` None) or
     :func:`uqdrive.vehicle.channels.simulate_nlst_ltv` computed by JAX on its default device.
 
-    Parameters
-    ----------
-    p : VehicleParameters
-        Per-realisation parameters, arrays of shape (n,).
-    delta_half : ndarray, shape (2 n_fine - 1,)
-        Steering angle on the half-step grid (rad).
-    wind_mean : ndarray, shape (n,)
-        Mean side wind per realisation (N).
-    wind_coeffs : ndarray, shape (n, n_c)
-        Wind mode coefficients (N).
-    eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid (-).
-    grid : TimeGrid
-    gust_yaw_moment : bool
-        Whether the time-variant wind also exerts the yaw moment M_c F_w.
-    speed_half : ndarray, shape (2 n_fine - 1,), optional
-        v (m/s) on the half-step grid; None: the constant speed ``p.v_c``.
-
-    Returns
-    -------
-    ndarray, shape (4, n, n_out + 1)
-        States on the output grid, as the NumPy path returns them (float64).
+    The arguments, their shapes and units are those of the NumPy functions; ``speed_half``
+    (shape (2 n_fine - 1,), m/s) is the speed on the half-step grid, None for ``p.v_c``.
+    Returns the states on the output grid, shape (4, n, n_out + 1), float64, as they do.
     """
     with float64():
         function, args = nlst_program(p, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid, gust_yaw_moment, speed_half)
