@@ -272,7 +272,8 @@ class LinearTrackRHS:
 
     def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half):
         p = with_compliance_steer(p, s.compliance_steer)  # the steering's compliance: a softer front axle
-        self.p, self.k, self.exact = p, float(s.course_weight), bool(s.course_exact)
+        k = np.asarray(s.course_weight, float)  # per realisation where pairs share a pass
+        self.p, self.k, self.exact = p, (float(k) if k.ndim == 0 else k), bool(s.course_exact)
         self.a_lat = np.asarray(s.lateral_acceleration, float)
         self._has_lat = bool(np.any(self.a_lat))
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
