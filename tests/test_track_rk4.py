@@ -201,3 +201,18 @@ def test_linear_pairs_along_a_speed_profile_batched_equal_their_own_simulation_b
     # the exact kinematics' and the lag's pairs alone
     assert sorted(passes) == [2, 3, 3, 3] and sum(passes) == len(thetas) - 3
     assert all(not np.array_equal(batched[0], x) for x in batched[1:])
+
+
+def test_kept_gust_products_give_the_numbers_of_a_fresh_simulator(sim):
+    """The gust products a simulator keeps (shared with its copies on other germs) are looked up
+    by the germs and the gust scale: simulations after others on other gusts equal those of a
+    simulator that computes every product anew, and a stronger gust changes them."""
+    gusty = EFFECTS["wind_gust"].augment(STRUCTURES["thesis tyre"], [2.0])
+    other = sim.with_germs(type(sim.germs).draw(np.random.default_rng(9), sim.germs.n, sim.germs.kle.shape[1]))  # as many
+    runs = [(sim, STRUCTURES["thesis tyre"]), (sim, gusty), (other, STRUCTURES["thesis tyre"]), (sim, STRUCTURES["thesis tyre"])]
+    got = [s.simulate(THETA, st) for s, st in runs]
+    for x, (s, st) in zip(got, runs):
+        fresh = s.with_germs(s.germs)
+        fresh._gust_products = {}
+        assert np.array_equal(x, fresh.simulate(THETA, st))
+    assert not np.array_equal(got[0], got[1]) and np.array_equal(got[0], got[3])

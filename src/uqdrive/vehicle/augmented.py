@@ -29,6 +29,9 @@ _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms
 #: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a
 #: step's NumPy calls cost their arithmetic, and the half-step wind forces (2 steps x realisations) grow.
 _PASS_REALISATIONS = 8000
+#: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000
+#: realisations and 2000 half steps).
+_GUST_PRODUCTS = 4
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
                    "roll_frequency", "roll_damping", "combined_slip", "drive_share_front")
@@ -95,6 +98,7 @@ class AugmentedSimulator:
         self.m_load = self.load.mean + self.load.std * germs.m_load
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
+        self._gust_products: dict = {}  # shared by the copies (with_germs, with_input): see _gusts
 
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
@@ -289,6 +293,22 @@ class AugmentedSimulator:
             self._f_half = (key, self.kle.eigenfunctions(t_half))
         return self._f_half[1]
 
+    def _gusts(self, coeffs, f_half, t_half):
+        """Gust forces (J, n) of the realisations' mode coefficients ``coeffs`` (n, n_c) on the
+        half steps: the product ``coeffs @ f_half``, transposed. It depends on the germs and the
+        gust scale, not on theta, so a fit's simulations share it: the most recent
+        :data:`_GUST_PRODUCTS` are kept (with the copies of this simulator on other germs or
+        inputs), each computed as the first call did, so the numbers are those of a fresh product."""
+        key = (t_half.size, float(t_half[-1]), coeffs.shape, coeffs.tobytes())
+        cache = self._gust_products
+        product = cache.pop(key, None)
+        if product is None:
+            product = np.ascontiguousarray((coeffs @ f_half).T)
+        cache[key] = product
+        while len(cache) > _GUST_PRODUCTS:
+            cache.pop(next(iter(cache)))
+        return product
+
     def _held_input(self, s: ModelStructure) -> bool:
         """The actual steering is the held command itself (delayed): piecewise constant."""
         return self.interpolation == "previous" and s.steering_lag <= 0
@@ -346,9 +366,8 @@ class AugmentedSimulator:
         F_w_half = np.empty((t_half.size, wind.size))
         start = 0
         for size in (groups or [wind.size]):
-            F_w_half[:, start:start + size] = (coeffs[start:start + size] @ f_half).T
+            np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
             start += size
-        F_w_half += wind
         E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
