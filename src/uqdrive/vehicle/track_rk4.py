@@ -292,6 +292,24 @@ class LinearTrackRHS:
         self.inv_v = [float(1.0 / v) for v in self.v_half]
         self.rate = [float(vd / v) for v, vd in zip(self.v_half, self.v_dot_half)]
         self._t = np.empty(n)
+        # the terms that do not depend on the state, at the last half step asked for: RK4 asks for
+        # every half step twice in a row (k2 and k3; k4 and the next step's k1)
+        self._j, self._terms = -1, np.empty((5, n))
+
+    def _inputs(self, j: int):
+        """a13 delta, W1 F_w, S (delta / v), F_w / (m v) and a_lat / v (5, n) at half step ``j``."""
+        if j != self._j:
+            iv, d, F_w, u = self.inv_v[j], float(self.delta_half[j]), self.F_w_half[j], self._terms
+            np.multiply(self.a13, d, u[0])
+            if self.M_term is None:
+                np.multiply(self.W1, F_w, u[1])
+            np.multiply(self.S, d * iv, u[2])
+            np.multiply(self.inv_m, F_w, u[3])
+            u[3] *= iv
+            if self._has_lat:
+                np.multiply(self.a_lat, iv, u[4])
+            self._j = j
+        return self._terms
 
     def forces(self, x, j: int):
         """Front and rear tyre forces (N), each shape (n,), at half step ``j``."""
@@ -301,19 +319,14 @@ class LinearTrackRHS:
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
         r, b, t = x[1], x[2], self._t
-        iv, rate, d, F_w = self.inv_v[j], self.rate[j], float(self.delta_half[j]), self.F_w_half[j]
+        iv, rate, u = self.inv_v[j], self.rate[j], self._inputs(j)
         o1, o2, o3 = out[1], out[2], out[3]
         np.multiply(self.P, r, o1)
         o1 *= iv
         np.multiply(self.a12, b, t)
         o1 += t
-        np.multiply(self.a13, d, t)
-        o1 += t
-        if self.M_term is None:
-            np.multiply(self.W1, F_w, t)
-            o1 += t
-        else:
-            o1 += self.M_term
+        o1 += u[0]
+        o1 += u[1] if self.M_term is None else self.M_term
         np.multiply(self.Q, r, o2)
         o2 *= iv * iv
         o2 -= r
@@ -322,13 +335,10 @@ class LinearTrackRHS:
         o2 += t
         np.multiply(b, rate, t)
         o2 -= t
-        np.multiply(self.S, d * iv, t)
-        o2 += t
-        np.multiply(self.inv_m, F_w, t)
-        t *= iv
-        o2 += t
+        o2 += u[2]
+        o2 += u[3]
         if self._has_lat:
-            o2 += self.a_lat * iv
+            o2 += u[4]
         out[0] = r
         np.multiply(b, self.k, o3)
         o3 += x[0]
