@@ -378,7 +378,7 @@ class AugmentedSimulator:
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed), js)
             if not s.nonlinear:
-                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
+                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=bool({"psi", "y"} & set(self.channels)))
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
             rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed)
             out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed)

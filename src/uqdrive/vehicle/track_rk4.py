@@ -268,9 +268,14 @@ class LinearTrackRHS:
         Mean wind (N).
     v_half, v_dot_half : ndarray, shape (J,)
         Speed (m/s) and its rate (m/s^2) per half step.
+    heading : bool
+        Integrate psi and y too; False: the states are psi_dot and beta alone (2, n), which
+        neither psi nor y enters, for sensors that record neither (the same numbers for both).
     """
 
-    def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half):
+    def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half, heading: bool = True):
+        self.heading, self.n_states = bool(heading), 4 if heading else 2
+        self._rows = (1, 2) if heading else (0, 1)  # psi_dot's and beta's rows of the integrated states
         p = with_compliance_steer(p, s.compliance_steer)  # the steering's compliance: a softer front axle
         k = np.asarray(s.course_weight, float)  # per realisation where pairs share a pass
         self.p, self.k, self.exact = p, (float(k) if k.ndim == 0 else k), bool(s.course_exact)
@@ -318,9 +323,10 @@ class LinearTrackRHS:
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
-        r, b, t = x[1], x[2], self._t
+        i_r, i_b = self._rows
+        r, b, t = x[i_r], x[i_b], self._t
         iv, rate, u = self.inv_v[j], self.rate[j], self._inputs(j)
-        o1, o2, o3 = out[1], out[2], out[3]
+        o1, o2 = out[i_r], out[i_b]
         np.multiply(self.P, r, o1)
         o1 *= iv
         np.multiply(self.a12, b, t)
@@ -339,7 +345,10 @@ class LinearTrackRHS:
         o2 += u[3]
         if self._has_lat:
             o2 += u[4]
+        if not self.heading:
+            return
         out[0] = r
+        o3 = out[3]
         np.multiply(b, self.k, o3)
         o3 += x[0]
         if self.exact:
@@ -353,8 +362,14 @@ class LinearTrackRHS:
 
 
 def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
-    """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``)."""
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.F_w_half.shape[1])), h, n_steps, record_every)
+    """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``);
+    psi and y NaN where ``rhs`` leaves them out (``heading`` False)."""
+    n = rhs.F_w_half.shape[1]
+    out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, n)), h, n_steps, record_every)
+    if not rhs.heading:
+        full = np.full((out.shape[0], 4, n), np.nan)
+        full[:, 1:3] = out
+        out = full
     return out.transpose(1, 2, 0)
 
 
