@@ -218,18 +218,21 @@ def test_kept_gust_products_give_the_numbers_of_a_fresh_simulator(sim):
     assert not np.array_equal(got[0], got[1]) and np.array_equal(got[0], got[3])
 
 
-def test_sensors_without_heading_along_a_speed_profile_get_the_full_models_numbers(config):
-    """A linear model along a speed profile recorded without psi and y integrates psi_dot and
-    beta alone (neither psi nor y enters them): its channels equal those of the four-state
-    integration bit for bit, for the yaw moment of the gusts on and off and with a bank."""
+@pytest.mark.parametrize("profile", [True, False])
+def test_sensors_without_heading_get_the_full_models_numbers(config, profile):
+    """A model recorded without psi and y integrates psi_dot and beta alone (neither psi nor y
+    enters them): its channels equal those of the four-state integration bit for bit, the
+    linear model along a speed profile and the Magic-Formula one at a held speed or along it,
+    with the gusts' yaw moment on and off and with a bank."""
     t = np.arange(201) * 0.01
-    speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0])
+    speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0]) if profile else None
     full = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 21.5, 12,
                                     np.random.default_rng(3), stride=4, channels=("psi", "psi_dot", "beta", "y", "a_y"), speed=speed)
     imu = full.with_germs(full.germs)
     imu.channels = ("a_y", "psi_dot", "beta")
+    bank = EFFECTS["road_bank"].augment(ModelStructure(), [2.0])
     for yaw in (True, False):
         full.gust_yaw_moment = imu.gust_yaw_moment = yaw
-        for s in (ModelStructure(), EFFECTS["road_bank"].augment(ModelStructure(), [2.0])):
+        for s in ([ModelStructure(), bank] if profile else []) + [_tyre(0.6), EFFECTS["road_bank"].augment(_tyre(0.6), [2.0])]:
             want, got = full.simulate(THETA, s), imu.simulate(THETA, s)
             assert np.array_equal(got, want[[4, 1, 2]]) and np.all(np.isfinite(got))

@@ -377,11 +377,12 @@ class AugmentedSimulator:
             if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed), js)
+            heading = bool({"psi", "y"} & set(self.channels))  # else psi_dot and beta alone: the same numbers
             if not s.nonlinear:
-                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=bool({"psi", "y"} & set(self.channels)))
+                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=heading)
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
-            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed)
-            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed)
+            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
+            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed, heading)
             return out.transpose(1, 2, 0), rhs, js
         if uses_chassis_terms(s):
             return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
