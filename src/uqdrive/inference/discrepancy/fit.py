@@ -184,7 +184,7 @@ class StructureFit:
                 later = [] if again else [(then[i], then_keys[i]) for i in later]
             batch = [(pairs[i][0], keys[i][1]) for i in todo] + [(pair[0], key[1]) for pair, key in later]
             if self.memo is not None and not any(st.nonlinear for _, st in batch):
-                sims = self._linear_simulations([keys[i] for i in todo], batch)
+                sims = self._linear_simulations([keys[i] for i in todo] + [key for _, key in later], batch)
             else:
                 sims = self.simulator.simulate_many([th for th, _ in batch], [st for _, st in batch],
                                                     groups=[len(todo)] + ([len(later)] if later else []))
@@ -287,8 +287,9 @@ class StructureFit:
         # A numerically integrated model simulates a point's difference neighbours in the pass
         # of the point itself: trf asks for the Jacobian at every point whose residuals it
         # accepts (it rejected none in the benchmark's fits), and one RK4 pass over 8 x 300
-        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone.
-        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear
+        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone. Along a speed
+        # profile a linear model is integrated by RK4 as well, its pairs batched alike.
+        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
 
         def residuals(params):
             params = full(params)
