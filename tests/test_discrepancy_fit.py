@@ -479,3 +479,28 @@ def test_fits_sharing_a_memo_simulate_a_linear_model_once_with_the_same_numbers(
     assert small.get(sim, (b"0", ModelStructure())) is None and small.get(sim, (b"2", ModelStructure())) == "c"
     small.put(sim, key, "x")
     assert small.get(counted, key) is None and small.get(sim, key) == "x"  # another simulator's entry is not this one's
+
+
+def test_linear_fit_along_a_speed_profile_simulates_ahead_with_the_same_numbers(config):
+    """Along a speed profile a linear model is integrated by RK4, so a point's difference
+    neighbours are simulated in the pass of the point (with the memo of a discover): every
+    attribute equals the one-pass-per-call fit's bit for bit, in about half its passes."""
+    from uqdrive.inference.discrepancy.fit import SimulationMemo
+
+    t = np.arange(201) * 0.01
+    speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0])
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 21.5, 16,
+                                   np.random.default_rng(3), stride=4, channels=("psi_dot", "a_y"), speed=speed)
+    index, noise, effect = np.arange(1, sim.output_time.size), np.full(2, 1e-8), EFFECTS["road_bank"]
+    measured = StructureFit(sim, index, noise).statistics(THETA * [1.05, 1, 1, 1, 1, 1], effect.augment(ModelStructure(), [1.5]))
+    scale = np.abs(measured) * 0.05 + 1e-4
+    fits = {}
+    for cls in (StructureFit, _OnePassPerCall):
+        counted = _Counting(sim)
+        f = cls(counted, index, noise, effect=effect, max_nfev=5, memo=SimulationMemo())
+        fits[cls] = (f.fit(measured, scale, THETA, effect_start=[0.5]), counted)
+    (ahead, c_ahead), (plain, c_plain) = fits[StructureFit], fits[_OnePassPerCall]
+    for attr in ("theta_", "effect_values_", "statistics_", "z_", "jacobian_", "parameter_cov_"):
+        assert np.array_equal(getattr(ahead, attr), getattr(plain, attr)), attr
+    assert ahead.chi2_ == plain.chi2_ and ahead.nfev_ == plain.nfev_
+    assert c_plain.passes >= 2 * ahead.nfev_ - 1 and c_ahead.passes <= ahead.nfev_ + 1

@@ -169,3 +169,70 @@ def test_chassis_pairs_batched_equal_their_own_simulation_bit_for_bit(config, ch
     for got, th, s in zip(batched, thetas, structures):
         assert np.array_equal(got, sim.simulate(th, s))
     assert not np.array_equal(batched[0], batched[3]) and not np.array_equal(batched[0], batched[4])
+
+
+def test_linear_pairs_along_a_speed_profile_batched_equal_their_own_simulation_bit_for_bit(config, monkeypatch):
+    """simulate_many of linear structures along a speed profile (a Jacobian's neighbours, and
+    pairs with a bank, course kinematics, compliance, stronger gusts, an output map, another
+    steering lag) integrates the pairs that can share a pass in passes of at most
+    _PASS_REALISATIONS realisations, each pair with the numbers of simulate: a pair given
+    another's parameters, gusts, steering or kinematics in the pass would differ from them."""
+    import uqdrive.vehicle.augmented as augmented
+
+    t = np.arange(201) * 0.01
+    speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0])
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 21.5, 12,
+                                   np.random.default_rng(3), stride=4, channels=("psi", "psi_dot", "beta", "y", "a_y"), speed=speed)
+    monkeypatch.setattr(augmented, "_PASS_REALISATIONS", 36)  # three pairs a pass
+    base = ModelStructure()
+    neighbours = [THETA] + [THETA + 1e-3 * np.abs(THETA).max() * np.eye(6)[i] for i in range(6)]
+    others = [EFFECTS["road_bank"].augment(base, [2.0]), EFFECTS["road_bank"].augment(base, [2.1]),
+              EFFECTS["lateral_kinematics"].augment(base, [0.7]), EFFECTS["compliance_steer"].augment(base, [0.4]),
+              EFFECTS["wind_gust"].augment(base, [2.0]), EFFECTS["sensor_scale_a_y"].augment(base, [1.1]),
+              EFFECTS["actuator_lag"].augment(base, [0.08])]
+    thetas, structures = neighbours + [THETA] * len(others), [base] * len(neighbours) + others
+    passes = []
+    one_pass = AugmentedSimulator._one_pass
+    monkeypatch.setattr(AugmentedSimulator, "_one_pass", lambda self, th, st, *a, **k: passes.append(len(th)) or one_pass(self, th, st, *a, **k))
+    batched = sim.simulate_many(thetas, structures)
+    for got, th, s in zip(batched, thetas, structures):
+        assert np.array_equal(got, sim.simulate(th, s))
+    # the ten of the plain kinematics and input in passes of three and a single, the two banks in one;
+    # the exact kinematics' and the lag's pairs alone
+    assert sorted(passes) == [2, 3, 3, 3] and sum(passes) == len(thetas) - 3
+    assert all(not np.array_equal(batched[0], x) for x in batched[1:])
+
+
+def test_kept_gust_products_give_the_numbers_of_a_fresh_simulator(sim):
+    """The gust products a simulator keeps (shared with its copies on other germs) are looked up
+    by the germs and the gust scale: simulations after others on other gusts equal those of a
+    simulator that computes every product anew, and a stronger gust changes them."""
+    gusty = EFFECTS["wind_gust"].augment(STRUCTURES["thesis tyre"], [2.0])
+    other = sim.with_germs(type(sim.germs).draw(np.random.default_rng(9), sim.germs.n, sim.germs.kle.shape[1]))  # as many
+    runs = [(sim, STRUCTURES["thesis tyre"]), (sim, gusty), (other, STRUCTURES["thesis tyre"]), (sim, STRUCTURES["thesis tyre"])]
+    got = [s.simulate(THETA, st) for s, st in runs]
+    for x, (s, st) in zip(got, runs):
+        fresh = s.with_germs(s.germs)
+        fresh._gust_products = {}
+        assert np.array_equal(x, fresh.simulate(THETA, st))
+    assert not np.array_equal(got[0], got[1]) and np.array_equal(got[0], got[3])
+
+
+@pytest.mark.parametrize("profile", [True, False])
+def test_sensors_without_heading_get_the_full_models_numbers(config, profile):
+    """A model recorded without psi and y integrates psi_dot and beta alone (neither psi nor y
+    enters them): its channels equal those of the four-state integration bit for bit, the
+    linear model along a speed profile and the Magic-Formula one at a held speed or along it,
+    with the gusts' yaw moment on and off and with a bank."""
+    t = np.arange(201) * 0.01
+    speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0]) if profile else None
+    full = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 21.5, 12,
+                                    np.random.default_rng(3), stride=4, channels=("psi", "psi_dot", "beta", "y", "a_y"), speed=speed)
+    imu = full.with_germs(full.germs)
+    imu.channels = ("a_y", "psi_dot", "beta")
+    bank = EFFECTS["road_bank"].augment(ModelStructure(), [2.0])
+    for yaw in (True, False):
+        full.gust_yaw_moment = imu.gust_yaw_moment = yaw
+        for s in ([ModelStructure(), bank] if profile else []) + [_tyre(0.6), EFFECTS["road_bank"].augment(_tyre(0.6), [2.0])]:
+            want, got = full.simulate(THETA, s), imu.simulate(THETA, s)
+            assert np.array_equal(got, want[[4, 1, 2]]) and np.all(np.isfinite(got))

@@ -26,6 +26,12 @@ __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_in
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ParameterLayout.names
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
+#: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a
+#: step's NumPy calls cost their arithmetic, and the half-step wind forces (2 steps x realisations) grow.
+_PASS_REALISATIONS = 8000
+#: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000
+#: realisations and 2000 half steps).
+_GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
                    "roll_frequency", "roll_damping", "combined_slip", "drive_share_front")
@@ -92,6 +98,7 @@ class AugmentedSimulator:
         self.m_load = self.load.mean + self.load.std * germs.m_load
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
+        self._gust_products: dict = {}  # shared by the copies (with_germs, with_input): see _gusts
 
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
@@ -167,6 +174,8 @@ class AugmentedSimulator:
         Default: one group.
         """
         thetas = [np.asarray(th, float) for th in thetas]
+        if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
+            return self._profile_many(thetas, structures)
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
         if not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1:
@@ -175,6 +184,29 @@ class AugmentedSimulator:
             return self._chassis_many(thetas, structures)
         n = self.germs.n
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
+
+    def _profile_many(self, thetas, structures) -> list:
+        """:meth:`simulate_many` of linear pairs along a speed profile (integrated by RK4): the
+        pairs that share the steering input, the course kinematics and whether a lateral
+        acceleration acts, in passes of at most :data:`_PASS_REALISATIONS` realisations, each
+        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`,
+        bit for bit (:class:`LinearTrackRHS` is element-wise in the realisations)."""
+        out = [None] * len(thetas)
+        kinds: dict = {}
+        for i, s in enumerate(structures):
+            key = (s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0)))
+            kinds.setdefault(key, []).append(i)
+        per_pass = max(1, _PASS_REALISATIONS // self.germs.n)
+        for members in kinds.values():
+            for start in range(0, len(members), per_pass):
+                part = members[start:start + per_pass]
+                if len(part) == 1:
+                    out[part[0]] = self.simulate(thetas[part[0]], structures[part[0]])
+                    continue
+                sims = self._one_pass([thetas[i] for i in part], [structures[i] for i in part], [self.germs.n] * len(part), chassis=True)
+                for i, x_i in zip(part, sims):
+                    out[i] = x_i
+        return out
 
     def _one_pass(self, thetas, structures, groups, chassis: bool = False) -> list:
         """The pairs' channels from one RK4 pass over all their realisations (``groups``: sizes
@@ -261,6 +293,24 @@ class AugmentedSimulator:
             self._f_half = (key, self.kle.eigenfunctions(t_half))
         return self._f_half[1]
 
+    def _gusts(self, coeffs, f_half, t_half):
+        """Gust forces (J, n) of the realisations' mode coefficients ``coeffs`` (n, n_c) on the
+        half steps: the product ``coeffs @ f_half``, transposed. It depends on the germs and the
+        gust scale, not on theta, so a fit's simulations share it: the most recent
+        :data:`_GUST_PRODUCTS` are kept (with the copies of this simulator on other germs or
+        inputs), each computed as the first call did, so the numbers are those of a fresh product."""
+        key = (t_half.size, float(t_half[-1]), coeffs.shape, coeffs.tobytes())
+        cache = self._gust_products
+        product = cache.pop(key, None)
+        if product is None:
+            product = np.ascontiguousarray((coeffs @ f_half).T)
+        if product.nbytes > _GUST_BYTES:  # a bootstrap's fresh germs: never asked for again
+            return product
+        cache[key] = product
+        while len(cache) > _GUST_PRODUCTS:
+            cache.pop(next(iter(cache)))
+        return product
+
     def _held_input(self, s: ModelStructure) -> bool:
         """The actual steering is the held command itself (delayed): piecewise constant."""
         return self.interpolation == "previous" and s.steering_lag <= 0
@@ -318,9 +368,8 @@ class AugmentedSimulator:
         F_w_half = np.empty((t_half.size, wind.size))
         start = 0
         for size in (groups or [wind.size]):
-            F_w_half[:, start:start + size] = (coeffs[start:start + size] @ f_half).T
+            np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
             start += size
-        F_w_half += wind
         E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
@@ -328,11 +377,12 @@ class AugmentedSimulator:
             if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed), js)
+            heading = bool({"psi", "y"} & set(self.channels))  # else psi_dot and beta alone: the same numbers
             if not s.nonlinear:
-                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed)
+                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=heading)
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
-            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed)
-            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed)
+            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
+            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed, heading)
             return out.transpose(1, 2, 0), rhs, js
         if uses_chassis_terms(s):
             return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)

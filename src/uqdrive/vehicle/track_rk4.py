@@ -67,9 +67,15 @@ class SingleTrackRHS:
     speed_half : tuple of two ndarrays, shape (J,), optional
         Speed v (m/s) and its rate v_dot (m/s^2) per half step (a speed profile): the speed
         change acts along the velocity, so beta_dot gains -(v_dot / v) sin beta; None: ``p.v_c``.
+    heading : bool
+        Integrate psi and y too; False: the states are psi_dot and beta alone (2, n), which
+        neither psi nor y enters, for sensors that record neither (the same numbers for both).
     """
 
-    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None):
+    def __init__(self, p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None,
+                 heading: bool = True):
+        self.heading, self.n_states = bool(heading), 4 if heading else 2
+        self._rows = (1, 2) if heading else (0, 1)  # psi_dot's and beta's rows of the integrated states
         n = F_w_half.shape[1]
         v = float(p.v_c)
         self.v = v
@@ -105,15 +111,16 @@ class SingleTrackRHS:
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: the lateral forces over
         the mass, (F_f cos delta + F_r + F_w) / m, recovered from beta_dot of the right-hand side."""
-        out = np.empty_like(x)
-        self(x, j, out)
+        states = x if self.heading else x[1:3]  # x holds all four states either way
+        out = np.empty_like(states)
+        self(states, j, out)
         v, _, a_v = self._at(j)
         slip_rate = 0.0 if self.speed_half is None else self.speed_half[1][j] / v * np.sin(x[2])
-        return (out[2] + x[1] - a_v + slip_rate) * v / np.cos(x[2])
+        return (out[self._rows[1]] + x[1] - a_v + slip_rate) * v / np.cos(x[2])
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of the states ``x`` (4, n) at half step ``j`` into ``out`` (4, n)."""
-        psi, psi_dot, beta = x[0], x[1], x[2]
+        psi_dot, beta = x[self._rows[0]], x[self._rows[1]]
         sin_b, cos_b, t, q, F = self._sin_b, self._cos_b, self._t, self._q, self._F
         v, inv_mv, a_v = self._at(j)
         np.sin(beta, sin_b)
@@ -140,8 +147,7 @@ class SingleTrackRHS:
         fc, tmp = self._fc, self._tmp
         F_w = self.F_w_half[j]
         np.multiply(F[0], self.cos_delta[j], fc)  # F_f cos delta
-        out[0] = psi_dot
-        o1 = out[1]  # (l_f F_f cos delta - l_r F_r + M_w) / I_z
+        o1 = out[self._rows[0]]  # (l_f F_f cos delta - l_r F_r + M_w) / I_z
         np.multiply(self.l_f, fc, o1)
         np.multiply(self.l_r, F[1], tmp)
         o1 -= tmp
@@ -151,7 +157,7 @@ class SingleTrackRHS:
         else:
             o1 += self.M_w
         o1 *= self.inv_I_z
-        o2 = out[2]  # (F_f cos delta + F_r + F_w) cos beta / (m v) - psi_dot + a_lat / v
+        o2 = out[self._rows[1]]  # (F_f cos delta + F_r + F_w) cos beta / (m v) - psi_dot + a_lat / v
         np.add(fc, F[1], o2)
         o2 += F_w
         o2 *= cos_b
@@ -160,15 +166,18 @@ class SingleTrackRHS:
         o2 += a_v
         if self.speed_half is not None:
             o2 -= self.speed_half[1][j] / v * sin_b
+        if not self.heading:
+            return
+        out[0] = psi_dot
         o3 = out[3]  # v sin(psi + k beta)
         np.multiply(beta, self.k, o3)
-        o3 += psi
+        o3 += x[0]
         np.sin(o3, o3)
         o3 *= v
 
 
 def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                           n_steps: int, record_every: int, speed_half=None):
+                           n_steps: int, record_every: int, speed_half=None, heading: bool = True):
     """States of the single-track model from rest by RK4.
 
     Parameters
@@ -181,14 +190,25 @@ def integrate_single_track(p: VehicleParameters, s: ModelStructure, E, delta_hal
         Steps, and the stride of the returned states (``n_steps`` a multiple of it).
     speed_half : tuple of two ndarrays, shape (2 ``n_steps`` + 1,), optional
         A speed profile (v, v_dot) per half step (:class:`SingleTrackRHS`).
+    heading : bool
+        Integrate psi and y (else NaN in the result: :class:`SingleTrackRHS`).
 
     Returns
     -------
     ndarray, shape (n_steps // record_every + 1, 4, n)
         psi, psi_dot, beta, y (rad, rad/s, rad, m) every ``record_every`` steps from t = 0.
     """
-    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, speed_half)
-    return rk4_fixed_step_into(rhs, np.zeros((4, F_w_half.shape[1])), h, n_steps, record_every)
+    rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, speed_half, heading)
+    return _with_heading(rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, F_w_half.shape[1])), h, n_steps, record_every))
+
+
+def _with_heading(out):
+    """Recorded states (K + 1, 4, n): those of psi_dot and beta alone (K + 1, 2, n) with psi and y NaN."""
+    if out.shape[1] == 4:
+        return out
+    full = np.full((out.shape[0], 4, out.shape[2]), np.nan)
+    full[:, 1:3] = out
+    return full
 
 
 def speed_on_half_steps(time, speed, t_half):
@@ -268,11 +288,17 @@ class LinearTrackRHS:
         Mean wind (N).
     v_half, v_dot_half : ndarray, shape (J,)
         Speed (m/s) and its rate (m/s^2) per half step.
+    heading : bool
+        Integrate psi and y too; False: the states are psi_dot and beta alone (2, n), which
+        neither psi nor y enters, for sensors that record neither (the same numbers for both).
     """
 
-    def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half):
+    def __init__(self, p: VehicleParameters, s, delta_half, F_w_half, yaw_gust: bool, wind, v_half, v_dot_half, heading: bool = True):
+        self.heading, self.n_states = bool(heading), 4 if heading else 2
+        self._rows = (1, 2) if heading else (0, 1)  # psi_dot's and beta's rows of the integrated states
         p = with_compliance_steer(p, s.compliance_steer)  # the steering's compliance: a softer front axle
-        self.p, self.k, self.exact = p, float(s.course_weight), bool(s.course_exact)
+        k = np.asarray(s.course_weight, float)  # per realisation where pairs share a pass
+        self.p, self.k, self.exact = p, (float(k) if k.ndim == 0 else k), bool(s.course_exact)
         self.a_lat = np.asarray(s.lateral_acceleration, float)
         self._has_lat = bool(np.any(self.a_lat))
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
@@ -291,6 +317,24 @@ class LinearTrackRHS:
         self.inv_v = [float(1.0 / v) for v in self.v_half]
         self.rate = [float(vd / v) for v, vd in zip(self.v_half, self.v_dot_half)]
         self._t = np.empty(n)
+        # the terms that do not depend on the state, at the last half step asked for: RK4 asks for
+        # every half step twice in a row (k2 and k3; k4 and the next step's k1)
+        self._j, self._terms = -1, np.empty((5, n))
+
+    def _inputs(self, j: int):
+        """a13 delta, W1 F_w, S (delta / v), F_w / (m v) and a_lat / v (5, n) at half step ``j``."""
+        if j != self._j:
+            iv, d, F_w, u = self.inv_v[j], float(self.delta_half[j]), self.F_w_half[j], self._terms
+            np.multiply(self.a13, d, u[0])
+            if self.M_term is None:
+                np.multiply(self.W1, F_w, u[1])
+            np.multiply(self.S, d * iv, u[2])
+            np.multiply(self.inv_m, F_w, u[3])
+            u[3] *= iv
+            if self._has_lat:
+                np.multiply(self.a_lat, iv, u[4])
+            self._j = j
+        return self._terms
 
     def forces(self, x, j: int):
         """Front and rear tyre forces (N), each shape (n,), at half step ``j``."""
@@ -299,20 +343,16 @@ class LinearTrackRHS:
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
-        r, b, t = x[1], x[2], self._t
-        iv, rate, d, F_w = self.inv_v[j], self.rate[j], float(self.delta_half[j]), self.F_w_half[j]
-        o1, o2, o3 = out[1], out[2], out[3]
+        i_r, i_b = self._rows
+        r, b, t = x[i_r], x[i_b], self._t
+        iv, rate, u = self.inv_v[j], self.rate[j], self._inputs(j)
+        o1, o2 = out[i_r], out[i_b]
         np.multiply(self.P, r, o1)
         o1 *= iv
         np.multiply(self.a12, b, t)
         o1 += t
-        np.multiply(self.a13, d, t)
-        o1 += t
-        if self.M_term is None:
-            np.multiply(self.W1, F_w, t)
-            o1 += t
-        else:
-            o1 += self.M_term
+        o1 += u[0]
+        o1 += u[1] if self.M_term is None else self.M_term
         np.multiply(self.Q, r, o2)
         o2 *= iv * iv
         o2 -= r
@@ -321,14 +361,14 @@ class LinearTrackRHS:
         o2 += t
         np.multiply(b, rate, t)
         o2 -= t
-        np.multiply(self.S, d * iv, t)
-        o2 += t
-        np.multiply(self.inv_m, F_w, t)
-        t *= iv
-        o2 += t
+        o2 += u[2]
+        o2 += u[3]
         if self._has_lat:
-            o2 += self.a_lat * iv
+            o2 += u[4]
+        if not self.heading:
+            return
         out[0] = r
+        o3 = out[3]
         np.multiply(b, self.k, o3)
         o3 += x[0]
         if self.exact:
@@ -342,9 +382,9 @@ class LinearTrackRHS:
 
 
 def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
-    """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``)."""
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.F_w_half.shape[1])), h, n_steps, record_every)
-    return out.transpose(1, 2, 0)
+    """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``);
+    psi and y NaN where ``rhs`` leaves them out (``heading`` False)."""
+    return _with_heading(rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, rhs.F_w_half.shape[1])), h, n_steps, record_every)).transpose(1, 2, 0)
 
 
 def rk4_lateral_acceleration(rhs, x, js):

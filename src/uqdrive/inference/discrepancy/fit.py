@@ -26,8 +26,8 @@ THETA_SCALE = ParameterLayout.scales
 class SimulationMemo:
     """Simulations of linear models shared by the fits of one dataset, the most recent ``size``.
 
-    A linear model is simulated by a call of its own (:meth:`AugmentedSimulator.simulate_many`
-    batches only numerically integrated ones), so its realisations are a function of the
+    A linear model gets the numbers of a call of its own (:meth:`AugmentedSimulator.simulate_many`
+    gives every linear pair those of :meth:`~AugmentedSimulator.simulate`), so its realisations are a function of the
     simulator, theta and the structure's dynamic part alone: a fit that asks for one another fit
     already simulated (a screening held at the same distributions, an effect on the outputs only,
     a refit from the point a short fit stopped at) gets the same array, bit for bit. Entries hold
@@ -184,7 +184,7 @@ class StructureFit:
                 later = [] if again else [(then[i], then_keys[i]) for i in later]
             batch = [(pairs[i][0], keys[i][1]) for i in todo] + [(pair[0], key[1]) for pair, key in later]
             if self.memo is not None and not any(st.nonlinear for _, st in batch):
-                sims = self._linear_simulations([keys[i] for i in todo], batch)
+                sims = self._linear_simulations([keys[i] for i in todo] + [key for _, key in later], batch)
             else:
                 sims = self.simulator.simulate_many([th for th, _ in batch], [st for _, st in batch],
                                                     groups=[len(todo)] + ([len(later)] if later else []))
@@ -198,9 +198,12 @@ class StructureFit:
         """Simulations of linear (theta, dynamic structure) pairs, those another fit made taken
         from the memo (each is a call of its own either way: the same numbers)."""
         sims = [self.memo.get(self.simulator, k) for k in keys]
-        for i in (i for i, x in enumerate(sims) if x is None):
-            sims[i] = self.simulator.simulate(*batch[i])
-            self.memo.put(self.simulator, keys[i], sims[i])
+        todo = [i for i, x in enumerate(sims) if x is None]
+        if todo:  # one batch: along a speed profile one RK4 pass (simulate_many), else one call each
+            made = self.simulator.simulate_many([batch[i][0] for i in todo], [batch[i][1] for i in todo])
+            for i, x in zip(todo, made):
+                sims[i] = x
+                self.memo.put(self.simulator, keys[i], x)
         return sims
 
     def statistics(self, theta, structure: ModelStructure):
@@ -284,8 +287,9 @@ class StructureFit:
         # A numerically integrated model simulates a point's difference neighbours in the pass
         # of the point itself: trf asks for the Jacobian at every point whose residuals it
         # accepts (it rejected none in the benchmark's fits), and one RK4 pass over 8 x 300
-        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone.
-        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear
+        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone. Along a speed
+        # profile a linear model is integrated by RK4 as well, its pairs batched alike.
+        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
 
         def residuals(params):
             params = full(params)
