@@ -118,12 +118,12 @@ class ExtendedSingleTrackRHS:
         h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
     speed_half : tuple of two ndarrays, shape (J,), optional
         Speed v (m/s) and its rate v_dot (m/s^2) per half step; None: the held speed ``p.v_c``.
-    reference_loads : tuple of two floats, optional
-        F_z0 (N) of the front and rear axle of the load-sensitive tyre; None: the static loads.
+    reference_loads, tyre_load_height : tuple of two floats (or None: the static loads), float
+        F_z0 (N) of the front and rear axle and the height h (m) of the load-sensitive tyre.
     """
 
     def __init__(self, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, cg_height: float = 0.0,
-                 track_width: float = 1.0, speed_half=None, reference_loads=None):
+                 track_width: float = 1.0, speed_half=None, reference_loads=None, tyre_load_height: float = 0.0):
         self.v = v = float(p.v_c)
         self.l_f = np.asarray(p.l_f, float)
         self.l_r = p.l_r
@@ -159,7 +159,7 @@ class ExtendedSingleTrackRHS:
         self.brake_share = self.static / self.static.sum(axis=0)
         self.sensitive = _load_sensitive(s)  # q and p_Dz (1, n) or (1,); the reference F_z0 (2, 1) or (2, n)
         self.q_K, self.p_D = (np.asarray(getattr(s, f, 0.0), float)[None] for f in ("stiffness_load_sensitivity", "peak_load_sensitivity"))
-        self.h_s, ref = np.where(self.h_x != 0, self.h_x, cg_height), reference_loads
+        self.h_s, ref = np.where(self.h_x != 0, self.h_x, tyre_load_height), reference_loads
         self.reference = self.static if ref is None else np.asarray(ref, float).reshape(2, 1)
         self.loaded = self.pitching or bool(np.any(self.p_Dz != 0)) or self.slipping or self.sensitive
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
@@ -411,9 +411,9 @@ def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, 
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
         h_t = (vehicle.require("cg_height", purpose), vehicle.require("track_width", purpose))
-    elif _load_sensitive(s):
-        h_t = (vehicle.require("cg_height", "the effect load_sensitive_tyre"), 1.0)
-    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads)
+    h_s = vehicle.require("cg_height", "the effect load_sensitive_tyre") if _load_sensitive(s) else 0.0
+    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads,
+                                 tyre_load_height=h_s)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:
         return out.transpose(1, 2, 0), rhs
