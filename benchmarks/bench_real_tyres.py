@@ -121,6 +121,7 @@ def main(argv=None):
                               "--candidates", args.candidates, "--out", str(target), "--no-posterior", "--force"],
                              capture_output=True, text=True)
         row["seconds"] = round(_children_cpu() - cpu0, 1)
+        (out / "labels" / f"{tag}.discover.log").write_text(run.stderr)  # the progress lines: which candidates each step fitted
         if run.returncode:
             row["error"] = run.stderr.strip().splitlines()[-1] if run.stderr.strip() else f"exit {run.returncode}"
         else:

@@ -84,6 +84,8 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "four_wheel_car.md", four_wheel_car())
     _write(outdir / "four_wheel_cases.md", four_wheel_cases(root))
     _write(outdir / "plausible_car.md", plausible_car())
+    _write(outdir / "real_tyres_cases.md", real_tyres(root, "cases"))
+    _write(outdir / "real_tyres_results.md", real_tyres(root, "results"))
 
 
 def substitutions() -> dict[str, str]:
@@ -136,6 +138,27 @@ def four_wheel_cases(root: Path) -> str:
         params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
         lines.append(f"| `{c.name}` | {c.manoeuvre}{f' ({params})' if params else ''} | {c.level:g} | {c.t_end:g} | "
                      f"{_cell(bench.EXPECTED.get(c.name, ''))} |")
+    return "\n".join(lines) + "\n"
+
+
+def real_tyres(root: Path, part: str) -> str:
+    """The real-tyres benchmark's cases with the expectation benchmarks/bench_real_tyres.py states
+    for each (``part`` "cases"), or its results table from the committed docs/real_tyres.json
+    ("results")."""
+    import importlib.util
+    import json
+
+    from uqdrive.studies.real_tyres import real_tyre_cases
+
+    spec = importlib.util.spec_from_file_location("bench_real_tyres", root / "benchmarks" / "bench_real_tyres.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    if part == "results":
+        return bench.table(json.loads((root / "docs" / "real_tyres.json").read_text())) + "\n"
+    lines = ["| case | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---:|---:|---|"]
+    for c in real_tyre_cases({"seed": 0}):
+        params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
+        lines.append(f"| `{c.name}` | {c.manoeuvre} ({params}) | {c.level:g} | {c.t_end:g} | {_cell(bench.EXPECTED[c.name])} |")
     return "\n".join(lines) + "\n"
 
 
