@@ -13,7 +13,7 @@ from .band import excess_rms
 from .effectset import family_of, fitted_values, resolvable
 from .verdict import lack_of_fit
 
-__all__ = ["STEP_SHRINK", "PARTIAL_SHARE", "PAIR_PARTNERS", "PAIR_POOL", "acceptance", "admissible", "departures", "dynamic_pairs",
+__all__ = ["STEP_SHRINK", "PARTIAL_SHARE", "PAIR_PARTNERS", "PAIR_POOL", "acceptance", "admissible", "comparison_margin", "departures", "dynamic_pairs",
            "forward_selection", "backward_check", "indistinct", "size_check"]
 
 #: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
@@ -59,8 +59,20 @@ def _no_size(finder, name, fit) -> str | None:
 
 def _gain_justified(finder, before, after, name, margin, per_param) -> bool:
     """The chi2 ``after`` saves against ``before`` beats the penalty of ``name``'s parameters plus the
-    margin (widened where the two fits stand on different footings, :meth:`.finder.DiscrepancyFinder._margin`)."""
-    return finder._chi2(before) - finder._chi2(after) - per_param * len(EFFECTS[name].parameters) > finder._margin(margin, before, after)
+    margin (widened where the two fits stand on different footings, :func:`comparison_margin`)."""
+    return finder._chi2(before) - finder._chi2(after) - per_param * len(EFFECTS[name].parameters) > comparison_margin(finder, name, margin, before, after)
+
+
+def comparison_margin(finder, name, margin, a, b) -> float:
+    """The tie margin of fits ``a`` and ``b`` that differ by the effect ``name``: the non-linear
+    footing's wide one (:meth:`.finder.DiscrepancyFinder._margin`, the luck of its few germs), except
+    for an effect held at its physical value (:data:`uqdrive.vehicle.effects.PHYSICAL`) between two
+    fits on the same footing: both run on the same germs, whose luck they share, and the effect has
+    no parameter to fit it, so the data's margin on that footing (``margin`` times its squared scale
+    ratio) judges it (the exact course angle on a saturating tyre saved 8 such margins, half a wide one)."""
+    if name in PHYSICAL and finder._footing(a) == finder._footing(b):
+        return margin * finder._footing(a)
+    return finder._margin(margin, a, b)
 
 
 def _step(finder, name, fit, band, which, explains, gap, fits, screening, margin, extra=None) -> dict:
@@ -218,7 +230,7 @@ def backward_check(finder, ctx, cur, cur_band, start_effects):
         fit = _refit_without(finder, ctx, cur, start_effects, added, step["name"])
         margin, per_param = finder._criterion(cur_band)
         saved = finder._chi2(fit) - finder._chi2(cur) - per_param * len(EFFECTS[step["name"]].parameters)
-        if saved <= finder._margin(margin, fit, cur):
+        if saved <= comparison_margin(finder, step["name"], margin, fit, cur):
             finder.removed_.append({"effect": family_of(step["name"]), "registry_name": step["name"], "chi2_saved": round(saved, 2)})
             finder.steps_.remove(step)
             cur = fit
