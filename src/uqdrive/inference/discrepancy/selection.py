@@ -67,11 +67,15 @@ def comparison_margin(finder, name, margin, a, b) -> float:
     """The tie margin of fits ``a`` and ``b`` that differ by the effect ``name``: the non-linear
     footing's wide one (:meth:`.finder.DiscrepancyFinder._margin`, the luck of its few germs), except
     for an effect held at its physical value (:data:`uqdrive.vehicle.effects.PHYSICAL`) between two
-    fits on the same footing: both run on the same germs, whose luck they share, and the effect has
-    no parameter to fit it, so the data's margin on that footing (``margin`` times its squared scale
-    ratio) judges it (the exact course angle on a saturating tyre saved 8 such margins, half a wide one)."""
-    if name in PHYSICAL and finder._footing(a) == finder._footing(b):
-        return margin * finder._footing(a)
+    non-linear fits: both run on the same raw germs (their scales differing only by the
+    realisations each keeps from spinning), whose luck
+    they share, and the effect has no parameter to fit it, so the data's margin (the baseline
+    band's, the data's own noise) on that footing (times the larger squared scale ratio) judges it
+    (the exact course angle on a saturating tyre saved 8 such margins, half a wide one).
+    ``margin``: the current band's (:meth:`.finder.DiscrepancyFinder._criterion`)."""
+    fa, fb = finder._footing(a), finder._footing(b)
+    if name in PHYSICAL and fa > 1.0 and fb > 1.0:
+        return finder._criterion(finder.band_)[0] * max(fa, fb)
     return finder._margin(margin, a, b)
 
 
