@@ -22,9 +22,10 @@ def candidates_table() -> str:
     """Markdown table of every registered candidate effect, one row per effect (a sensor family
     one row for all its channels), with its parameters, the value at which it vanishes, whether
     the packaged config searches it, what it models and what it moves first."""
+    import uqdrive
     from uqdrive.vehicle import effects as fx
 
-    default = yaml.safe_load((Path(fx.__file__).resolve().parents[1] / "default_config.yaml").read_text())
+    default = yaml.safe_load((Path(uqdrive.__file__).resolve().parent / "default_config.yaml").read_text())
     searched = set(fx.expand_names(default["discrepancy"]["candidates"]))
     family_of = {m: fam for fam, members in fx.FAMILIES.items() for m in members}
     lines = ["| name | parameters (unit, bounds, start) | vanishes at | searched by default | what it models | what it moves first |",

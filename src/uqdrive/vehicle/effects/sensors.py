@@ -19,6 +19,7 @@ class SensorBias(Effect):
     channel: str = "psi"
 
     def apply(self, s, v):
+        """``s`` with the channel's offset ``v[0]`` (its unit)."""
         if self.channel == "a_y":
             return replace(s, a_y_offset=float(v[0]))
         offset = list(s.output_offset)
@@ -33,6 +34,7 @@ class SensorScale(Effect):
     channel: str = "psi"
 
     def apply(self, s, v):
+        """``s`` with the channel's gain ``v[0]`` (-)."""
         if self.channel == "a_y":
             return replace(s, a_y_gain=float(v[0]))
         gain = list(s.output_gain)

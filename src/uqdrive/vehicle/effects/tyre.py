@@ -18,4 +18,5 @@ class LoadSensitiveTyre(Effect):
     (4.E25)); q = p_Dz = 0: the baseline's tyre."""
 
     def apply(self, s, v):
+        """``s`` with q = ``v[0]`` and p_Dz = ``v[1]`` (both -)."""
         return replace(s, stiffness_load_sensitivity=float(v[0]), peak_load_sensitivity=float(v[1]))
