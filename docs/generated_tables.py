@@ -22,9 +22,10 @@ def candidates_table() -> str:
     """Markdown table of every registered candidate effect, one row per effect (a sensor family
     one row for all its channels), with its parameters, the value at which it vanishes, whether
     the packaged config searches it, what it models and what it moves first."""
+    import uqdrive
     from uqdrive.vehicle import effects as fx
 
-    default = yaml.safe_load((Path(fx.__file__).resolve().parents[1] / "default_config.yaml").read_text())
+    default = yaml.safe_load((Path(uqdrive.__file__).resolve().parent / "default_config.yaml").read_text())
     searched = set(fx.expand_names(default["discrepancy"]["candidates"]))
     family_of = {m: fam for fam, members in fx.FAMILIES.items() for m in members}
     lines = ["| name | parameters (unit, bounds, start) | vanishes at | searched by default | what it models | what it moves first |",
@@ -86,6 +87,8 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "four_wheel_cases.md", four_wheel_cases(root))
     _write(outdir / "plausible_car.md", plausible_car())
     _write(outdir / "gpu_ensembles.md", gpu_ensembles(root / "docs" / "measurements" / "gpu.json"))
+    _write(outdir / "real_tyres_cases.md", real_tyres(root, "cases"))
+    _write(outdir / "real_tyres_results.md", real_tyres(root, "results"))
 
 
 def substitutions() -> dict[str, str]:
@@ -138,6 +141,27 @@ def four_wheel_cases(root: Path) -> str:
         params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
         lines.append(f"| `{c.name}` | {c.manoeuvre}{f' ({params})' if params else ''} | {c.level:g} | {c.t_end:g} | "
                      f"{_cell(bench.EXPECTED.get(c.name, ''))} |")
+    return "\n".join(lines) + "\n"
+
+
+def real_tyres(root: Path, part: str) -> str:
+    """The real-tyres benchmark's cases with the expectation benchmarks/bench_real_tyres.py states
+    for each (``part`` "cases"), or its results table from the committed docs/real_tyres.json
+    ("results")."""
+    import importlib.util
+    import json
+
+    from uqdrive.studies.real_tyres import real_tyre_cases
+
+    spec = importlib.util.spec_from_file_location("bench_real_tyres", root / "benchmarks" / "bench_real_tyres.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    if part == "results":
+        return bench.table(json.loads((root / "docs" / "real_tyres.json").read_text())) + "\n"
+    lines = ["| case | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---:|---:|---|"]
+    for c in real_tyre_cases({"seed": 0}):
+        params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
+        lines.append(f"| `{c.name}` | {c.manoeuvre} ({params}) | {c.level:g} | {c.t_end:g} | {_cell(bench.EXPECTED[c.name])} |")
     return "\n".join(lines) + "\n"
 
 

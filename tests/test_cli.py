@@ -3,6 +3,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from importlib.resources import files
+
 import pytest
 import yaml
 
@@ -199,7 +201,7 @@ def test_cli_works_from_any_folder(tmp_path, monkeypatch, capsys):
     assert main(["simulate", "--model", "lst", "--samples", "3", "--out", "x.nc"]) == 0
     assert read_ensemble(tmp_path / "x.nc").sizes["time"] == 1001  # config.yaml's grid
     assert main(["config", "--dump", "mine.yaml"]) == 0
-    assert (tmp_path / "mine.yaml").read_bytes() == (REPO / "config" / "config.yaml").read_bytes()
+    assert (tmp_path / "mine.yaml").read_bytes() == files("uqdrive").joinpath("default_config.yaml").read_bytes()
     capsys.readouterr()
     assert main(["config", "--dump", "mine.yaml"]) == 2
     err = capsys.readouterr().err

@@ -40,18 +40,20 @@ def test_every_required_constant_is_an_optional_quantity_of_the_car():
 
 
 def test_an_effect_is_untestable_exactly_when_the_car_lacks_what_it_requires(tmp_path):
-    """The thesis car has no cg_height nor track_width: the two load transfers are set aside with
-    the constant each lacks; with cg_height the longitudinal one is searched, the lateral one
-    still needs the track width; every other registered effect needs nothing of the car."""
+    """The thesis car has no cg_height nor track_width: the two load transfers and the load-sensitive
+    tyre are set aside with the constant each lacks; with cg_height the longitudinal transfer and
+    the tyre are searched, the lateral transfer still needs the track width; every other
+    registered effect needs nothing of the car."""
     bare = Settings.from_config(load_config(None, vehicle=br.vehicle_file(tmp_path, None))).vehicle
     high = Settings.from_config(load_config(None, vehicle=br.vehicle_file(tmp_path))).vehicle
     keep, untestable = candidates_for_car(list(EFFECTS), bare)
     assert [(u["registry_name"], u["needs"]) for u in untestable] == [("longitudinal_load_transfer", ["cg_height"]),
-                                                                       ("lateral_load_transfer", ["cg_height", "track_width"])]
+                                                                       ("lateral_load_transfer", ["cg_height", "track_width"]),
+                                                                       ("load_sensitive_tyre", ["cg_height"])]
     assert "no cg_height (height of the centre of gravity above the ground, m); add it" in untestable[0]["reason"]
-    assert keep == [n for n in EFFECTS if n not in ("longitudinal_load_transfer", "lateral_load_transfer")]
+    assert keep == [n for n in EFFECTS if n not in ("longitudinal_load_transfer", "lateral_load_transfer", "load_sensitive_tyre")]
     keep, untestable = candidates_for_car(list(EFFECTS), high)
-    assert [u["registry_name"] for u in untestable] == ["lateral_load_transfer"] and "longitudinal_load_transfer" in keep
+    assert [u["registry_name"] for u in untestable] == ["lateral_load_transfer"] and {"longitudinal_load_transfer", "load_sensitive_tyre"} <= set(keep)
 
 
 @pytest.mark.long(30)

@@ -34,7 +34,7 @@ _PASS_REALISATIONS = 8000
 _GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
-                   "roll_frequency", "roll_damping", "combined_slip", "drive_share_front")
+                   "roll_frequency", "roll_damping", "combined_slip", "drive_share_front", "stiffness_load_sensitivity", "peak_load_sensitivity")
 
 
 class AugmentedSimulator:
@@ -99,6 +99,7 @@ class AugmentedSimulator:
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
         self._gust_products: dict = {}  # shared by the copies (with_germs, with_input): see _gusts
+        self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
 
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
@@ -264,7 +265,7 @@ class AugmentedSimulator:
         if not uses_chassis_terms(s):
             return None
         on = tuple(bool(getattr(s, f) != 0) for f in ("pitch_height", "load_sensitivity", "compliance_steer", "relaxation_length", "roll_steer",
-                                                      "combined_slip"))
+                                                      "combined_slip", "stiffness_load_sensitivity", "peak_load_sensitivity"))
         return (s.tyre, bool(s.course_exact), on, self._substeps(s))
 
     def _substeps(self, s: ModelStructure) -> int:
@@ -376,7 +377,7 @@ class AugmentedSimulator:
             speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
             if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
-                                           speed), js)
+                                           speed, self._reference_loads), js)
             heading = bool({"psi", "y"} & set(self.channels))  # else psi_dot and beta alone: the same numbers
             if not s.nonlinear:
                 rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=heading)
@@ -385,7 +386,8 @@ class AugmentedSimulator:
             out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed, heading)
             return out.transpose(1, 2, 0), rhs, js
         if uses_chassis_terms(s):
-            return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)
+            return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride,
+                                     reference_loads=self._reference_loads)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
 

@@ -54,6 +54,9 @@ kappa_r = K / (m_base g) (K in rad per g at the base mass; a roll angle phi'' = 
 Vehicles*, sec. 1.4.4): the longitudinal force F_x = m a_x that follows the speed, shared
 chi_d : 1 - chi_d front : rear when it drives and by the static loads when it brakes, leaves axle i
 the share sqrt(1 - (kappa F_x,i / (mu P_i))^2) of its lateral force (none when it takes all).
+Load-sensitive tyre (Pacejka, *Tyre and Vehicle Dynamics*, (4.E13), (4.E25) linearised): axle i's peak and
+stiffness times 1 + p_Dz dfz_i, 1 + q dfz_i (each >= 0.05), dfz_i = F_z,i / F_z0,i - 1, F_z,i = F_z,i,static
+-+ m a_x h / L (h: cg_height or ``pitch_height``), F_z0,i the nominal car's static load.
 """
 
 from __future__ import annotations
@@ -77,7 +80,12 @@ def uses_chassis_terms(s) -> bool:
     transfer, relaxation, compliance or roll steer, combined slip)."""
     return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
                 or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0)
-                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0) or np.any(np.asarray(getattr(s, "combined_slip", 0.0)) != 0))
+                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0) or np.any(np.asarray(getattr(s, "combined_slip", 0.0)) != 0)
+                or _load_sensitive(s))
+
+
+def _load_sensitive(s) -> bool:  # q or p_Dz of the load-sensitive tyre not 0
+    return any(np.any(np.asarray(getattr(s, f, 0.0)) != 0) for f in ("stiffness_load_sensitivity", "peak_load_sensitivity"))
 
 
 def chassis_max_step(s, v: float, max_step: float) -> float:
@@ -109,12 +117,13 @@ class ExtendedSingleTrackRHS:
     cg_height, track_width : float
         h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
     speed_half : tuple of two ndarrays, shape (J,), optional
-        Speed v (m/s) and its rate v_dot (m/s^2) per half step (a measured speed profile); None:
-        the held speed ``p.v_c``.
+        Speed v (m/s) and its rate v_dot (m/s^2) per half step; None: the held speed ``p.v_c``.
+    reference_loads, tyre_load_height : tuple of two floats (or None: the static loads), float
+        F_z0 (N) of the front and rear axle and the height h (m) of the load-sensitive tyre.
     """
 
     def __init__(self, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, cg_height: float = 0.0,
-                 track_width: float = 1.0, speed_half=None):
+                 track_width: float = 1.0, speed_half=None, reference_loads=None, tyre_load_height: float = 0.0):
         self.v = v = float(p.v_c)
         self.l_f = np.asarray(p.l_f, float)
         self.l_r = p.l_r
@@ -148,7 +157,11 @@ class ExtendedSingleTrackRHS:
         share = np.stack(np.broadcast_arrays(chi_d, 1.0 - chi_d))
         self.drive_share = share[:, None] if share.ndim == 1 else share  # (2, 1) or (2, n)
         self.brake_share = self.static / self.static.sum(axis=0)
-        self.loaded = self.pitching or bool(np.any(self.p_Dz != 0)) or self.slipping
+        self.sensitive = _load_sensitive(s)  # q and p_Dz (1, n) or (1,); the reference F_z0 (2, 1) or (2, n)
+        self.q_K, self.p_D = (np.asarray(getattr(s, f, 0.0), float)[None] for f in ("stiffness_load_sensitivity", "peak_load_sensitivity"))
+        self.h_s, ref = np.where(self.h_x != 0, self.h_x, tyre_load_height), reference_loads
+        self.reference = self.static if ref is None else np.asarray(ref, float).reshape(2, 1)
+        self.loaded = self.pitching or bool(np.any(self.p_Dz != 0)) or self.slipping or self.sensitive
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
         self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
@@ -253,13 +266,14 @@ class ExtendedSingleTrackRHS:
             return peak * np.sin(self.C * np.arctan(curvature_argument(B * q, self.E)))
         return peak * B * self.C * q
 
-    def _yielded_front_slip(self, q0, peak):
+    def _yielded_front_slip(self, q0, peak, B=None):
         """Front slip (n,) (rad) with the wheels yielding to their own force: q = q0 - kappa F(q).
 
         Linear tyre: q0 / (1 + kappa c), c = peak B C; Magic Formula: three Newton steps from it
         (the loop's gain kappa dF/dq is below 1 in the fitted range, so the residual falls
         quadratically to round-off)."""
-        B, stiff = self.B[0, 0], peak * self.B[0, 0] * self.C
+        B = self.B[0, 0] if B is None else B
+        stiff = peak * B * self.C
         q = q0 / np.maximum(1.0 + self.kappa * stiff, 0.05)
         if not self.saturating:
             return q
@@ -281,24 +295,38 @@ class ExtendedSingleTrackRHS:
         used = self.kappa_x * np.where(F_x > 0, self.drive_share, self.brake_share) * F_x / np.maximum(self.mu * P, 1e-3 * self.static)
         return np.sqrt(np.maximum(1.0 - used * used, 0.0))
 
-    def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0):
+    def load_factors(self, tyres, beta, v_dot, F_w):
+        """Peak and stiffness factors (2, n) each, 1 + p_Dz dfz and 1 + q dfz, while the tyres carry ``tyres`` (n,) (N)."""
+        if not self.sensitive:
+            return None
+        a_x = v_dot * np.cos(beta) - np.tan(beta) * ((tyres + F_w) / self.m + self.a_lat - v_dot * np.sin(beta))
+        shift = self.m * a_x * self.h_s / self.L
+        dfz = (self.static + np.stack([-shift, shift]) - self.reference) / self.reference
+        return np.maximum(1.0 + self.p_D * dfz, 0.05), np.maximum(1.0 + self.q_K * dfz, 0.05)
+
+    def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0, factors=None):
         """Slip angles (2, n), front wheel angle (n,) and axle forces (2, n) on the effective loads
-        ``P`` (2, n), each axle's peak times its lateral ``capacity``: the force of the ``lagged``
+        ``P`` (2, n), each axle's peak times its lateral ``capacity`` (and the load-sensitive tyre's
+        ``factors`` of :meth:`load_factors` on peak and stiffness): the force of the ``lagged``
         slip angles where the tyres relax (the wheels yield to it, which moves the slip's target),
         the front wheels yielding to their force where the steering is compliant."""
         peak = P * self.mu * capacity
+        B = self.B
+        if factors is not None:
+            peak = peak * factors[0]
+            B = B * (factors[1] / factors[0])
         q = q_steady.copy()
         if lagged is not None:
-            F = self._curve(peak, lagged)
+            F = self._curve(peak, lagged, B)
             if self.compliant:
                 q[0] -= self.kappa * F[0]
                 delta = delta - self.kappa * F[0]
             return q, delta, F
         if self.compliant:
-            q_front = self._yielded_front_slip(q[0], peak[0])
+            q_front = self._yielded_front_slip(q[0], peak[0], B[0])
             delta = delta - (q[0] - q_front)
             q[0] = q_front
-        return q, delta, self._curve(peak, q)
+        return q, delta, self._curve(peak, q, B)
 
     def _forces(self, x, j: int, v, v_dot):
         """Steady slip angles (2, n), front wheel angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
@@ -323,7 +351,8 @@ class ExtendedSingleTrackRHS:
         trig = self._trig(beta)
         for _ in range(LOAD_NEWTON_STEPS):
             P, dP = self._loads(T, trig, v_dot, F_w, True)
-            _, d, F = self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P))
+            _, d, F = self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P),
+                                     self.load_factors(T, beta, v_dot, F_w))
             dF = F / np.maximum(P, floor)
             if self.compliant and lagged is None:
                 dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0, 0] * self.C
@@ -331,7 +360,7 @@ class ExtendedSingleTrackRHS:
             gain = front * dF[0] * dP[0] + dF[1] * dP[1] if np.ndim(dP) else 0.0  # static loads (combined slip alone): none
             T = T + (front * F[0] + F[1] - T) / np.maximum(1.0 - gain, 0.05)
         P = self._loads(T, trig, v_dot, F_w, False)
-        return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P))
+        return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P), self.load_factors(T, beta, v_dot, F_w))
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
@@ -369,11 +398,12 @@ class ExtendedSingleTrackRHS:
 
 
 def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                      n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None):
+                      n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None, reference_loads=None):
     """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
     RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half``
     its speed profile), plus the car's settings whose cg_height and track_width the lateral
-    load transfer needs.
+    load transfer needs (the load-sensitive tyre its cg_height) and ``reference_loads``, the
+    load-sensitive tyre's F_z0 (:class:`ExtendedSingleTrackRHS`).
 
     With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
     right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
@@ -381,7 +411,9 @@ def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, 
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
         h_t = (vehicle.require("cg_height", purpose), vehicle.require("track_width", purpose))
-    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half)
+    h_s = vehicle.require("cg_height", "the effect load_sensitive_tyre") if _load_sensitive(s) else 0.0
+    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads,
+                                 tyre_load_height=h_s)
     out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:
         return out.transpose(1, 2, 0), rhs

@@ -10,14 +10,14 @@ from typing import Any
 
 import numpy as np
 
-from ...vehicle.effects import EFFECTS, VANISHES
+from ...vehicle.effects import EFFECTS, PHYSICAL, VANISHES
 from .band import excess_rms
 from .comparison import criterion
 from .effectset import family_of, fitted_values, resolvable
 from .fitter import nonlinear
 
 __all__ = ["STEP_SHRINK", "PAIR_PARTNERS", "PAIR_POOL", "Step", "Forward", "Pruned", "admissible", "dynamic_pairs", "forward_selection",
-           "backward_check", "indistinct", "size_check"]
+           "backward_check", "comparison_margin", "indistinct", "size_check"]
 
 #: An added effect that does not explain the rest of the gap must close at least this fraction of it (excess RMS after / before);
 #: two effects added as a pair must close it twice over (STEP_SHRINK squared).
@@ -122,8 +122,22 @@ def _no_size(comparison, name, fit) -> str | None:
 
 def _gain_justified(comparison, before, after, name, margin, per_param) -> bool:
     """The chi2 ``after`` saves against ``before`` beats the penalty of ``name``'s parameters plus the
-    margin (widened where the two fits stand on different footings, :meth:`.comparison.ModelComparison.margin`)."""
-    return comparison.chi2(before) - comparison.chi2(after) - per_param * len(EFFECTS[name].parameters) > comparison.margin(margin, before, after)
+    margin (widened where the two fits stand on different footings, :func:`comparison_margin`)."""
+    return comparison.chi2(before) - comparison.chi2(after) - per_param * len(EFFECTS[name].parameters) > comparison_margin(comparison, name, margin, before, after)
+
+
+def comparison_margin(comparison, name, margin, a, b) -> float:
+    """The tie margin of fits ``a`` and ``b`` that differ by the effect ``name``: the non-linear
+    footing's wide one (:meth:`.comparison.ModelComparison.margin`, the luck of its few germs), except
+    for an effect held at its physical value (:data:`uqdrive.vehicle.effects.PHYSICAL`) between two
+    non-linear fits: both run on the same raw germs (their scales differing only by the
+    realisations each keeps from spinning), whose luck they share, and the effect has no parameter
+    to fit it, so the data's margin (the baseline band's, the data's own noise) on that footing
+    (times the larger squared scale ratio) judges it. ``margin``: the current band's (:func:`.comparison.criterion`)."""
+    fa, fb = comparison.footing(a), comparison.footing(b)
+    if name in PHYSICAL and fa > 1.0 and fb > 1.0:
+        return criterion(comparison.band)[0] * max(fa, fb)
+    return comparison.margin(margin, a, b)
 
 
 def _step(comparison, name, fit, band, which, explains, gap, fits, screening, margin, pair=None) -> Step:
@@ -285,7 +299,7 @@ def backward_check(comparison, fitter, steps, cur, cur_band, start_effects, remo
         fit = _refit_without(fitter, cur, start_effects, added, step.name)
         margin, per_param = criterion(cur_band)
         saved = comparison.chi2(fit) - comparison.chi2(cur) - per_param * len(EFFECTS[step.name].parameters)
-        if saved <= comparison.margin(margin, fit, cur):
+        if saved <= comparison_margin(comparison, step.name, margin, fit, cur):
             removed.append({"effect": family_of(step.name), "registry_name": step.name, "chi2_saved": round(saved, 2)})
             steps = [s for s in steps if s is not step]
             cur = fit

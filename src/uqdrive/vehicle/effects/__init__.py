@@ -5,147 +5,17 @@ class with 1-3 parameters whose ``apply`` returns the :class:`ModelStructure` th
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Mapping
 
 import numpy as np
 
-from ..settings import Vehicle
-from .single_track import STATES
+from .sensors import SENSOR_CHANNELS, SensorBias, SensorScale, channel_effects
+from .structure import Effect, ModelStructure
+from .tyre import LoadSensitiveTyre
 
-__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS"]
-
-
-@dataclass(frozen=True)
-class ModelStructure:
-    """How the single-track model is built; the defaults are the thesis' LST (5.4).
-
-    Attributes
-    ----------
-    tyre : {"linear", "magic_formula"}
-        Linear tyre forces c alpha (5.4), or Pacejka's Magic Formula (2.2) as in the NLST (5.3).
-    tyre_curvature : float or None
-        Magic-Formula curvature factor E (-); None takes ``tyre.E`` of the config.
-    steering_lag, steering_delay : float
-        Time constant (s) of a first-order lag, and dead time (s), between commanded and actual steering angle.
-    lateral_acceleration : float
-        Constant lateral acceleration (m/s^2) on the body without yaw moment (road bank: g sin phi).
-    gust_scale : float
-        Factor on the configured gust standard deviation F_w,sigma (-).
-    course_weight : float
-        k in y_dot = v (psi + k beta): 0 is the thesis' heading kinematics, 1 the course angle.
-    course_exact : bool
-        y_dot = v sin(psi + k beta), the exact course kinematics, instead of its linearisation
-        (set by ``lateral_kinematics``; the numerically integrated model always has the sine).
-    output_offset, output_gain : tuple of 4 floats
-        Measured channel = gain * state + offset, per state (psi, psi_dot, beta, y), SI units.
-    effects : tuple of (name, parameters)
-        The named effects that built this structure, for provenance and ``model.yaml``.
-    pitch_height : float
-        Centre-of-gravity height h (m) of the longitudinal load transfer
-        F_zf = m (g l_r - a_x h) / L; 0: static axle loads.
-    load_sensitivity : float
-        Tyre load sensitivity p_Dz (-) of the peak mu F_z (1 + p_Dz dfz); 0: forces proportional
-        to the load (then the lateral load transfer has no effect).
-    roll_share_front : float
-        Front share chi_f (-) of the lateral load transfer h T / t, T the tyres' lateral force (roll-stiffness distribution).
-    compliance_steer : float
-        Front steer angle change per g of the front axle's force over its static load (deg/g;
-        at steady cornering per g of lateral acceleration), positive: out of the turn.
-    relaxation_length : float
-        Tyre relaxation length sigma (m) of a first-order lag of the slip angles; 0: none.
-    roll_steer : float
-        Front steer angle change per g of the tyres' lateral force over the base mass m_base
-        (deg/g) through the body's roll, positive: out of the turn; 0: none.
-    roll_frequency, roll_damping : float
-        Natural frequency (Hz) and damping ratio (-) of the roll mode the roll steer follows.
-    combined_slip, drive_share_front : float
-        Friction-ellipse weight kappa (-) of the longitudinal force (0: none) and chi_d (-) (:class:`CombinedSlip`).
-    a_y_offset, a_y_gain : float
-        Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
-        bias and scale error (the states' are in ``output_offset``, ``output_gain``).
-    """
-
-    tyre: str = "linear"
-    tyre_curvature: float | None = None
-    steering_lag: float = 0.0
-    steering_delay: float = 0.0
-    lateral_acceleration: float = 0.0
-    gust_scale: float = 1.0
-    course_weight: float = 0.0
-    course_exact: bool = False
-    output_offset: tuple = (0.0, 0.0, 0.0, 0.0)
-    output_gain: tuple = (1.0, 1.0, 1.0, 1.0)
-    effects: tuple = field(default=())
-    pitch_height: float = 0.0
-    load_sensitivity: float = 0.0
-    roll_share_front: float = 0.5
-    compliance_steer: float = 0.0
-    relaxation_length: float = 0.0
-    roll_steer: float = 0.0
-    roll_frequency: float = 2.0
-    roll_damping: float = 0.6
-    a_y_offset: float = 0.0
-    a_y_gain: float = 1.0
-    combined_slip: float = 0.0
-    drive_share_front: float = 0.0
-
-    def output_map(self, channels=STATES) -> tuple[np.ndarray, np.ndarray]:
-        """Gain and offset (each shape (C,)) of the measured ``channels`` (names of
-        :data:`uqdrive.vehicle.channels.CHANNELS`): measured = gain * true + offset."""
-        gain = [self.a_y_gain if c == "a_y" else self.output_gain[STATES.index(c)] for c in channels]
-        offset = [self.a_y_offset if c == "a_y" else self.output_offset[STATES.index(c)] for c in channels]
-        return np.asarray(gain, float), np.asarray(offset, float)
-
-    @property
-    def nonlinear(self) -> bool:
-        """True when the model needs numerical integration (no exact discretisation): a Magic-Formula tyre, load
-        transfer, tyre relaxation, roll steer or combined slip (compliance steer alone is linear: a softer front axle)."""
-        return bool(self.tyre != "linear" or np.any(np.asarray(self.pitch_height) != 0) or np.any(np.asarray(self.load_sensitivity) != 0)
-                    or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0)
-                    or np.any(np.asarray(self.combined_slip) != 0))
-
-
-@dataclass(frozen=True)
-class Effect:
-    """A physical effect with named parameters, their bounds, start values and units.
-
-    Subclasses implement :meth:`apply` (how the parameters enter the :class:`ModelStructure`).
-    ``signature`` says in words which statistics the effect moves first; it is what a reader of
-    the verdict needs to judge a candidate, not an input to the ranking (the fits rank them).
-    ``requires``: the car's optional constants (``cg_height``, ...) it needs; without them it is untestable.
-    """
-
-    name: str
-    parameters: tuple
-    units: tuple
-    bounds: tuple
-    start: tuple
-    description: str
-    signature: str
-    requires: tuple = field(default=(), kw_only=True)
-
-    def missing(self, vehicle: Vehicle | None) -> tuple:
-        """The constants of ``requires`` that the car's settings ``vehicle`` lack."""
-        return tuple(k for k in self.requires if getattr(vehicle, k, None) is None)
-
-    def apply(self, structure: ModelStructure, values) -> ModelStructure:  # pragma: no cover - abstract
-        """The structure with this effect's parameters ``values`` (physical units, in ``parameters``
-        order) set in its fields."""
-        raise NotImplementedError
-
-    def prior_start(self, vehicle: Vehicle | None = None) -> tuple:
-        """Start values of the parameters for a car's settings ``vehicle`` (default: ``start``)."""
-        return self.start
-
-    def augment(self, structure: ModelStructure, values) -> ModelStructure:
-        """``apply`` plus the provenance entry (name and parameter values)."""
-        values = np.asarray(values, float)
-        if values.shape != (len(self.parameters),):
-            raise ValueError(f"effect '{self.name}' takes {len(self.parameters)} parameter(s) {self.parameters}; got {values.shape}")
-        out = self.apply(structure, values)
-        record = (self.name, tuple((p, float(v)) for p, v in zip(self.parameters, values)))
-        return replace(out, effects=structure.effects + (record,))
+__all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS",
+           "SensorBias", "SensorScale", "LoadSensitiveTyre"]
 
 
 class TyreSaturation(Effect):
@@ -188,34 +58,6 @@ class LateralKinematics(Effect):
 
     def apply(self, s, v):
         return replace(s, course_weight=float(v[0]), course_exact=True)
-
-
-@dataclass(frozen=True)
-class SensorBias(Effect):
-    """Constant offset on one measured channel, in that channel's unit."""
-
-    channel: str = "psi"
-
-    def apply(self, s, v):
-        if self.channel == "a_y":
-            return replace(s, a_y_offset=float(v[0]))
-        offset = list(s.output_offset)
-        offset[STATES.index(self.channel)] = float(v[0])
-        return replace(s, output_offset=tuple(offset))
-
-
-@dataclass(frozen=True)
-class SensorScale(Effect):
-    """Gain error (-) of one measured channel's sensor."""
-
-    channel: str = "psi"
-
-    def apply(self, s, v):
-        if self.channel == "a_y":
-            return replace(s, a_y_gain=float(v[0]))
-        gain = list(s.output_gain)
-        gain[STATES.index(self.channel)] = float(v[0])
-        return replace(s, output_gain=tuple(gain))
 
 
 class LongitudinalLoadTransfer(Effect):
@@ -267,28 +109,6 @@ class CombinedSlip(Effect):
 
     def apply(self, s, v):
         return replace(s, combined_slip=float(v[0]), drive_share_front=float(v[1]))
-
-
-_BIAS_BOUND = {"psi": 0.2, "psi_dot": 0.2, "beta": 0.05, "y": 5.0, "a_y": 2.0}
-#: Channels a sensor effect can act on: the four states and the lateral acceleration (m/s^2).
-SENSOR_CHANNELS = STATES + ("a_y",)
-_UNITS = {"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m", "a_y": "m/s^2"}
-
-
-def channel_effects(kind: str) -> dict[str, Effect]:
-    """One sensor effect per measured channel, named ``<kind>_<channel>``."""
-    out = {}
-    for ch in SENSOR_CHANNELS:
-        if kind == "sensor_bias":
-            out[f"sensor_bias_{ch}"] = SensorBias(
-                f"sensor_bias_{ch}", (f"offset_{ch}",), (_UNITS[ch],),
-                ((-_BIAS_BOUND[ch], _BIAS_BOUND[ch]),), (0.0,), f"constant offset on the measured {ch}",
-                f"{ch}: mean shifted by a constant at every time, std unchanged, other channels untouched", channel=ch)
-        else:
-            out[f"sensor_scale_{ch}"] = SensorScale(
-                f"sensor_scale_{ch}", (f"gain_{ch}",), ("-",), ((0.5, 2.0),), (1.0,), f"gain error of the {ch} sensor",
-                f"{ch}: mean and std scaled by the same factor, other channels untouched", channel=ch)
-    return out
 
 
 #: Registry of candidate effects; config strings and ``--candidates`` select them. A family name
@@ -356,6 +176,13 @@ EFFECTS: dict[str, Effect] = {
         "the longitudinal force F_x = m a_x that follows the speed (a_x = v' cos(beta) - tan(beta) (a_y - v' sin(beta))) takes lateral "
         "capacity by the friction ellipse: an axle keeps sqrt(1 - (kappa F_x,i / (mu F_z,i))^2); drive split chi_d front, brakes by static loads",
         "none at held speed straight ahead; braking or driving in a turn: rear-axle force raises yaw rate and beta, front lowers them"),
+    "load_sensitive_tyre": LoadSensitiveTyre(
+        "load_sensitive_tyre", ("q", "p_Dz"), ("-", "-"), ((-1.0, 1.0), (-1.0, 0.5)), (-0.3, -0.1),
+        "cornering stiffness and peak not proportional to the axle load: K_y,i = mu F_z,i B C (1 + q dfz_i), "
+        "D_i = mu F_z,i (1 + p_Dz dfz_i), dfz_i = F_z,i / F_z0,i - 1 the axle load (the realisation's static load moved by the "
+        "longitudinal acceleration at the car's cg_height) against the nominal car's",
+        "the spread of the yaw-rate gain over the runs shrinks (q < 0: a more loaded axle gains less than its load); "
+        "braking in a turn adds understeer, driving oversteer; with p_Dz the saturated forces too", requires=("cg_height",)),
 }
 
 #: The value of an effect's magnitude parameter at which the effect vanishes (the baseline's model):
@@ -366,6 +193,7 @@ VANISHES: dict[str, tuple[str, float]] = {
     "actuator_lag": ("T", 0.0), "actuator_delay": ("tau", 0.0), "road_bank": ("phi", 0.0), "wind_gust": ("gust_scale", 1.0),
     "lateral_kinematics": ("k", 0.0), "longitudinal_load_transfer": ("h", 0.0), "lateral_load_transfer": ("p_Dz", 0.0),
     "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0), "roll_steer": ("K", 0.0), "combined_slip": ("kappa", 0.0),
+    "load_sensitive_tyre": ("q", 0.0),
     **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
     **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
 }

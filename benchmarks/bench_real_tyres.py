@@ -1,0 +1,143 @@
+"""The real-tyres discovery benchmark: measured ensembles of the independent Pacejka single-track
+reality (uqdrive.vehicle.realities: load-dependent tyres, wheel spin, combined slip, a speed-holding
+drive) in a step and a slalom at 0.3, 0.6 and 0.9 of its limit, each given to `uqdrive discover`
+with every registered candidate, as a new user would (labels in a folder discover never reads).
+
+    python benchmarks/bench_real_tyres.py --out DIR [--samples 200] [--cases a,b] [--json FILE]
+    python benchmarks/bench_real_tyres.py --out DIR --table      # the results table of docs/real_tyres.md
+
+Writes DIR/config.yaml (the default config plus cg_height and track_width: the vehicle file a user
+would enter for this car), DIR/data/case_NN.nc, DIR/labels/case_NN.json, DIR/discover/case_NN/,
+and the summary (one row per case: verdict, named effects with their intervals, gaps, chi2 steps,
+CPU time) to DIR/summary.json and ``--json``; prints one line per case and the table.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import resource
+from pathlib import Path
+
+import yaml
+
+from uqdrive.config import load_config
+from uqdrive.io import write_dataset
+from uqdrive.studies.real_tyres import amplitude_for, case_label, generate, real_tyre_cases, steady_limit
+from uqdrive.vehicle.realities import PacejkaCar
+
+CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m: the car's; the track is what a user enters for a real car, the reality has none
+
+#: Effects the reality has (a named effect outside it is a false one), and those it has not.
+PRESENT = ("tyre_saturation", "lateral_kinematics", "longitudinal_load_transfer", "load_sensitive_tyre", "combined_slip", "unrecognised")
+ABSENT = ("lateral_load_transfer", "road_bank", "wind_gust", "sensor_bias", "sensor_scale", "actuator_lag", "actuator_delay",
+          "compliance_steer", "roll_steer", "tyre_relaxation")
+
+#: What discover should name on each case (docs/real_tyres.md, stated before the run), order free.
+EXPECTED = {
+    "rt_step_030": "lateral_kinematics (k = 1); load_sensitive_tyre possible; nothing else",
+    "rt_step_060": "lateral_kinematics, tyre_saturation; load_sensitive_tyre or an `unrecognised` rest",
+    "rt_step_090": "tyre_saturation, lateral_kinematics, load_sensitive_tyre; `unrecognised` rest possible",
+    "rt_slalom_030": "lateral_kinematics; load_sensitive_tyre possible",
+    "rt_slalom_060": "lateral_kinematics, tyre_saturation; load_sensitive_tyre or an `unrecognised` rest",
+    "rt_slalom_090": "tyre_saturation, lateral_kinematics, load_sensitive_tyre or combined_slip; `unrecognised` rest possible",
+}
+
+
+def judge(row: dict) -> str:
+    """Physical (every named effect present in the reality, the gap at least halved or an
+    `unrecognised` rest after what is named), or what is wrong."""
+    named = [e["effect"] for e in row.get("effects") or []]
+    wrong = [n for n in named if n not in PRESENT]
+    if wrong:
+        return f"names {', '.join(wrong)}, absent from the reality"
+    if named == ["unrecognised"] and row["gap_after"] >= row["gap_before"]:
+        return "`unrecognised` alone, gap unchanged"
+    if row["gap_after"] <= 0.5 * row["gap_before"] or "unrecognised" in named or row["gap_before"] == 0:
+        return "physical"
+    return "gap not halved"
+
+
+def _effect_cell(e) -> str:
+    params = ", ".join(f"{k} {v[0]:.3g} [{v[1]:.3g}, {v[2]:.3g}]" for k, v in e.get("parameters", {}).items() if isinstance(v, list))
+    return f"`{e['effect']}`" + (f": {params}" if params else "")
+
+
+def table(rows) -> str:
+    """Markdown results table of the summary rows."""
+    lines = ["| case | expected (stated before) | named: parameters [95 %] | gap before -> after | judged | CPU |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['name']} | {EXPECTED.get(r['name'], '')} | error: {r['error']} | | | |")
+            continue
+        named = "; ".join(_effect_cell(e) for e in r.get("effects") or []) or "`none`"
+        lines.append(f"| {r['name']} | {EXPECTED.get(r['name'], '')} | {named} | {r['gap_before']:.3g} -> {r['gap_after']:.3g} | "
+                     f"{judge(r)} | {r['seconds']:.0f} s |")
+    return "\n".join(lines)
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True, type=Path)
+    ap.add_argument("--samples", type=int, default=200)
+    ap.add_argument("--cases", default=None, help="comma-separated case names (default: all six)")
+    ap.add_argument("--candidates", default="all")
+    ap.add_argument("--json", type=Path, default=None, help="also write the summary here (the docs table's source)")
+    ap.add_argument("--table", action="store_true", help="print the table of DIR/summary.json and exit")
+    args = ap.parse_args(argv)
+    out = args.out
+    if args.table:
+        print(table(json.loads((out / "summary.json").read_text())))
+        return
+    for sub in ("data", "labels", "discover"):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    config = load_config(None)
+    config["vehicle"].update(cg_height=CG_HEIGHT, track_width=TRACK_WIDTH)
+    (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    car = PacejkaCar()
+    limit = steady_limit(config, car)
+    keep = set(args.cases.split(",")) if args.cases else None
+    old = {r["name"]: r for r in json.loads((out / "summary.json").read_text())} if (out / "summary.json").exists() else {}
+    for i, case in enumerate(real_tyre_cases(config, samples=args.samples)):
+        if keep and case.name not in keep:
+            continue
+        tag = f"case_{i + 1:02d}"
+        data = out / "data" / f"{tag}.nc"
+        if not data.exists():
+            amplitude = amplitude_for(config, car, case, limit)
+            write_dataset(generate(config, case, amplitude, car), data)
+            (out / "labels" / f"{tag}.json").write_text(json.dumps(case_label(case, amplitude, limit, car), indent=1))
+        row = {"case": tag, "name": case.name, "level": case.level, "runs": case.samples,
+               "amplitude_deg": json.loads((out / "labels" / f"{tag}.json").read_text())["amplitude_deg"]}
+        target = out / "discover" / tag
+        cpu0 = _children_cpu()
+        run = subprocess.run([sys.executable, "-m", "uqdrive.cli.main", "discover", str(data), "--config", str(out / "config.yaml"),
+                              "--candidates", args.candidates, "--out", str(target), "--no-posterior", "--force"],
+                             capture_output=True, text=True)
+        row["seconds"] = round(_children_cpu() - cpu0, 1)
+        (out / "labels" / f"{tag}.discover.log").write_text(run.stderr)  # the progress lines: which candidates each step fitted
+        if run.returncode:
+            row["error"] = run.stderr.strip().splitlines()[-1] if run.stderr.strip() else f"exit {run.returncode}"
+        else:
+            v = json.loads((target / "verdict.json").read_text())
+            row.update({k: v.get(k) for k in ("effect", "effects", "gap_before", "gap_after", "warnings")})
+            row["steps"] = [{k: s.get(k) for k in ("effect", "chi2", "explains") if k in s} for s in (v["evidence"].get("steps") or [])]
+            row["judged"] = judge(row)
+        old[case.name] = row
+        print(json.dumps(row, default=str), flush=True)
+        rows = [old[c.name] for c in real_tyre_cases(config, samples=args.samples) if c.name in old]
+        text = json.dumps(rows, indent=1, default=str)
+        (out / "summary.json").write_text(text)
+        if args.json:
+            args.json.write_text(text + "\n")
+    print(table([old[c.name] for c in real_tyre_cases(config, samples=args.samples) if c.name in old]))
+
+
+if __name__ == "__main__":
+    main()
