@@ -1,9 +1,8 @@
 import shutil
 import subprocess
 import sys
-from pathlib import Path
-
 from importlib.resources import files
+from pathlib import Path
 
 import pytest
 import yaml
@@ -207,7 +206,7 @@ def test_cli_works_from_any_folder(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--force" in err
     assert main(["config", "--dump", "-"]) == 0
-    assert capsys.readouterr().out == (REPO / "config" / "config.yaml").read_text()
+    assert capsys.readouterr().out == files("uqdrive").joinpath("default_config.yaml").read_text()
 
 
 def test_help_describes_every_option():
