@@ -27,7 +27,8 @@ from ...settings import Settings
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["FourWheelCase", "four_wheel_cases", "steady_limit", "amplitude_for", "simulate_case", "generate", "case_label"]
+__all__ = ["FourWheelCase", "four_wheel_cases", "steady_limit", "amplitude_for", "simulate_case", "generate", "case_label", "output_grid",
+           "add_noise", "measured_dataset"]
 
 STEP = 0.005  # s, RK4 step of the reality (the roll, pitch and slip-lag modes need < 0.02 s)
 STREAM_KEY = 4  # keys the hidden-effect streams apart from the single-track benchmark's
@@ -73,11 +74,16 @@ class FourWheelCase:
         object.__setattr__(self, "manoeuvre_params", tuple(sorted(dict(self.manoeuvre_params).items())))
 
 
-def _grid(config, t_end):
-    dt = float(config["time"]["dt"])
-    every = int(np.ceil(dt / STEP - 1e-9))
+def output_grid(dt: float, t_end: float, step: float):
+    """Output times (s) every ``dt`` up to ``t_end``, the RK4 step (s) at most ``step`` that divides
+    ``dt``, the steps per output and the number of steps."""
+    every = int(np.ceil(dt / step - 1e-9))
     n_out = round(t_end / dt)
     return np.arange(n_out + 1) * dt, dt / every, every, n_out * every
+
+
+def _grid(config, t_end):
+    return output_grid(float(config["time"]["dt"]), t_end, STEP)
 
 
 def _nominal_run(config, car, delta_half, h, n_steps, every):
@@ -155,34 +161,42 @@ def simulate_case(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg:
     return t, steering_command(case.manoeuvre, t, params), x, ex["a_y"], draws
 
 
-def _measure(case: FourWheelCase, x):
-    """White noise of std ``noise`` x the median RMS of each channel (stream "hidden_noise")."""
-    rng = rng_stream(case.seed, "hidden_noise", STREAM_KEY)
+def add_noise(x, noise: float, seed: int, stream_key: int):
+    """``x`` (channel, sample, time) with white noise of std ``noise`` x the median RMS of each
+    channel (stream "hidden_noise", ``seed``, ``stream_key``)."""
+    rng = rng_stream(seed, "hidden_noise", stream_key)
     out = np.empty_like(x)
     for i in range(x.shape[0]):
-        scale = case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
+        scale = noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1)))
         out[i] = x[i] + scale * rng.standard_normal(x[i].shape)
     return out
+
+
+def measured_dataset(t, delta, y, v_c: float) -> xr.Dataset:
+    """The uqdrive data schema of measured channels ``y`` (psi, psi_dot, beta, y, a_y; sample, time),
+    the commanded steering ``delta`` (time, rad) and the speed ``v_c`` (m/s)."""
+    import xarray as xr
+
+    data = {name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
+            for i, name in enumerate(STATES)}
+    data["a_y"] = (("sample", "time"), y[4], {"units": "m/s^2", "long_name": "measured lateral acceleration"})
+    data["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
+    coords = {"sample": np.arange(y.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
+    return xr.Dataset(data, coords=coords, attrs={"title": "measured ensemble", "v_c": v_c})
 
 
 def generate(config: Mapping[str, Any], case: FourWheelCase, amplitude_deg: float, car: FourWheelCar | None = None) -> xr.Dataset:
     """Measured ensemble in the uqdrive data schema: psi, psi_dot, beta, y (sample, time), the
     commanded ``delta`` (time), attribute v_c (m/s); also the measured lateral acceleration
     ``a_y`` (sample, time). No label, draws or car constants."""
-    import xarray as xr
-
     t, delta, x, a_y, _ = simulate_case(config, case, amplitude_deg, car)
-    y = _measure(case, np.concatenate([x, a_y[None]]))
-    data = {name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
-            for i, name in enumerate(STATES)}
-    data["a_y"] = (("sample", "time"), y[4], {"units": "m/s^2", "long_name": "measured lateral acceleration"})
-    data["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
-    coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
-    return xr.Dataset(data, coords=coords, attrs={"title": "measured ensemble", "v_c": Settings.from_config(config).vehicle.v_c})
+    y = add_noise(np.concatenate([x, a_y[None]]), case.noise, case.seed, STREAM_KEY)
+    return measured_dataset(t, delta, y, Settings.from_config(config).vehicle.v_c)
 
 
-def case_label(case: FourWheelCase, amplitude_deg: float, limit: float, car: FourWheelCar) -> dict[str, Any]:
-    """Ground truth of a case for a labels file kept apart from the data."""
+def case_label(case, amplitude_deg: float, limit: float, car) -> dict[str, Any]:
+    """Ground truth of a reality's ``case`` (its name, manoeuvre, level, samples, seed, t_end,
+    noise) and ``car`` (a dataclass) for a labels file kept apart from the data."""
     from dataclasses import asdict
 
     return {"name": case.name, "manoeuvre": case.manoeuvre, "manoeuvre_params": dict(case.manoeuvre_params), "level": case.level,

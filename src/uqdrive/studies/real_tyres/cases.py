@@ -9,7 +9,7 @@ follows the uqdrive data schema and carries no label: :func:`case_label` is for 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
@@ -17,7 +17,7 @@ import numpy as np
 from ...rng import rng_stream
 from ...settings import Settings
 from ...vehicle.realities import PacejkaCar, simulate_pacejka
-from ...vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES
+from ..four_wheel.cases import add_noise, case_label, measured_dataset, output_grid
 from ..hidden_effects import wind_kle
 from ..manoeuvres import steering_command
 
@@ -51,10 +51,7 @@ class RealTyreCase:
 
 
 def _grid(config, t_end):
-    dt = float(config["time"]["dt"])
-    every = int(np.ceil(dt / STEP - 1e-9))
-    n_out = round(t_end / dt)
-    return np.arange(n_out + 1) * dt, dt / every, every, n_out * every
+    return output_grid(float(config["time"]["dt"]), t_end, STEP)
 
 
 def _speed(config) -> float:
@@ -119,35 +116,12 @@ def simulate_case(config: Mapping[str, Any], case: RealTyreCase, amplitude_deg: 
     return t, steering_command(case.manoeuvre, t, params), x, a_y, draws, slip
 
 
-def _measure(case: RealTyreCase, x):
-    """White noise of std ``noise`` x the median RMS of each channel (stream "hidden_noise")."""
-    rng = rng_stream(case.seed, "hidden_noise", STREAM_KEY)
-    out = np.empty_like(x)
-    for i in range(x.shape[0]):
-        out[i] = x[i] + case.noise * np.median(np.sqrt(np.mean(x[i] ** 2, axis=-1))) * rng.standard_normal(x[i].shape)
-    return out
-
-
 def generate(config: Mapping[str, Any], case: RealTyreCase, amplitude_deg: float, car: PacejkaCar = PacejkaCar()) -> "xr.Dataset":
     """Measured ensemble in the uqdrive data schema: psi, psi_dot, beta, y and a_y (sample, time),
     the commanded ``delta`` (time), attribute v_c (m/s). No label, draws or car constants."""
-    import xarray as xr
-
     t, delta, x, a_y, _, _ = simulate_case(config, case, amplitude_deg, car)
-    y = _measure(case, np.concatenate([x, a_y[None]]))
-    data = {name: (("sample", "time"), y[i], {"units": STATE_UNITS[name], "long_name": f"measured {STATE_NAMES[name]}"})
-            for i, name in enumerate(STATES)}
-    data["a_y"] = (("sample", "time"), y[4], {"units": "m/s^2", "long_name": "measured lateral acceleration"})
-    data["delta"] = ("time", delta, {"units": "rad", "long_name": "commanded front steering angle"})
-    coords = {"sample": np.arange(x.shape[1]), "time": ("time", t, {"units": "s", "long_name": "time"})}
-    return xr.Dataset(data, coords=coords, attrs={"title": "measured ensemble", "v_c": _speed(config)})
-
-
-def case_label(case: RealTyreCase, amplitude_deg: float, limit: float, car: PacejkaCar) -> dict[str, Any]:
-    """Ground truth of a case for a labels file kept apart from the data."""
-    return {"name": case.name, "manoeuvre": case.manoeuvre, "manoeuvre_params": dict(case.manoeuvre_params), "level": case.level,
-            "amplitude_deg": amplitude_deg, "steady_limit_m_s2": limit, "samples": case.samples, "seed": case.seed,
-            "t_end": case.t_end, "noise": case.noise, "car": asdict(car)}
+    y = add_noise(np.concatenate([x, a_y[None]]), case.noise, case.seed, STREAM_KEY)
+    return measured_dataset(t, delta, y, _speed(config))
 
 
 #: name, manoeuvre, level (of the steady limit), manoeuvre parameters, duration (s)
