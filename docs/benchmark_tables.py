@@ -135,6 +135,7 @@ def substitutions() -> dict[str, str]:
     sc = rp["scorecard"]
     s.update(bench_repro_dag_jobs=str(rp["dag_jobs"]), bench_repro_machine=rp["machine"], bench_repro_job_seconds=str(rp["job_seconds"]),
              bench_repro_cpu_seconds=str(rp["cpu_seconds"]),
+             bench_repro_discover_share=f"{100 * next(x for x in rp['rules'] if x['rule'] == 'discrepancy_discover')['job_seconds'] / rp['job_seconds']:.0f} %",
              bench_repro_scorecard=f"{sc['rows']} rows, {sc['pass']} pass, {sc['deviate']} deviate, {sc['fail']} fail")
     cd = _rec("channel_detection")
     speed = sum(next(c for c in cd["columns"] if c["set"] == "imu_speed")["cpu_s"])

@@ -3,6 +3,7 @@ defines computed at the build: the rules' declared resources, the binomial bands
 sampling error."""
 
 import json
+import re
 import math
 import sys
 from pathlib import Path
@@ -42,3 +43,38 @@ def test_the_coverage_bands_follow_the_replicate_count():
     lo, hi = binomial_band(100, 0.95, 0.01)
     assert f"| 1000 | mu mean | 0.940 | [{lo:.3f}, {hi:.3f}] |" in table
     assert "average 0.94" in table
+
+
+# Versions of pytest and xdist named where the page explains the pin: inputs, not measurements.
+VERSIONS_ALLOWED = {"9.2", "9.1.1", "3.8"}
+MEASURED = re.compile(r"(?<![\w.])(\d+\.\d+(?:\.\d+)*|\d+(?: %|x\b))")
+
+
+def _prose(text: str) -> str:
+    """The page without fenced blocks, inline code and substitutions: what a reader sees typed."""
+    text = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+    text = re.sub(r"\{\{.*?\}\}", "", text)
+    return re.sub(r"`[^`]*`", "", text)
+
+
+def test_the_benchmarks_page_types_no_measured_number():
+    """Every decimal, percentage or speed-up on the benchmarks page comes from a record: a number
+    typed back into its text fails here."""
+    page = (ROOT / "docs" / "benchmarks.md").read_text()
+    found = [m for m in MEASURED.findall(_prose(page)) if m not in VERSIONS_ALLOWED]
+    assert found == []
+    assert MEASURED.findall(_prose("took 92.2 s, `0.5` and {{ x }}, 48 % of it, 2.7x faster")) == ["92.2", "48 %", "2.7x"]
+
+
+def test_the_benchmark_ratios_are_computed_from_the_records():
+    subs = measured_tables.substitutions(ROOT)
+    rec = json.loads((ROOT / "docs" / "measurements" / "benchmarks_discover.json").read_text())
+    assert subs["bench_disc_ratio"] == f"{rec['wall_s'] / rec['budget_s']:.2f}"
+    page = (ROOT / "docs" / "benchmarks.md").read_text()
+    names = set(re.findall(r"\{\{ (\w+) \}\}", page))
+    assert names <= set(subs)  # every substitution the page uses is defined
+    chassis = json.loads((ROOT / "docs" / "measurements" / "benchmarks_chassis.json").read_text())["rows"]
+    table = measured_tables.benchmark_tables.chassis_table()
+    assert all(f"| {r['one_by_one_s'] / r['many_s']:.2f} |" in table for r in chassis)
+    for name in measured_tables.benchmark_tables.TABLES:
+        assert f"api/generated/{name}.md" in page
