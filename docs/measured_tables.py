@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 
 import benchmark_tables
+import reproduction_tables
 from generated_tables import _write  # one writer that leaves unchanged pages to Sphinx's cache
 
 HERE = Path(__file__).resolve().parent
@@ -138,7 +139,7 @@ def slurm_steps_table() -> str:
 
 
 def substitutions(root: Path) -> dict[str, str]:
-    """The numbers the cluster and benchmarks pages quote in their text, from the records, the rules and the lock file."""
+    """The numbers the cluster, benchmarks and reproduction pages quote in their text, from the records, the rules and the lock file."""
     rr = _tool(root, "rule_resources")
     declared = rr.declared()
     ci = _load("rule_resources.json")["ci"]
@@ -155,7 +156,7 @@ def substitutions(root: Path) -> dict[str, str]:
             "job_alone_mb": str(over["job_alone"]), "rule_process_mb": str(over["rule_process"]),
             "memory_margin": f"{rr.MEMORY_MARGIN:g}", "runtime_margin": f"{rr.RUNTIME_MARGIN:g}",
             "groups_machine": ci["groups_machine"], "full_machine": _load("rule_resources.json")["full"]["machine"],
-            **benchmark_tables.substitutions()}
+            **benchmark_tables.substitutions(), **reproduction_tables.substitutions()}
 
 
 def write_all(root: Path, outdir: Path) -> None:
@@ -167,3 +168,4 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "rule_resources_ci_groups.md", groups)
     _write(outdir / "slurm_steps.md", slurm_steps_table())
     benchmark_tables.write_all(outdir)
+    reproduction_tables.write_all(outdir)

@@ -12,6 +12,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "docs"))
 import measured_tables  # noqa: E402
+import reproduction_tables  # noqa: E402,F401  (measured_tables.reproduction_tables)
 
 sys.path.pop(0)
 
@@ -78,3 +79,50 @@ def test_the_benchmark_ratios_are_computed_from_the_records():
     assert all(f"| {r['one_by_one_s'] / r['many_s']:.2f} |" in table for r in chassis)
     for name in measured_tables.benchmark_tables.TABLES:
         assert f"api/generated/{name}.md" in page
+
+
+# Published seed values the reproduction page may type (each must be a published value of the code
+# or of the scorecard record's `published` column); every other decimal there comes from the build.
+REPRODUCTION_ALLOWED: set[str] = set()
+DECIMAL = re.compile(r"(?<![\w.])-?\d+\.\d+(?![\w.])")
+# Labels of the seeds' tables, figures, sections and equations: names, not numbers.
+LABEL = re.compile(r"\b(?:Tables?|Figs?\.?|Figures?|sec\.)\s+[A-Z]?\d+(?:\.\d+)*(?:\s*(?:-|,|/|and)\s*[A-Z]?\d+(?:\.\d+)*)*"
+                   r"|\(\d+\.\d+[a-z]?\)")
+
+
+def test_the_reproduction_page_types_no_reproduced_number():
+    """Every decimal the reproduction page shows comes from the scorecard record or the config at
+    the build: one typed back into its text fails here."""
+    import csv
+
+    page = (ROOT / "docs" / "reproduction.md").read_text()
+    prose = LABEL.sub("", re.sub(r"\{\w+\}`[^`]*`", "", _prose(page)))
+    assert [d for d in DECIMAL.findall(prose) if d not in REPRODUCTION_ALLOWED] == []
+    assert DECIMAL.findall(LABEL.sub("", "Table 6.2 and (5.25), Figs 6.7-6.15, B.1-B.13 give N(0.793, 0.188)")) == ["0.793", "0.188"]
+    from uqdrive.studies import scorecard, tables
+
+    with open(ROOT / "docs" / "measurements" / "scorecard.csv", newline="") as fh:
+        published = {float(r["published"]) for r in csv.DictReader(fh)}
+    published |= {float(v) for t in (tables.THESIS_TABLE_6_2, tables.THESIS_TABLE_6_3) for row in t.values() for v in row}
+    published |= {float(v) for v in scorecard.PAPER.values()} | set(scorecard.THESIS_LQR_GAIN) | set(scorecard.THESIS_SLQR_GAIN)
+    assert all(float(v) in published for v in REPRODUCTION_ALLOWED)
+
+
+def test_the_reproduction_page_quotes_scorecard_rows_by_quantity(tmp_path):
+    """The page's substitutions are defined and read the record's rows; a row missing from the
+    record stops the build naming its quantity."""
+    import csv
+    import pytest
+
+    tables = measured_tables.reproduction_tables
+    page = (ROOT / "docs" / "reproduction.md").read_text()
+    assert set(re.findall(r"\{\{ (\w+) \}\}", page)) <= set(measured_tables.substitutions(ROOT))
+    assert all(f"api/generated/{name}.md" in page for name in tables.TABLES)
+    rows = tables.scorecard()
+    quantity = "NLST-STD mu mean (thesis Table 6.2, without the wind yaw moment)"
+    rows[quantity] = dict(rows[quantity], reproduced="0.7123")
+    assert tables.substitutions(rows)["rep_nlst_mc0_mu"] == "0.71"  # read from the row, not typed
+    assert "| NLST-STD | unit-free | 0.787 |" in tables.table_6_2(tables.scorecard())
+    del rows[quantity]
+    with pytest.raises(tables.MissingScorecardRow, match=re.escape(quantity)):
+        tables.substitutions(rows)
