@@ -28,7 +28,7 @@ from .vehicle_spec import read_vehicle_file as _read_vehicle_file
 
 __all__ = ["ConfigError", "load_config", "validate_config", "read_vehicle_file", "vehicle_names", "config_hash", "load_schema", "default_config_text",
            "PHYSICAL_RANGES", "DEFAULT_CONFIG_NAME", "config_value", "restrict_config", "merge_config", "override_config",
-           "parse_overrides", "provenance"]
+           "parse_overrides", "provenance", "read_config_mapping"]
 
 #: Name of the packaged default configuration (a copy of config/config.yaml).
 DEFAULT_CONFIG_NAME = "default_config.yaml"
@@ -258,12 +258,17 @@ def _vehicle_validator():
 def load_config(path: str | Path | None = None, vehicle: str | Path | None = None) -> dict:
     """Read a YAML configuration file (None: the packaged default) and validate it; ``vehicle``
     (a packaged vehicle name or a vehicle file) replaces the car as the ``vehicle_file`` key does.
+    Raises ConfigError if the file is missing, is not UTF-8 YAML, or fails validation."""
+    data = read_config_mapping(path)
+    if vehicle is not None:
+        data["vehicle_file"] = str(vehicle)
+    elif path is not None and isinstance(data.get("vehicle_file"), str):
+        data["vehicle_file"] = _beside(Path(path), data["vehicle_file"])
+    return validate_config(data)
 
-    Raises
-    ------
-    ConfigError
-        If the file is missing, is not UTF-8 YAML, or fails validation.
-    """
+
+def read_config_mapping(path: str | Path | None) -> dict:
+    """The unvalidated mapping of a config file (None: the packaged one); ConfigError names the file and the fault."""
     if path is None:
         name, text = f"<packaged {DEFAULT_CONFIG_NAME}>", default_config_text()
     else:
@@ -275,20 +280,14 @@ def load_config(path: str | Path | None = None, vehicle: str | Path | None = Non
         try:
             text = raw.decode("utf-8-sig")
         except UnicodeDecodeError as exc:
-            raise ConfigError(f"config file '{path}' is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
-                              "save it as UTF-8") from None
+            raise ConfigError(f"config file '{path}' is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); save it as UTF-8") from None
     try:
         data = _yaml(text)
     except (yaml.YAMLError, RecursionError) as exc:
-        reason = " ".join(str(exc).split())
-        raise ConfigError(f"config file '{name}' is not valid YAML: {reason}") from None
+        raise ConfigError(f"config file '{name}' is not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict):
         raise ConfigError(f"config file '{name}' must hold a mapping of keys (start from: uqdrive config --dump FILE)")
-    if vehicle is not None:
-        data["vehicle_file"] = str(vehicle)
-    elif path is not None and isinstance(data.get("vehicle_file"), str):
-        data["vehicle_file"] = _beside(Path(path), data["vehicle_file"])
-    return validate_config(data)
+    return data
 
 
 def _beside(config_path: Path, reference: str) -> str:

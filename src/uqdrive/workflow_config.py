@@ -7,28 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Sequence
 
-import yaml
+from .config import merge_config, parse_overrides, read_config_mapping, validate_config
 
-from ._errors import ConfigError
-from ._yaml import load_yaml
-from .config import merge_config, parse_overrides, validate_config
-
-__all__ = ["read_mapping", "workflow_config"]
-
-
-def read_mapping(path: str | Path) -> dict:
-    """The mapping the YAML file ``path`` holds (not validated); ConfigError names the file and what is wrong."""
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read config file '{path}': {getattr(exc, 'strerror', None) or exc}") from None
-    try:
-        data = load_yaml(text)
-    except (yaml.YAMLError, RecursionError) as exc:
-        raise ConfigError(f"config file '{path}' is not valid YAML: {' '.join(str(exc).split())}") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"config file '{path}' must hold a mapping of keys (start from: uqdrive config --dump FILE)")
-    return data
+__all__ = ["workflow_config"]
 
 
 def workflow_config(default: str | Path | None, configfiles: Sequence[str | Path] = (), overrides: Sequence[str] | None = ()) -> dict:
@@ -48,5 +29,5 @@ def workflow_config(default: str | Path | None, configfiles: Sequence[str | Path
     """
     config: dict[str, Any] = {}
     for path in ([default] if default is not None else []) + list(configfiles):
-        config = merge_config(config, read_mapping(path))
+        config = merge_config(config, read_config_mapping(path))
     return validate_config(merge_config(config, parse_overrides(overrides)))
