@@ -20,7 +20,7 @@ from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_te
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
-from .uncertainty import Germs, kle_of_wind
+from .uncertainty import Germs, kle_of_wind, uniform_from_germ
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
@@ -139,7 +139,7 @@ class AugmentedSimulator:
         mu = np.maximum(mu_m + mu_s * g.mu, 0.05)
         l_f = np.clip(lf_m + lf_s * g.l_f, 0.05 * L, 0.95 * L)
         p = replace(self.base, mu=mu, l_f=l_f, m_load=np.maximum(m_load, -0.9 * self.base.m_base))
-        wind = lo + (hi - lo) * g.wind
+        wind = uniform_from_germ(g.wind, lo, hi)
         coeffs = self.sigma * g.kle[:, : self.kle.n_modes] * np.sqrt(self.kle.eigenvalues)
         return p, wind, coeffs
 
