@@ -81,6 +81,26 @@ def test_a_good_model_file_is_read_with_its_values(tiny):
     assert dist == MODEL["distributions"]
 
 
+def test_a_model_files_load_reaches_the_simulator(tiny):
+    """model.yaml's m_load N(80, 10) (the config's is N(100, 30)) is the load the augmented model
+    simulates: a 300 kg load moves every state; without m_load the config's is kept."""
+    from uqdrive.cli.model import model_settings, simulate_model
+    from uqdrive.settings import Normal, Settings
+
+    config = load_config(tiny[0])
+    settings = Settings.from_config(config)
+    assert model_settings(settings, MODEL["distributions"]).uncertainty.m_load == Normal(80.0, 10.0)
+    assert model_settings(settings, {k: v for k, v in MODEL["distributions"].items() if k != "m_load"}) is settings
+    folder = Path(tiny[0]).parent
+    runs = {}
+    for load in (80.0, 300.0):
+        doc = copy.deepcopy(MODEL)
+        doc["distributions"]["m_load"]["mean"] = load
+        (folder / f"load_{load:g}.yaml").write_text(yaml.safe_dump(doc))
+        runs[load] = simulate_model(config, folder / f"load_{load:g}.yaml", "normal", 4, 1)
+    assert not np.allclose(runs[80.0]["psi_dot"].values, runs[300.0]["psi_dot"].values, rtol=1e-3)
+
+
 # -- output folders -------------------------------------------------------------------------------
 def test_discover_into_a_read_only_folder_is_refused_before_any_work(tiny, tmp_path, capsys, monkeypatch):
     """As root a chmod does not bind, so os.access reports the folder read-only instead."""

@@ -131,6 +131,7 @@ def test_held_reality_and_held_model_agree_on_the_same_draws(config):
     RK4's error (1e-4 of each state's range); read as linear, the model is off by > 1 %."""
     from uqdrive.studies.hidden_effects import draw_realisations, simulate_states, wind_kle
     from uqdrive.vehicle.augmented import Germs
+    from uqdrive.vehicle.uncertainty import germ_from_uniform
 
     c = copy.deepcopy(config)
     c["time"].update(t_end=3.0)
@@ -141,7 +142,7 @@ def test_held_reality_and_held_model_agree_on_the_same_draws(config):
     u = c["uncertainty"]
     lo, hi = u["F_w_mean"]["low"], u["F_w_mean"]["high"]
     germs = Germs((d["mu"] - u["mu"]["mean"]) / u["mu"]["std"], (d["l_f"] - u["l_f"]["mean"]) / u["l_f"]["std"],
-                  (d["m_load"] - u["m_load"]["mean"]) / u["m_load"]["std"], (d["F_w_mean"] - lo) / (hi - lo), d["xi_wind"])
+                  (d["m_load"] - u["m_load"]["mean"]) / u["m_load"]["std"], germ_from_uniform(d["F_w_mean"], lo, hi), d["xi_wind"])
     theta = [u["mu"]["mean"], u["mu"]["std"], u["l_f"]["mean"], u["l_f"]["std"], lo, hi]
     v = c["vehicle"]["speed_kmh"] / 3.6
     held = AugmentedSimulator(Settings.from_config(c), t, delta, v, germs, interpolation="previous").simulate(theta)

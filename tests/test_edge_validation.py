@@ -290,7 +290,7 @@ def test_second_writer_cannot_silently_win(tmp_path):
 
 
 def test_stale_temporary_of_a_dead_writer_is_removed(tmp_path):
-    from uqdrive.io import _HOST
+    from uqdrive.outputs import _HOST
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()

@@ -6,6 +6,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from uqdrive.vehicle.augmented import AugmentedSimulator, Germs, actual_steering
+from uqdrive.vehicle.uncertainty import germ_from_uniform
 from uqdrive.vehicle.effects import EFFECTS, FAMILIES, ModelStructure, effect, expand_names, structure_from_effects
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.settings import Settings
@@ -17,7 +18,7 @@ def _germs_of(ds, config):
     u = config["uncertainty"]
     return Germs(mu=(ds.mu.values - u["mu"]["mean"]) / u["mu"]["std"], l_f=(ds.l_f.values - u["l_f"]["mean"]) / u["l_f"]["std"],
                  m_load=(ds.m_load.values - u["m_load"]["mean"]) / u["m_load"]["std"],
-                 wind=(ds.F_w_mean.values - u["F_w_mean"]["low"]) / (u["F_w_mean"]["high"] - u["F_w_mean"]["low"]), kle=ds.xi_wind.values)
+                 wind=germ_from_uniform(ds.F_w_mean.values, u["F_w_mean"]["low"], u["F_w_mean"]["high"]), kle=ds.xi_wind.values)
 
 
 @pytest.fixture(scope="module")
@@ -126,15 +127,15 @@ def test_strided_output_equals_the_full_grid_subsampled(config, structure):
 
 
 def test_moment_matched_germs_have_the_populations_mean_and_covariance():
-    """Germs.matched: sample mean 0 and covariance I of (mu, l_f, m_load, sqrt(12)(u - 1/2), KLE
+    """Germs.matched: sample mean 0 and covariance I of (mu, l_f, m_load, sqrt(3) xi, KLE
     modes) exactly, a near-identity change (the uniform germ stays nearly uniform); too few
     realisations to whiten are refused. Unmatched, the same draws miss both by O(M^-1/2)."""
     g = Germs.draw(np.random.default_rng(0), 400, 5)
     m = g.matched()
-    z = lambda h: np.column_stack([h.mu, h.l_f, h.m_load, np.sqrt(12.0) * (h.wind - 0.5), h.kle])  # noqa: E731
+    z = lambda h: np.column_stack([h.mu, h.l_f, h.m_load, np.sqrt(3.0) * h.wind, h.kle])  # noqa: E731
     assert np.allclose(z(m).mean(axis=0), 0.0, atol=1e-12) and np.allclose(np.cov(z(m), rowvar=False), np.eye(9), atol=1e-10)
     assert np.abs(np.cov(z(g), rowvar=False) - np.eye(9)).max() > 0.05
-    assert np.abs(z(m) - z(g)).max() < 0.5 and -0.05 < m.wind.min() and m.wind.max() < 1.05
+    assert np.abs(z(m) - z(g)).max() < 0.5 and -1.1 < m.wind.min() and m.wind.max() < 1.1
     assert np.allclose(Germs.draw(np.random.default_rng(0), 400, 5, matched=True).kle, m.kle)
     with pytest.raises(ValueError, match="more than 9"):
         g.head(9).matched()

@@ -279,14 +279,14 @@ def test_batched_nll_equals_the_one_point_nll_row_by_row():
         raise AssertionError("positive definite rows must be computed in the batch, not one by one")
 
     gp._nll = no_fallback  # the batch itself, not its one-row fallback, must give the values
-    batch = gp._nll_batch(rows)
+    batch = gp.negative_log_likelihood(rows)
     del gp._nll
     assert batch.shape == (7,)
     assert batch == pytest.approx(expected, rel=1e-10)
     assert len(set(np.round(batch, 6))) == 7  # the rows differ: no row repeated for all
     x = np.linspace(0.5, 1.0, 12)
     flat = ArcsineGP(hyperparameters={"v1": 1.0, "g": [1.0, 1.0], "v0": 1.0}).fit(x, np.tanh(6 * x), noise_free=np.ones(12, bool))
-    mixed = flat._nll_batch(np.array([[0.0, 0.0, 0.0, 0.0], [9.0, -9.0, 9.0, -9.0]]))
+    mixed = flat.negative_log_likelihood(np.array([[0.0, 0.0, 0.0, 0.0], [9.0, -9.0, 9.0, -9.0]]))
     assert mixed[0] == pytest.approx(flat._nll(np.zeros(4)), rel=1e-10) and mixed[1] >= 1e20
 
 

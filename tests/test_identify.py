@@ -144,30 +144,30 @@ def test_unidentifiable_parameter_gives_nan_error_bars(toy_data):
 
 
 def _scripted(monkeypatch, *steps):
-    """Replace the L-BFGS-B entry of the registry: call i runs steps[i](real, est, z0, box) (the
+    """Replace the L-BFGS-B entry of the registry: call i runs steps[i](real, problem, z0, box) (the
     real optimiser after the script ends); returns the list of results, in call order."""
     from uqdrive.inference import identify
 
     real, calls = identify.OPTIMISERS["lbfgsb"], []
 
-    def optimiser(est, z0, box):
-        step = steps[len(calls)] if len(calls) < len(steps) else (lambda real, est, z0, box: real(est, z0, box))
-        calls.append(step(real, est, z0, box))
+    def optimiser(problem, z0, box):
+        step = steps[len(calls)] if len(calls) < len(steps) else (lambda real, problem, z0, box: real(problem, z0, box))
+        calls.append(step(real, problem, z0, box))
         return calls[-1]
 
     monkeypatch.setitem(identify.OPTIMISERS, "lbfgsb", optimiser)
     return calls
 
 
-def _stop_at(z, est, message="ABNORMAL_TERMINATION_IN_LNSRCH", nit=0, nfev=1):
-    return OptimizeResult(x=np.array(z, float), fun=est._scaled(np.array(z, float))[0], nit=nit, nfev=nfev, success=False, message=message)
+def _stop_at(z, problem, message="ABNORMAL_TERMINATION_IN_LNSRCH", nit=0, nfev=1):
+    return OptimizeResult(x=np.array(z, float), fun=problem.cost(np.array(z, float))[0], nit=nit, nfev=nfev, success=False, message=message)
 
 
 def test_restart_after_an_abnormal_stop_reaches_the_optimum(toy_data, monkeypatch):
     """A forced abnormal stop at the start (as when the first line search fails): the restart
     from there must run, converge, be reported, and its iterations counted."""
     mean, std = toy_data
-    calls = _scripted(monkeypatch, lambda real, est, z0, box: _stop_at(z0, est, nit=3, nfev=7))
+    calls = _scripted(monkeypatch, lambda real, problem, z0, box: _stop_at(z0, problem, nit=3, nfev=7))
     est = DistributionEstimator(LinearToy(), "std").fit(mean, std, TOY_START)
     assert len(calls) == 2 and calls[1].success
     assert est.converged_ and "after a restart from an abnormal stop" in est.message_
@@ -180,8 +180,8 @@ def test_restart_that_stays_put_is_stationary_to_precision(toy_data, monkeypatch
     < 1e-9, so the fit is accepted as stationary (converged, said so in the message)."""
     mean, std = toy_data
 
-    def abnormal_optimum(real, est, z0, box):
-        res = real(est, z0, box)
+    def abnormal_optimum(real, problem, z0, box):
+        res = real(problem, z0, box)
         res.success, res.message = False, "ABNORMAL_TERMINATION_IN_LNSRCH"
         return res
 
@@ -200,7 +200,7 @@ def test_restart_that_does_not_settle_is_not_convergence(toy_data, monkeypatch):
     z_start = TOY_START / np.abs(TOY_START)
     halfway = 0.5 * (z_start + z_opt)
     for second, expected in ((halfway, halfway), (z_start + 0.3 * (z_start - z_opt), z_start)):
-        _scripted(monkeypatch, lambda real, est, z0, box: _stop_at(z0, est), lambda real, est, z0, box, z=second: _stop_at(z, est))
+        _scripted(monkeypatch, lambda real, problem, z0, box: _stop_at(z0, problem), lambda real, problem, z0, box, z=second: _stop_at(z, problem))
         with pytest.warns(RuntimeWarning, match="did not converge"):
             est = DistributionEstimator(LinearToy(), "std").fit(mean, std, TOY_START)
         assert not est.converged_
@@ -249,8 +249,9 @@ def test_optimisers_report_the_scaled_cost_they_stopped_at(toy_data, optimiser):
     mean, std = toy_data
     est = DistributionEstimator(LinearToy(), "std", optimiser=optimiser).fit(mean, std, TOY_START)
     lo, hi = np.array(est.bounds, float).T
-    res = identify.OPTIMISERS[optimiser](est, TOY_START / est._scale, list(zip(lo / est._scale, hi / est._scale)))
-    assert res.success and res.fun == pytest.approx(est._scaled(res.x)[0], rel=1e-10)
+    problem = est.problem_
+    res = identify.OPTIMISERS[optimiser](problem, TOY_START / problem.scale, list(zip(lo / problem.scale, hi / problem.scale)))
+    assert res.success and res.fun == pytest.approx(problem.cost(res.x)[0], rel=1e-10)
     assert res.fun < 0.1  # well below the start's 1
 
 

@@ -3,7 +3,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uqdrive.vehicle.uncertainty import ParameterDistribution, kle_nystrom, squared_exponential_covariance, uniform_from_germ
+from uqdrive.vehicle.uncertainty import (Germs, ParameterDistribution, germ_from_uniform, kle_nystrom, squared_exponential_covariance,
+                                         uniform_from_germ)
 
 
 @pytest.fixture(scope="module")
@@ -43,6 +44,19 @@ def test_truncated_kle_covariance_approximates_5_2(kle):
 
 def test_uniform_germ_map_5_11():
     assert uniform_from_germ(np.array([-1.0, 0.0, 1.0]), -400.0, 400.0) == pytest.approx([-400.0, 0.0, 400.0])
+    xi = np.array([-1.0, -0.3, 0.0, 0.7, 1.0])
+    assert germ_from_uniform(uniform_from_germ(xi, -250.0, 600.0), -250.0, 600.0) == pytest.approx(xi, abs=1e-15)
+
+
+def test_both_ensembles_draw_the_mean_winds_germ_alike():
+    """The Monte Carlo ensembles' germs (ParameterDistribution) and the augmented model's (Germs)
+    hold the same U(-1, 1) germ of the mean wind: after 3 n normals from the same stream, the
+    same n numbers, spanning [-1, 1] (5000 draws reach within 0.01 of each end: P(miss) = 0.995^5000)."""
+    n = 5000
+    mc = ParameterDistribution.sample_germs(np.random.default_rng(3), n)[:, 3]
+    aug = Germs.draw(np.random.default_rng(3), n, 2).wind
+    assert np.array_equal(mc, aug)
+    assert -1.0 <= aug.min() < -0.99 and 0.99 < aug.max() <= 1.0
 
 
 @settings(max_examples=20, deadline=None)

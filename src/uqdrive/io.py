@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .outputs import _HOST, OutputError, atomic_path, check_output_folder, check_replaced_folder, check_writable  # noqa: F401
+from .outputs import OutputError, atomic_path, check_output_folder, check_replaced_folder, check_writable  # noqa: F401
 from .outputs import write_csv_rows, write_dataset  # noqa: F401
 from .vehicle.channels import CHANNEL_UNITS, CHANNELS
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -28,9 +29,9 @@ from ..vehicle.effects import EFFECTS, ModelStructure, structure_from_effects
 from ..vehicle.montecarlo import STEERS, spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, steering_input
-from ..settings import Settings
+from ..settings import Normal, Settings
 
-__all__ = ["is_model_file", "load_model", "check_effects", "check_distributions", "MODEL_DISTRIBUTIONS", "simulate_model", "identify_with_model"]
+__all__ = ["is_model_file", "load_model", "check_effects", "check_distributions", "MODEL_DISTRIBUTIONS", "model_settings", "simulate_model", "identify_with_model"]
 
 
 def is_model_file(value: str) -> bool:
@@ -155,18 +156,25 @@ def _theta(d: Mapping[str, Any]):
     return [d["mu"]["mean"], d["mu"]["std"], d["l_f"]["mean"], d["l_f"]["std"], d["F_w_mean"]["low"], d["F_w_mean"]["high"]]
 
 
+def model_settings(settings: Settings, dist: Mapping[str, Mapping[str, float]]) -> Settings:
+    """The settings of a run of a model file: the config's ``settings`` with the file's load
+    distribution (``dist`` as :func:`check_distributions` returns it) where the file gives one."""
+    if "m_load" not in dist:
+        return settings
+    load = Normal(dist["m_load"]["mean"], dist["m_load"]["std"])
+    return replace(settings, uncertainty=replace(settings.uncertainty, m_load=load))
+
+
 def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: int, seed: int) -> xr.Dataset:
     """An ensemble of the augmented model in the data schema (the thesis' input (5.5)/(5.7))."""
     structure, dist = load_model(path, config)
-    cfg = dict(config)
-    if "m_load" in dist:
-        cfg["uncertainty"] = dict(cfg["uncertainty"], m_load=dict(dist["m_load"]))
+    settings = model_settings(Settings.from_config(config), dist)
     t_end, dt = config["time"]["t_end"], config["time"]["dt"]
     t = np.arange(int(round(t_end / dt)) + 1) * dt
     st = config["steering"]
     delta = steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
     v_c = config["vehicle"]["speed_kmh"] / 3.6
-    sim = AugmentedSimulator.drawn(Settings.from_config(cfg), t, delta, v_c, samples, rng_stream(seed, "parameters"))
+    sim = AugmentedSimulator.drawn(settings, t, delta, v_c, samples, rng_stream(seed, "parameters"))
     x = sim.simulate(_theta(dist), structure)
     spun = spin_mask(x[2], config["montecarlo"]["spin_threshold"])
     data = {s: (("sample", "time"), x[i], {"units": STATE_UNITS[s], "long_name": STATE_NAMES[s]}) for i, s in enumerate(STATES)}
@@ -215,7 +223,8 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
     t = ds["time"].values
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(len(channels))])
     stride = max(1, int(np.ceil((t.size - 1) / 150)))
-    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
+    settings = model_settings(Settings.from_config(config), dist)
+    sim = AugmentedSimulator.drawn(settings, t, ds["delta"].values, float(ds.attrs["v_c"]), model_samples, rng_stream(config["seed"], "discrepancy_model"), stride=stride,
                                    interpolation=str(ds["delta"].attrs.get("interpolation", "linear")), channels=channels)
     x = x[:, :, : sim.time.size : stride]
     index = np.arange(1, x.shape[-1])
@@ -243,7 +252,7 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
                "cost": fit.chi2_, "converged": bool(fit.success_) and not warnings_, "optimiser_converged": bool(fit.success_),
                "model_fits": bool(fit.chi2_ <= ref.threshold), "warnings": warnings_,
                "notes": fit_notes(names, th, bounds, upper), "iterations": int(fit.nfev_),
-               "fixed": {"m_load": float(dist.get("m_load", config["uncertainty"]["m_load"])["mean"])},
+               "fixed": {"m_load": float(settings.uncertainty.m_load.mean)},
                "standard_errors": {k: [finite(se[2 * i]), finite(se[2 * i + 1])] for i, k in enumerate(("mu", "l_f", "F_w_mean"))},
                "intervals_95": intervals,
                "goodness_of_fit": {"misfit": float(fit.chi2_), "expected": finite(ref.expected), "ratio": finite(fit.chi2_ / ref.expected),

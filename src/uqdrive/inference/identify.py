@@ -10,13 +10,13 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 import numpy as np
-from scipy.optimize import OptimizeResult, least_squares, minimize
 
 from ..numerics.threads import single_blas_thread
 from ..settings import ParameterLayout
+from .optimisers import OPTIMISERS, ScaledProblem
 from .sampling import gauss_newton_errors, run_influence, sampling_errors
 
-__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "OPTIMISERS", "initial_guess", "default_bounds", "DistributionEstimator"]
+__all__ = ["MomentModel", "WeightContext", "COSTS", "cost_weights", "STATE_SCALES", "state_weights", "OPTIMISERS", "ScaledProblem", "initial_guess", "default_bounds", "DistributionEstimator"]
 
 
 class MomentModel(Protocol):
@@ -112,46 +112,6 @@ def state_weights(name: str, measured_mean, measured_std) -> np.ndarray:
     return 1.0 / scale**2
 
 
-def _lbfgsb(est: "DistributionEstimator", z0, box) -> OptimizeResult:
-    """Quasi-Newton (L-BFGS-B) on the scaled cost with the model's analytic gradient."""
-    return minimize(est._scaled, z0, jac=True, method="L-BFGS-B", bounds=box, options={"maxiter": est.max_iter, "ftol": 1e-15, "gtol": 1e-10})
-
-
-def _gauss_newton(est: "DistributionEstimator", z0, box) -> OptimizeResult:
-    """Trust-region Gauss-Newton (scipy ``least_squares``, "trf", bounds) on the residuals of
-    (5.25), r = sqrt(w) [mean error, std error], with the Jacobian from the model's forward
-    sensitivities. (5.25) is a sum of squares, so J'J is a Hessian model for free: about a
-    third of the iterations of L-BFGS-B, each costing one sensitivity solve."""
-    lo, hi = np.array(box, float).T
-    n = 2 * est._mean.size
-    root_J0 = np.sqrt(est._J0)
-    cache = {}
-
-    def residuals(z):
-        try:  # the sensitivities come with the moments; the Jacobian reads them back below
-            res, jac = est._weighted_residuals(est.model.moments(z * est._scale, gradient=True), jacobian=True)
-        except (ValueError, np.linalg.LinAlgError):
-            res = jac = None
-        if res is None or not (np.all(np.isfinite(res)) and np.all(np.isfinite(jac))):
-            cache.clear()  # non-physical: a cost far above the start makes the step be rejected
-            return np.full(n, np.sqrt(est._penalty / n))
-        cache.update(z=z.copy(), jac=jac * (est._scale / root_J0))
-        return res / root_J0
-
-    def jacobian(z):
-        if "z" not in cache or not np.array_equal(cache["z"], z):
-            residuals(z)
-        return cache["jac"]
-
-    out = least_squares(residuals, np.clip(z0, lo, hi), jac=jacobian, bounds=(lo, hi), method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12,
-                        max_nfev=est.max_iter)
-    return OptimizeResult(x=out.x, fun=2.0 * out.cost, nit=out.njev, nfev=out.nfev, success=out.status > 0, message=out.message)
-
-
-#: Registry of local optimisers of the fit; config strings select them.
-OPTIMISERS: dict[str, Callable] = {"lbfgsb": _lbfgsb, "gauss_newton": _gauss_newton}
-
-
 def initial_guess(theta, e_min: float, e_max: float, rng: np.random.Generator):
     """Random initial guesses deviating from ``theta`` by between e_min and e_max, thesis (5.34)."""
     theta = np.asarray(theta, float)
@@ -208,6 +168,8 @@ class DistributionEstimator:
         cost's distribution at the optimum if the model is right.
     start_results_ : list of (theta, cost, success)
         Each start's local optimum (the first is the given start's), theta with |sigma|.
+    problem_ : ScaledProblem
+        The scaled fit the optimisers were given.
     """
 
     def __init__(self, model: MomentModel, cost: str = "std", bounds=None, starts: int = 0, rng=None, max_iter: int = 300, wheelbase: float | None = None,
@@ -267,6 +229,16 @@ class DistributionEstimator:
         J, g, _ = out
         return J / self._J0, g * self._scale / self._J0
 
+    def _scaled_residuals(self, z):
+        try:  # the sensitivities come with the moments; the Jacobian reads them back
+            res, jac = self._weighted_residuals(self.model.moments(z * self._scale, gradient=True), jacobian=True)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if not (np.all(np.isfinite(res)) and np.all(np.isfinite(jac))):
+            return None
+        root_J0 = np.sqrt(self._J0)
+        return res / root_J0, jac * (self._scale / root_J0)
+
     def fit(self, measured_mean, measured_std, theta0, context: WeightContext | None = None, runs=None) -> "DistributionEstimator":
         """Fit from ``theta0``; measured arrays have shape (4, T) on the model's time grid.
 
@@ -306,8 +278,10 @@ class DistributionEstimator:
         lo, hi = np.array(self.bounds, float).T
         box = list(zip(lo / self._scale, hi / self._scale))
 
+        self.problem_ = ScaledProblem(self._scaled, self._scaled_residuals, 2 * self._mean.size, self._penalty, self.max_iter, self._scale)
+
         def local(z0):
-            return OPTIMISERS[self.optimiser](self, z0, box)
+            return OPTIMISERS[self.optimiser](self.problem_, z0, box)
 
         for start in starts:
             res = local(np.clip(start, lo, hi) / self._scale)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .discretise import foh_discretise
-from .recursion import _multilevel_batched, consecutive_slice, decoupled_blocks
+from .recursion import multilevel_batched, consecutive_slice, decoupled_blocks
 
 __all__ = [
     "BlockGroup",
@@ -206,10 +206,10 @@ def linear_recursion_batched(blocks, out):
     for group, Phi_b in blocks:
         Phi_T = np.ascontiguousarray(Phi_b.swapaxes(-1, -2))
         if group.run is not None:
-            _multilevel_batched(Phi_T, out[..., group.run].reshape(out.shape[:2] + group.index.shape))
+            multilevel_batched(Phi_T, out[..., group.run].reshape(out.shape[:2] + group.index.shape))
         else:
             part = out[..., group.index]  # (B, K + 1, m, b), a copy
-            _multilevel_batched(Phi_T, part)
+            multilevel_batched(Phi_T, part)
             out[..., group.index] = part
     return out
 
@@ -265,6 +265,6 @@ def lti_response_batched(blocks, P, Q, g, x0=0.0, every: int = 1):
         coarse = np.empty((B, K + 1) + shape)
         coarse[:, 0] = out[:, 0, sel].reshape((B,) + shape)
         coarse[:, 1:] = end.reshape((B, K) + shape)
-        _multilevel_batched(np.linalg.matrix_power(Phi_T, s), coarse)
+        multilevel_batched(np.linalg.matrix_power(Phi_T, s), coarse)
         out[:, :, sel] = coarse.reshape((B, K + 1, -1))
     return out

@@ -14,6 +14,7 @@ __all__ = [
     "identical_block_groups",
     "linear_recursion",
     "linear_recursion_in_place",
+    "multilevel_batched",
     "reverse_linear_recursion",
 ]
 
@@ -89,10 +90,10 @@ def _multilevel_in_place(Phi_T, out):
     arithmetic of the plain loop: the same sums in another order, equal to round-off for a
     stable or marginally stable Phi (powers up to Phi^L of each level are formed).
     """
-    _multilevel_batched(Phi_T[None], out[None])
+    multilevel_batched(Phi_T[None], out[None])
 
 
-def _multilevel_batched(Phi_T, out):
+def multilevel_batched(Phi_T, out):
     """x_{k+1} = x_k Phi_T[b] + d_k (row vectors) in place for every member b.
 
     The nested chunks of :func:`_multilevel_in_place` (L ~ K^(1/3) steps, chunk starts by the
@@ -122,7 +123,7 @@ def _multilevel_batched(Phi_T, out):
         starts = np.empty((B, C) + tail)
         starts[:, 0] = out[:, 0]
         starts[:, 1:] = end.reshape((B, C) + tail)[:, :-1]
-        _multilevel_batched(np.linalg.matrix_power(Phi_T, L), starts)
+        multilevel_batched(np.linalg.matrix_power(Phi_T, L), starts)
         state = starts.reshape(B, -1, n)
         for i in range(L):
             z[:, :, i] += (state @ Phi_T).reshape((B, C) + tail)

@@ -14,12 +14,13 @@ import numpy as np
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure
+from .effects.terms import CHASSIS_FIELDS
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
-from .uncertainty import Germs, kle_of_wind
+from .uncertainty import Germs, kle_of_wind, uniform_from_germ
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
 
@@ -32,9 +33,6 @@ _PASS_REALISATIONS = 8000
 #: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000
 #: realisations and 2000 half steps).
 _GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
-#: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
-_CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
-                   "roll_frequency", "roll_damping", "combined_slip", "drive_share_front", "stiffness_load_sensitivity", "peak_load_sensitivity")
 
 
 class AugmentedSimulator:
@@ -141,7 +139,7 @@ class AugmentedSimulator:
         mu = np.maximum(mu_m + mu_s * g.mu, 0.05)
         l_f = np.clip(lf_m + lf_s * g.l_f, 0.05 * L, 0.95 * L)
         p = replace(self.base, mu=mu, l_f=l_f, m_load=np.maximum(m_load, -0.9 * self.base.m_base))
-        wind = lo + (hi - lo) * g.wind
+        wind = uniform_from_germ(g.wind, lo, hi)
         coeffs = self.sigma * g.kle[:, : self.kle.n_modes] * np.sqrt(self.kle.eigenvalues)
         return p, wind, coeffs
 
@@ -236,7 +234,7 @@ class AugmentedSimulator:
         per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
         fields = {"tyre_curvature": self.car.E, "lateral_acceleration": 0.0, "course_weight": 0.0}
         if chassis:
-            fields.update({f: 0.0 for f in _CHASSIS_FIELDS})
+            fields.update({f: 0.0 for f in CHASSIS_FIELDS})
         return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
 
     def _chassis_many(self, thetas, structures) -> list:
@@ -264,9 +262,7 @@ class AugmentedSimulator:
         tyre, the kinematics, which terms are on, the step; None: not a chassis structure."""
         if not uses_chassis_terms(s):
             return None
-        on = tuple(bool(getattr(s, f) != 0) for f in ("pitch_height", "load_sensitivity", "compliance_steer", "relaxation_length", "roll_steer",
-                                                      "combined_slip", "stiffness_load_sensitivity", "peak_load_sensitivity"))
-        return (s.tyre, bool(s.course_exact), on, self._substeps(s))
+        return (s.tyre, bool(s.course_exact), s.chassis_switches(), self._substeps(s))
 
     def _substeps(self, s: ModelStructure) -> int:
         """RK4 steps per sample of the grid: the step at most ``_RK4_MAX_STEP``, and short enough

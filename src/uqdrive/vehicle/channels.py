@@ -173,7 +173,7 @@ class ChannelChaosModel:
         Dy = np.concatenate([pr.input_matrix(Ef, states), pr.linear_input_matrix(Ff, states)], axis=-1)[rows]
         if not gradient:
             return Cy, Dy, None, None
-        dC, dE, dF = m._system_derivatives(values, dvalues, system=partial(self._output_system, v=v))
+        dC, dE, dF = m.node_system_derivatives(values, dvalues, system=partial(self._output_system, v=v))
         dCy = pr.matrix(dC, states)[:, rows]
         dDy = np.concatenate([pr.input_matrix(dE, states), pr.linear_input_matrix(dF, states)], axis=-1)[:, rows]
         return Cy, Dy, dCy, dDy
@@ -185,10 +185,10 @@ class ChannelChaosModel:
         states = m.expanded_states
         x0 = np.zeros(states.size)
         if self.speed is None:
-            A_pce, E_pce = m._expanded(values, states)
+            A_pce, E_pce = m.expanded_at_nodes(values, states)
             if not gradient:
                 return lti_response_single(*foh_discretise_single(A_pce, E_pce, m.dt), m.inputs, x0), None
-            dA, dE = m._expanded_derivatives(values, dvalues)
+            dA, dE = m.expanded_derivatives(values, dvalues)
             maps, dmaps = foh_discretise_single(A_pce, E_pce, m.dt, dA, dE)
             return lti_response_single(*maps, m.inputs, x0, dmaps)
         return self._ltv_response(values, dvalues, gradient)
@@ -218,7 +218,7 @@ class ChannelChaosModel:
                 raise RuntimeError("the single-track matrices are not linear in [1, 1/v, 1/v^2, v, v_dot/v]")
         if not gradient:
             return basis, None
-        dat = [project(m._system_derivatives(values, dvalues, system=partial(system, v=v, v_dot=vd))) for v, vd in probes[:5]]
+        dat = [project(m.node_system_derivatives(values, dvalues, system=partial(system, v=v, v_dot=vd))) for v, vd in probes[:5]]
         dbasis = [np.einsum("ij,j...->i...", inv, np.stack([a[k] for a in dat])) for k in range(2)]
         return basis, dbasis
 
@@ -227,7 +227,7 @@ class ChannelChaosModel:
         m = self.model
         v, g, dt = self.speed, m.inputs, m.dt
         K, N = v.size - 1, m.expanded_states.size
-        (A_b, E_b), d = self._speed_basis(m._system, values, dvalues, gradient)
+        (A_b, E_b), d = self._speed_basis(m.node_system, values, dvalues, gradient)
         # steps at the same speed and slope (the constant parts of a profile) share their maps
         keys = np.column_stack([0.5 * (v[1:] + v[:-1]), np.diff(v) / dt])
         unique, which = np.unique(keys, axis=0, return_inverse=True)
@@ -273,7 +273,7 @@ class ChannelChaosModel:
     def moments(self, theta, gradient: bool = False) -> ChannelMoments:
         """Mean and variance (n_channels, T) of the channels, optionally with their gradients."""
         m = self.model
-        values, dvalues = m._parameters_at_nodes(theta)
+        values, dvalues = m.parameters_at_nodes(theta)
         X, S = self._response(values, dvalues, gradient)
         mean, var, dmean, dvar = [], [], [], []
         for c in self.channels:
@@ -288,7 +288,7 @@ class ChannelChaosModel:
                     dvar.append(2.0 * np.einsum("tb,tpb->pt", Y[:, rest], dY[:, :, rest]))
                 continue
             i = STATES.index(c)
-            rows, ind = m._mean_rows[i], m._variance_indicator[:, i]
+            rows, ind = m.mean_rows[i], m.variance_indicator[:, i]
             mean.append(X[:, rows])
             var.append((X * X) @ ind)
             if gradient:

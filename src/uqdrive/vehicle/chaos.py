@@ -108,6 +108,15 @@ class LSTChaosModel:
     delta : ndarray, shape (T,), optional
         Measured steering angle on the output grid (rad); overrides (5.5)/(5.7) and ``steer``.
 
+    Attributes
+    ----------
+    expanded_states : ndarray of int, shape (N,)
+        The computed (excited) expanded states, in the projector's block order.
+    mean_rows : ndarray of int, shape (4,)
+        Row of each state's constant term among ``expanded_states``: its mean.
+    variance_indicator : ndarray, shape (N, 4)
+        1 where a computed row is a non-constant term of the state: (X * X) @ it is the variance.
+
     Notes
     -----
     The distribution parameters ``theta`` are, per uncertain parameter in order, (mean, std)
@@ -173,11 +182,12 @@ class LSTChaosModel:
         # as a sum of squares of the others (one product with a state indicator).
         self.expanded_states = self.projector.block_order(4)
         state, term = np.divmod(self.expanded_states, self.projector.n_terms)
-        self._mean_rows = np.array([np.flatnonzero((state == i) & (term == 0))[0] for i in range(4)])
-        self._variance_indicator = ((state[:, None] == np.arange(4)) & (term[:, None] != 0)).astype(float)
+        self.mean_rows = np.array([np.flatnonzero((state == i) & (term == 0))[0] for i in range(4)])
+        self.variance_indicator = ((state[:, None] == np.arange(4)) & (term[:, None] != 0)).astype(float)
 
-    def _parameters_at_nodes(self, theta):
-        """Parameter values (Q,) at the nodes and their derivatives d value / d theta (n_theta, Q)."""
+    def parameters_at_nodes(self, theta):
+        """Parameter values (Q,) at the quadrature nodes and their derivatives d value / d theta
+        (n_theta, Q), by name, for ``theta`` (n_theta,); ValueError where a node is not physical."""
         theta = np.asarray(theta, float)
         if theta.shape != (len(self.theta_names),):
             raise ValueError(f"theta must have {len(self.theta_names)} entries {self.theta_names}, got shape {theta.shape}")
@@ -206,7 +216,7 @@ class LSTChaosModel:
 
     def _parameters_at_nodes_batch(self, thetas):
         """Parameter values (B, Q) at the nodes for B parameter vectors, and which are admissible
-        (the checks of :meth:`_parameters_at_nodes`, per vector, without raising)."""
+        (the checks of :meth:`parameters_at_nodes`, per vector, without raising)."""
         thetas = np.asarray(thetas, float)
         if thetas.ndim != 2 or thetas.shape[1] != len(self.theta_names):
             raise ValueError(f"thetas must have shape (B, {len(self.theta_names)}) {self.theta_names}, got {thetas.shape}")
@@ -234,7 +244,7 @@ class LSTChaosModel:
         if np.any(values["l_f"] <= 0.0) or np.any(values["l_f"] >= self.vehicle.wheelbase):
             raise ValueError("l_f must stay inside (0, wheelbase) at every quadrature node")
 
-    def _system(self, values, v=None, v_dot=0.0):
+    def node_system(self, values, v=None, v_dot=0.0):
         """A (Q,4,4), E (Q,4,2) for inputs [delta, 1], F (Q,4,n_linear) for the linear germs'
         signals (the mean wind's germ, then the KLE germs); at the vehicle's speed, or at the
         speed ``v`` (m/s) changing at ``v_dot`` (m/s^2) (:func:`lst_matrices_at_speed`)."""
@@ -245,10 +255,10 @@ class LSTChaosModel:
         F = np.concatenate([W[:, :, None] * values["F_w_half"][:, None, None]] * len(self.input_germs) + [gusts], axis=-1)
         return A, E, F
 
-    def _system_derivatives(self, values, dvalues, system=None):
+    def node_system_derivatives(self, values, dvalues, system=None):
         """d(A, E, F)/d theta at the nodes by the complex step in each physical parameter, all
         parameters in one evaluation of the vehicle matrices (stacked along the node axis);
-        ``system`` (default :meth:`_system`) maps node values to the matrices differentiated."""
+        ``system`` (default :meth:`node_system`) maps node values to the matrices differentiated."""
         moving = [name for name in dvalues if np.any(dvalues[name])]
         n_theta, Q = len(self.theta_names), self.projector.nodes.shape[0]
         if not moving:
@@ -262,28 +272,28 @@ class LSTChaosModel:
         weights = np.stack([dvalues[name] for name in moving])  # (n_moving, n_theta, Q)
         return tuple(
             np.einsum("kpq,kq...->pq...", weights, (x.imag / _STEP).reshape((len(moving), Q) + x.shape[1:]))
-            for x in (system or self._system)(shifted)
+            for x in (system or self.node_system)(shifted)
         )
 
     def expanded_system(self, theta):
         """A_PCE (dP, dP) and the input matrix (dP, r) for the signals ``inputs``."""
-        values, _ = self._parameters_at_nodes(theta)
-        return self._expanded(values, None)
+        values, _ = self.parameters_at_nodes(theta)
+        return self.expanded_at_nodes(values, None)
 
-    def _expanded(self, values, states, batch=None):
+    def expanded_at_nodes(self, values, states, batch=None):
         """A_PCE and the input matrix for parameter values at the nodes, rows and columns
         ``states`` (the excited terms in block order for the moments: the never-excited ones are
         dropped exactly, see GalerkinProjector.excited); ``batch``: values hold that many
         members' nodes one after the other (flat, B Q), giving (B, N, N) and (B, N, r)."""
-        A, E, F = self._system(values)
+        A, E, F = self.node_system(values)
         if batch is not None:
             A, E, F = (x.reshape((batch, -1) + x.shape[1:]) for x in (A, E, F))
         pr = self.projector
         return pr.matrix(A, states), np.concatenate([pr.input_matrix(E, states), pr.linear_input_matrix(F, states)], axis=-1)
 
-    def _expanded_derivatives(self, values, dvalues):
+    def expanded_derivatives(self, values, dvalues):
         """d A_PCE / d theta (p, N, N) and d E_PCE / d theta (p, N, r) of the computed states."""
-        dA, dE, dF = self._system_derivatives(values, dvalues)
+        dA, dE, dF = self.node_system_derivatives(values, dvalues)
         pr = self.projector
         return pr.matrix(dA, self.expanded_states), np.concatenate([pr.input_matrix(dE, self.expanded_states), pr.linear_input_matrix(dF, self.expanded_states)], axis=-1)
 
@@ -295,13 +305,13 @@ class LSTChaosModel:
         (first-order hold); the gradient is the exact derivative of that discretised response.
         Runs with one BLAS thread (:mod:`uqdrive.threads`): the matrices are small.
         """
-        values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce = self._expanded(values, self.expanded_states)
+        values, dvalues = self.parameters_at_nodes(theta)
+        A_pce, E_pce = self.expanded_at_nodes(values, self.expanded_states)
         x0 = np.zeros(A_pce.shape[0])
         if not gradient:
             maps = foh_discretise_single(A_pce, E_pce, self.dt)
             return self._moments(lti_response_single(*maps, self.inputs, x0))
-        dA_pce, dE_pce = self._expanded_derivatives(values, dvalues)
+        dA_pce, dE_pce = self.expanded_derivatives(values, dvalues)
         maps, dmaps = foh_discretise_single(A_pce, E_pce, self.dt, dA_pce, dE_pce)
         return self._moments(*lti_response_single(*maps, self.inputs, x0, dmaps))
 
@@ -333,10 +343,10 @@ class LSTChaosModel:
         mean, var = np.full((ok.size, 4, time.size), np.nan), np.full((ok.size, 4, time.size), np.nan)
         n = int(ok.sum())
         if n:
-            A_pce, E_pce = self._expanded({k: v[ok].ravel() for k, v in values.items()}, self.expanded_states, batch=n)
+            A_pce, E_pce = self.expanded_at_nodes({k: v[ok].ravel() for k, v in values.items()}, self.expanded_states, batch=n)
             X = lti_response_batched(*foh_discretise_batched(A_pce, E_pce, self.dt), self.inputs, every=every)  # (n, T, N)
-            mean[ok] = X[:, :, self._mean_rows].swapaxes(1, 2)
-            var[ok] = ((X * X) @ self._variance_indicator).swapaxes(1, 2)
+            mean[ok] = X[:, :, self.mean_rows].swapaxes(1, 2)
+            var[ok] = ((X * X) @ self.variance_indicator).swapaxes(1, 2)
         return BatchMoments(time, mean, var, ok)
 
     @with_single_blas_thread
@@ -348,8 +358,8 @@ class LSTChaosModel:
         (:func:`uqdrive.adjoint.foh_response_vjp`): its cost does not grow with n_theta, unlike
         the forward sensitivities of ``moments(theta, gradient=True)``.
         """
-        values, dvalues = self._parameters_at_nodes(theta)
-        A_pce, E_pce = self._expanded(values, self.expanded_states)
+        values, dvalues = self.parameters_at_nodes(theta)
+        A_pce, E_pce = self.expanded_at_nodes(values, self.expanded_states)
         maps = foh_discretise_single(A_pce, E_pce, self.dt)
         X = lti_response_single(*maps, self.inputs, np.zeros(A_pce.shape[0]))
         result = self._moments(X)
@@ -357,10 +367,10 @@ class LSTChaosModel:
         @with_single_blas_thread
         def vjp(dJ_dmean, dJ_dvariance):
             # J depends on X through mean = X[:, mean rows] and variance = X^2 @ indicator.
-            G = 2.0 * X * (np.asarray(dJ_dvariance).T @ self._variance_indicator.T)
-            G[:, self._mean_rows] = np.asarray(dJ_dmean).T
+            G = 2.0 * X * (np.asarray(dJ_dvariance).T @ self.variance_indicator.T)
+            G[:, self.mean_rows] = np.asarray(dJ_dmean).T
             dJ_dA, dJ_dE = foh_response_vjp(A_pce, E_pce, self.dt, maps[0], self.inputs, X, G)
-            dA_pce, dE_pce = self._expanded_derivatives(values, dvalues)
+            dA_pce, dE_pce = self.expanded_derivatives(values, dvalues)
             return np.einsum("pij,ij->p", dA_pce, dJ_dA) + np.einsum("pij,ij->p", dE_pce, dJ_dE)
 
         return result, vjp
@@ -368,14 +378,14 @@ class LSTChaosModel:
     def _moments(self, X, S=None) -> ChaosMoments:
         """Moments (4.51) from the computed states X (T, N) and sensitivities S (T, p, N); S is
         overwritten."""
-        mean = X[:, self._mean_rows].T
-        var = ((X * X) @ self._variance_indicator).T
+        mean = X[:, self.mean_rows].T
+        var = ((X * X) @ self.variance_indicator).T
         dmean = dvar = None
         if S is not None:
             T, p, N = S.shape
-            dmean = S[:, :, self._mean_rows].transpose(1, 2, 0)
+            dmean = S[:, :, self.mean_rows].transpose(1, 2, 0)
             S *= X[:, None, :]  # S is ours and not kept: d var = 2 sum X S, without a copy of S
-            dvar = 2.0 * (S.reshape(T * p, N) @ self._variance_indicator).reshape(T, p, 4).transpose(1, 2, 0)
+            dvar = 2.0 * (S.reshape(T * p, N) @ self.variance_indicator).reshape(T, p, 4).transpose(1, 2, 0)
         return ChaosMoments(self.time, mean, var, dmean, dvar, X, self.expanded_states, self.projector.n_terms)
 
     def sobol(self, moments: ChaosMoments, total: bool = False):

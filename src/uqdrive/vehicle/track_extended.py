@@ -77,11 +77,8 @@ __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "i
 
 def uses_chassis_terms(s) -> bool:
     """True when structure ``s`` needs this right-hand side in a numerical integration (load
-    transfer, relaxation, compliance or roll steer, combined slip)."""
-    return bool(np.any(np.asarray(s.pitch_height) != 0) or np.any(np.asarray(s.load_sensitivity) != 0)
-                or np.any(np.asarray(s.relaxation_length) > 0) or np.any(np.asarray(s.compliance_steer) != 0)
-                or np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0) or np.any(np.asarray(getattr(s, "combined_slip", 0.0)) != 0)
-                or _load_sensitive(s))
+    transfer, relaxation, compliance or roll steer, combined slip): ``s.uses_chassis``."""
+    return s.uses_chassis
 
 
 def _load_sensitive(s) -> bool:  # q or p_Dz of the load-sensitive tyre not 0
@@ -90,12 +87,8 @@ def _load_sensitive(s) -> bool:  # q or p_Dz of the load-sensitive tyre not 0
 
 def chassis_max_step(s, v: float, max_step: float) -> float:
     """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag), or
-    1 / omega of the roll mode."""
-    sigma = float(np.max(getattr(s, "relaxation_length", 0.0)))
-    step = min(max_step, sigma / float(v)) if sigma > 0 else max_step
-    if np.any(np.asarray(getattr(s, "roll_steer", 0.0)) != 0):
-        step = min(step, 1.0 / (2 * np.pi * float(np.max(s.roll_frequency))))
-    return step
+    1 / omega of the roll mode: ``s.max_step``."""
+    return s.max_step(v, max_step)
 
 
 class ExtendedSingleTrackRHS:

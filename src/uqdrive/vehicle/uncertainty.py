@@ -14,7 +14,9 @@ __all__ = [
     "PARAMETER_NAMES",
     "ParameterDistribution",
     "normal_from_germ",
+    "uniform_germ",
     "uniform_from_germ",
+    "germ_from_uniform",
     "squared_exponential_covariance",
     "KarhunenLoeve",
     "kle_nystrom",
@@ -27,9 +29,22 @@ def normal_from_germ(xi, mean, std):
     return mean + std * np.asarray(xi, dtype=float)
 
 
+# The uniform germ's one convention, for every ensemble (ParameterDistribution, Germs): xi ~ U(-1, 1),
+# drawn by uniform_germ, mapped by uniform_from_germ, read back by germ_from_uniform.
+def uniform_germ(rng: np.random.Generator, size) -> np.ndarray:
+    """Germs xi ~ U(-1, 1) of the given ``size`` (shape) from ``rng``, thesis (5.11)."""
+    return rng.uniform(-1.0, 1.0, size=size)
+
+
 def uniform_from_germ(xi, low, high):
     """Uniform parameter from a germ xi ~ U(-1, 1), thesis (5.11): (high + low + xi (high - low)) / 2."""
     return 0.5 * (high + low + np.asarray(xi, dtype=float) * (high - low))
+
+
+def germ_from_uniform(value, low, high):
+    """The germ xi in [-1, 1] of a uniform parameter's ``value`` in [low, high] (low < high),
+    the inverse of :func:`uniform_from_germ`: (2 value - high - low) / (high - low)."""
+    return (2.0 * np.asarray(value, dtype=float) - high - low) / (high - low)
 
 
 @dataclass(frozen=True)
@@ -54,7 +69,7 @@ class ParameterDistribution:
     def sample_germs(rng: np.random.Generator, n: int) -> np.ndarray:
         """Draw n germ vectors, shape (n, 4): three N(0, 1) columns, then one U(-1, 1)."""
         normal = rng.standard_normal((n, 3))
-        uniform = rng.uniform(-1.0, 1.0, size=(n, 1))
+        uniform = uniform_germ(rng, (n, 1))
         return np.hstack([normal, uniform])
 
     def from_germs(self, germs) -> dict[str, np.ndarray]:
@@ -199,8 +214,8 @@ def kle_of_wind(wind: Wind, t_end: float) -> KarhunenLoeve:
 
 @dataclass(frozen=True)
 class Germs:
-    """Standard germs of n realisations: normal for mu, l_f, m_load, U(0, 1) for the mean wind,
-    normal (n, n_c) for the KLE gust modes."""
+    """Standard germs of n realisations: normal for mu, l_f, m_load, U(-1, 1) for the mean wind
+    (:func:`uniform_germ`, as every ensemble), normal (n, n_c) for the KLE gust modes."""
 
     mu: np.ndarray
     l_f: np.ndarray
@@ -212,12 +227,12 @@ class Germs:
     def draw(cls, rng: np.random.Generator, n: int, n_modes: int, matched: bool = False) -> "Germs":
         """n realisations' germs from ``rng``; ``matched``: moment-matched (:meth:`matched`)."""
         z = rng.standard_normal((3, n))
-        germs = cls(z[0], z[1], z[2], rng.random(n), rng.standard_normal((n, n_modes)))
+        germs = cls(z[0], z[1], z[2], uniform_germ(rng, n), rng.standard_normal((n, n_modes)))
         return germs.matched() if matched else germs
 
     def matched(self) -> "Germs":
         """Moment matching (a variance reduction for common random numbers): the germ vector
-        (mu, l_f, m_load, the wind's germ standardised as sqrt(12) (u - 1/2), the KLE modes) is
+        (mu, l_f, m_load, the wind's germ standardised as sqrt(3) xi, the KLE modes) is
         shifted and jointly whitened (Cholesky) so that its sample mean is exactly 0 and its
         sample covariance exactly I, the population's moments.
 
@@ -227,15 +242,15 @@ class Germs:
         realisations misstates e.g. a gust mode's variance by ~sqrt(2 / M) (4.5 % at M = 1000),
         an error that no distribution parameter can absorb (a gust scale moves all modes alike).
         The wind's germ keeps its uniform shape up to an O(M^-1/2) affine change (it may leave
-        [0, 1] by that much). Needs n > 4 + n_modes.
+        [-1, 1] by that much). Needs n > 4 + n_modes.
         """
-        z = np.column_stack([self.mu, self.l_f, self.m_load, np.sqrt(12.0) * (self.wind - 0.5), self.kle])
+        z = np.column_stack([self.mu, self.l_f, self.m_load, np.sqrt(3.0) * self.wind, self.kle])
         if z.shape[0] <= z.shape[1]:
             raise ValueError(f"moment matching of {z.shape[1]} germs needs more than {z.shape[1]} realisations; got {z.shape[0]}")
         z = z - z.mean(axis=0)
         L = np.linalg.cholesky(np.cov(z, rowvar=False))
         w = np.linalg.solve(L, z.T).T
-        return Germs(w[:, 0], w[:, 1], w[:, 2], 0.5 + w[:, 3] / np.sqrt(12.0), np.ascontiguousarray(w[:, 4:]))
+        return Germs(w[:, 0], w[:, 1], w[:, 2], w[:, 3] / np.sqrt(3.0), np.ascontiguousarray(w[:, 4:]))
 
     @property
     def n(self) -> int:

@@ -65,7 +65,7 @@ def slope_interval_ml(gp: ArcsineGP, x: float):
 
 def _log_posterior(log_thetas, gp: ArcsineGP, prior_std: float):
     """Log posterior of log hyperparameters, shape (W, p) -> (W,): emcee's vectorised form."""
-    return -gp._nll_batch(log_thetas) - 0.5 * np.sum((log_thetas / prior_std) ** 2, axis=-1)
+    return -gp.negative_log_likelihood(log_thetas) - 0.5 * np.sum((log_thetas / prior_std) ** 2, axis=-1)
 
 
 def slope_interval_mcmc(gp: ArcsineGP, x: float, rng: np.random.Generator, walkers: int = 16, steps: int = 400, burn: int = 150, prior_std: float = 3.0, draws: int = 200):

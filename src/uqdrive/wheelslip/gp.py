@@ -211,7 +211,7 @@ class ArcsineGP:
         f = self._factor(self._covariance(np.asarray(log_theta, float))[0])
         return 1e25 if f is None else f[0]
 
-    def _nll_batch(self, log_thetas) -> np.ndarray:
+    def negative_log_likelihood(self, log_thetas) -> np.ndarray:
         """:meth:`_nll` at many points at once, for a sampler that moves a whole ensemble (emcee's
         vectorised form): the same arithmetic per row, so each row equals :meth:`_nll` exactly.
 

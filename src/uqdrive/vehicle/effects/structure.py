@@ -10,13 +10,15 @@ import numpy as np
 
 from ...settings import Vehicle
 from ..single_track import STATES
+from .terms import TERMS
 
 __all__ = ["ModelStructure", "Effect"]
 
 
 @dataclass(frozen=True)
 class ModelStructure:
-    """How the single-track model is built; the defaults are the thesis' LST (5.4).
+    """How the single-track model is built; the defaults are the thesis' LST (5.4). Each field
+    parametrises one term of the right-hand side (:data:`~.terms.TERMS`), which says when it is on.
 
     Attributes
     ----------
@@ -104,14 +106,35 @@ class ModelStructure:
         return np.asarray(gain, float), np.asarray(offset, float)
 
     @property
+    def active_terms(self) -> tuple[str, ...]:
+        """Names of the terms switched on (:data:`~.terms.TERMS`); () is the thesis' LST."""
+        return tuple(t.name for t in TERMS if t.active(self))
+
+    @property
     def nonlinear(self) -> bool:
         """True when the model needs numerical integration (no exact discretisation): a
         Magic-Formula tyre, load transfer, tyre relaxation, roll steer, combined slip or a
         load-sensitive tyre (compliance steer alone is linear: a softer front axle)."""
-        return bool(self.tyre != "linear" or np.any(np.asarray(self.pitch_height) != 0) or np.any(np.asarray(self.load_sensitivity) != 0)
-                    or np.any(np.asarray(self.relaxation_length) > 0) or np.any(np.asarray(self.roll_steer) != 0)
-                    or np.any(np.asarray(self.combined_slip) != 0) or np.any(np.asarray(self.stiffness_load_sensitivity) != 0)
-                    or np.any(np.asarray(self.peak_load_sensitivity) != 0))
+        return any(t.integrated and t.active(self) for t in TERMS)
+
+    @property
+    def uses_chassis(self) -> bool:
+        """True when a chassis term is on (load transfer, relaxation, compliance or roll steer,
+        combined slip, the load-sensitive tyre): integrated with the chassis right-hand side."""
+        return any(t.chassis and t.active(self) for t in TERMS)
+
+    def chassis_switches(self) -> tuple[bool, ...]:
+        """Which switches of the chassis terms are on: structures that agree share a chassis pass."""
+        return tuple(on for t in TERMS if t.chassis for on in t.switched(self))
+
+    def max_step(self, v: float, max_step: float) -> float:
+        """Largest RK4 step (s): ``max_step``, or less where an active term needs it (the slip
+        lag sigma / v, the roll mode 1 / omega) at the speed ``v`` (m/s)."""
+        step = max_step
+        for t in TERMS:
+            if t.step is not None and t.active(self):
+                step = min(step, t.step(self, v))
+        return step
 
 
 @dataclass(frozen=True)
