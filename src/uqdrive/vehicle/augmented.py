@@ -174,22 +174,20 @@ class AugmentedSimulator:
         last bit, as ``simulate_many`` of that group alone (one pair: as :meth:`simulate`).
         Default: one group.
         """
-        thetas = [np.asarray(th, float) for th in thetas]
-        n = self.germs.n
-        per_pass = max(1, _PASS_REALISATIONS // n)
+        thetas, n = [np.asarray(th, float) for th in thetas], self.germs.n
         if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
-            # linear pairs along a speed profile (RK4, LinearTrackRHS): a pass per steering input, kinematics and lateral acceleration
-            def kind(s):
-                return s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0))
-            return self._in_passes(thetas, structures, kind, per_pass, chassis=True)
+            return self._profile_many(thetas, structures)
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
         if not all(s.nonlinear for s in structures) or len(thetas) == 1:
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        if any(uses_chassis_terms(s) for s in structures) and same_input:
+            return self._in_passes(thetas, structures, self._chassis_kind, chassis=True)
         if any(uses_chassis_terms(s) for s in structures):
-            return self._in_passes(thetas, structures, self._chassis_kind, chassis=True) if same_input else [self.simulate(th, s) for th, s in zip(thetas, structures)]
+            return [self.simulate(th, s) for th, s in zip(thetas, structures)]
         if not same_input:  # a fitted lag's or delay's neighbours: a pass per tyre, kinematics and step, each pair steered by its own angle
-            return self._in_passes(thetas, structures, lambda s: (s.tyre, bool(s.course_exact), self._substeps(s)), per_pass, per_pair_input=True)
+            return self._in_passes(thetas, structures, lambda s: (s.tyre, bool(s.course_exact), self._substeps(s)), max(1, _PASS_REALISATIONS // n),
+                                   per_pair_input=True)
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
 
     def _in_passes(self, thetas, structures, kind, per_pass: int | None = None, **options) -> list:
@@ -214,6 +212,12 @@ class AugmentedSimulator:
                 for i, x_i in zip(part, sims):
                     out[i] = x_i
         return out
+
+    def _profile_many(self, thetas, structures) -> list:
+        """Linear pairs along a speed profile (RK4, :class:`LinearTrackRHS`): a pass per steering input, kinematics and lateral acceleration."""
+        def kind(s):
+            return s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0))
+        return self._in_passes(thetas, structures, kind, max(1, _PASS_REALISATIONS // self.germs.n), chassis=True)
 
     def _one_pass(self, thetas, structures, groups, chassis: bool = False, per_pair_input: bool = False) -> list:
         """The pairs' channels from one RK4 pass over all their realisations (``groups``: sizes
