@@ -215,8 +215,7 @@ class AugmentedSimulator:
 
     def _profile_many(self, thetas, structures) -> list:
         """Linear pairs along a speed profile (RK4, :class:`LinearTrackRHS`): a pass per steering input, kinematics and lateral acceleration."""
-        def kind(s):
-            return s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0))
+        kind = lambda s: (s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0)))  # noqa: E731
         return self._in_passes(thetas, structures, kind, max(1, _PASS_REALISATIONS // self.germs.n), chassis=True)
 
     def _one_pass(self, thetas, structures, groups, chassis: bool = False, per_pair_input: bool = False) -> list:
