@@ -26,7 +26,7 @@ from uqdrive.config import load_config
 from uqdrive.vehicle.augmented import AugmentedSimulator
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
-DEFAULT_JOBS = ("discover:combined_saturation_lag", "discover:combined_gust_delay", "cell:actuator_lag_200ms:imu_speed:20")
+DEFAULT_JOBS = ("discover:combined_saturation_lag", "cell:actuator_lag_200ms:imu_speed:20")
 
 
 def _strip(v):
