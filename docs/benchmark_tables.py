@@ -114,10 +114,21 @@ def chassis_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def reproduce_jobs_table() -> str:
+    r = _rec("reproduce_jobs")
+    lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | outputs equal |", "|---|---|---|---:|---|"]
+    rule = {"discover": "discrepancy_discover", "cell": "discrepancy_channel_cell"}
+    for x in r["rows"]:
+        kind, name = x["job"].split(":", 1)
+        lines.append(f"| {rule[kind]}: {name.replace(':', ': ')} | {x['verdict']} | {x['old_cpu_s']:.1f} / {x['new_cpu_s']:.1f} | "
+                     f"{x['old_cpu_s'] / x['new_cpu_s']:.2f} | {'yes' if x['equal'] else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
-          "bench_discover_default": discover_default_table, "bench_chassis": chassis_table}
+          "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -154,6 +165,7 @@ def substitutions() -> dict[str, str]:
              bench_pb_profile=", ".join(f"the {k} ({v} %)" for k, v in pb["profile_after_percent"].items()),
              bench_fw_runs=str(fw["runs"]), bench_fw_candidates=str(fw["candidates"]), bench_fw_cpu=f"{fw['before']:.1f} / {fw['after']:.1f}")
     s["bench_memo_machine"] = _rec("discover_memo")["machine"]
+    s["bench_rj_machine"] = _rec("reproduce_jobs")["machine"]
     pce = _rec("pce")
     pce2, pce3, mcrow = pce["rows"]
     s.update(bench_pce_reference_runs=f"{pce['reference_runs']:,}".replace(",", " "), bench_pce_setup=f"{pce['setup_ms']} ms",

@@ -203,6 +203,33 @@ def test_linear_pairs_along_a_speed_profile_batched_equal_their_own_simulation_b
     assert all(not np.array_equal(batched[0], x) for x in batched[1:])
 
 
+@pytest.mark.parametrize("interpolation, speed", [("linear", False), ("previous", False), ("linear", True)])
+def test_tyre_pairs_with_other_steering_batched_equal_their_own_simulation_bit_for_bit(config, monkeypatch, interpolation, speed):
+    """simulate_many of Magic-Formula structures whose steering lag or delay differ (a fitted
+    lag's and delay's difference neighbours) integrates them in passes of at most
+    _PASS_REALISATIONS realisations, each pair steered by its own actual angle, with the numbers
+    of simulate: a pair given another's steering in the pass would differ from them."""
+    import uqdrive.vehicle.augmented as augmented
+
+    t = np.arange(201) * 0.01
+    kw = {"channels": ("psi_dot", "a_y"), "speed": np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0])} if speed else {}
+    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 21.5, 12,
+                                   np.random.default_rng(3), stride=4, interpolation=interpolation, **kw)
+    monkeypatch.setattr(augmented, "_PASS_REALISATIONS", 36)  # three pairs a pass
+    structures = [_tyre(0.97, steering_lag=0.05, steering_delay=0.02), _tyre(0.97, steering_lag=0.05 + 1e-5, steering_delay=0.02),
+                  _tyre(0.97, steering_lag=0.05, steering_delay=0.02 + 1e-5), _tyre(0.9, steering_lag=0.05, steering_delay=0.02),
+                  _tyre(0.97, steering_lag=0.05, course_weight=1.0, course_exact=True)]
+    thetas = [THETA, THETA, THETA, THETA * 1.01, THETA]
+    passes = []
+    one_pass = AugmentedSimulator._one_pass
+    monkeypatch.setattr(AugmentedSimulator, "_one_pass", lambda self, th, st, *a, **k: passes.append(len(th)) or one_pass(self, th, st, *a, **k))
+    batched = sim.simulate_many(thetas, structures)
+    assert passes == [3]  # four of one kinematics: a pass of three, then one alone (simulate); the exact course alone
+    for got, th, s in zip(batched, thetas, structures):
+        assert np.array_equal(got, sim.simulate(th, s))
+    assert all(not np.array_equal(batched[0], x) for x in batched[1:])
+
+
 def test_kept_gust_products_give_the_numbers_of_a_fresh_simulator(sim):
     """The gust products a simulator keeps (shared with its copies on other germs) are looked up
     by the germs and the gust scale: simulations after others on other gusts equal those of a

@@ -172,47 +172,60 @@ class AugmentedSimulator:
         last bit, as ``simulate_many`` of that group alone (one pair: as :meth:`simulate`).
         Default: one group.
         """
-        thetas = [np.asarray(th, float) for th in thetas]
+        thetas, n = [np.asarray(th, float) for th in thetas], self.germs.n
         if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
             return self._profile_many(thetas, structures)
         first = structures[0]
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
-        if not (first.nonlinear and same_input and all(s.nonlinear for s in structures)) or len(thetas) == 1:
+        if not all(s.nonlinear for s in structures) or len(thetas) == 1:
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        if any(uses_chassis_terms(s) for s in structures) and same_input:
+            return self._in_passes(thetas, structures, self._chassis_kind, chassis=True)
         if any(uses_chassis_terms(s) for s in structures):
-            return self._chassis_many(thetas, structures)
-        n = self.germs.n
+            return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        if not same_input:  # a fitted lag's or delay's neighbours: a pass per tyre, kinematics and step, each pair steered by its own angle
+            return self._in_passes(thetas, structures, lambda s: (s.tyre, bool(s.course_exact), self._substeps(s)), max(1, _PASS_REALISATIONS // n),
+                                   per_pair_input=True)
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
 
-    def _profile_many(self, thetas, structures) -> list:
-        """:meth:`simulate_many` of linear pairs along a speed profile (integrated by RK4): the
-        pairs that share the steering input, the course kinematics and whether a lateral
-        acceleration acts, in passes of at most :data:`_PASS_REALISATIONS` realisations, each
-        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`,
-        bit for bit (:class:`LinearTrackRHS` is element-wise in the realisations)."""
+    def _in_passes(self, thetas, structures, kind, per_pass: int | None = None, **options) -> list:
+        """:meth:`simulate_many` of the pairs whose ``kind(structure)`` is equal (None: a pair of
+        its own) as RK4 passes of at most ``per_pass`` pairs (default: all), each pair's gusts
+        its own product, so that every pair gets the numbers of :meth:`simulate`, bit for bit
+        (the right-hand sides are element-wise in the realisations and the steering angle);
+        ``options`` go to :meth:`_one_pass`. One pass instead of a call per pair: at a few
+        hundred realisations a step's NumPy calls cost more than their arithmetic."""
         out = [None] * len(thetas)
         kinds: dict = {}
         for i, s in enumerate(structures):
-            key = (s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0)))
-            kinds.setdefault(key, []).append(i)
-        per_pass = max(1, _PASS_REALISATIONS // self.germs.n)
-        for members in kinds.values():
-            for start in range(0, len(members), per_pass):
-                part = members[start:start + per_pass]
+            kinds.setdefault(kind(s), []).append(i)
+        for key, members in kinds.items():
+            size = 1 if key is None else (per_pass or len(members))
+            for start in range(0, len(members), size):
+                part = members[start:start + size]
                 if len(part) == 1:
                     out[part[0]] = self.simulate(thetas[part[0]], structures[part[0]])
                     continue
-                sims = self._one_pass([thetas[i] for i in part], [structures[i] for i in part], [self.germs.n] * len(part), chassis=True)
+                sims = self._one_pass([thetas[i] for i in part], [structures[i] for i in part], [self.germs.n] * len(part), **options)
                 for i, x_i in zip(part, sims):
                     out[i] = x_i
         return out
 
-    def _one_pass(self, thetas, structures, groups, chassis: bool = False) -> list:
+    def _profile_many(self, thetas, structures) -> list:
+        """Linear pairs along a speed profile (RK4, :class:`LinearTrackRHS`): a pass per steering input, kinematics and lateral acceleration."""
+        kind = lambda s: (s.steering_lag, s.steering_delay, bool(s.course_exact), bool(np.any(np.asarray(s.lateral_acceleration) != 0)))  # noqa: E731
+        return self._in_passes(thetas, structures, kind, max(1, _PASS_REALISATIONS // self.germs.n), chassis=True)
+
+    def _one_pass(self, thetas, structures, groups, chassis: bool = False, per_pair_input: bool = False) -> list:
         """The pairs' channels from one RK4 pass over all their realisations (``groups``: sizes
-        in realisations of the parts whose gusts are one product each, :meth:`_rk4`)."""
+        in realisations of the parts whose gusts are one product each, :meth:`_rk4`;
+        ``per_pair_input``: each pair steered by its own lag and delay, else by the first's)."""
         n = self.germs.n
         p, wind, coeffs, batch = self._batch(thetas, structures, chassis)
-        delta = actual_steering(self.delta, self.dt, batch.steering_lag, batch.steering_delay, self.interpolation)
+        if per_pair_input:
+            delta = [(actual_steering(self.delta, self.dt, s.steering_lag, s.steering_delay, self.interpolation), s) for s in structures]
+        else:
+            delta = actual_steering(self.delta, self.dt, batch.steering_lag, batch.steering_delay, self.interpolation)
         if self.speed is not None or self.channels != STATES:
             x, rhs, js = self._rk4(p, wind, coeffs, delta, batch, groups=groups, with_rhs=True)
             a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
@@ -236,26 +249,6 @@ class AugmentedSimulator:
         if chassis:
             fields.update({f: 0.0 for f in CHASSIS_FIELDS})
         return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
-
-    def _chassis_many(self, thetas, structures) -> list:
-        """:meth:`simulate_many` of non-linear pairs some of which have chassis terms: the pairs of
-        the same kind (the same terms switched on, the same RK4 step) integrated in one pass, each
-        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`, bit
-        for bit (the right-hand side is element-wise); the others one by one."""
-        out = [None] * len(thetas)
-        kinds: dict = {}
-        for i, s in enumerate(structures):
-            key = self._chassis_kind(s)
-            kinds.setdefault(key, []).append(i)
-        for key, members in kinds.items():
-            if key is None or len(members) == 1:
-                for i in members:
-                    out[i] = self.simulate(thetas[i], structures[i])
-                continue
-            sims = self._one_pass([thetas[i] for i in members], [structures[i] for i in members], [self.germs.n] * len(members), chassis=True)
-            for i, x_i in zip(members, sims):
-                out[i] = x_i
-        return out
 
     def _chassis_kind(self, s: ModelStructure):
         """What must be equal for pairs to share an RK4 pass of the chassis right-hand side: the
@@ -336,9 +329,23 @@ class AugmentedSimulator:
             x[3] += p.v_c * cumulative_trapezoid(np.sin(x[0] + s.course_weight * x[2]) - (x[0] + s.course_weight * x[2]), self.dt * self.stride)
         return x
 
+    def _delta_half(self, delta, s: ModelStructure, t_half):
+        """The actual steering angle (J,) (rad) at the half-step times ``t_half`` (J,), from the
+        actual angle ``delta`` (T,) on the grid (the held command itself where :meth:`_held_input`)."""
+        if self._held_input(s):
+            # the held value at each half step; where it jumps (a step's end, shared with the next
+            # step's start) the mean of both sides: the last stage of the step before and the first
+            # of the step after then err by opposite amounts, and the jump arrives in time
+            value = lambda i: np.where(i >= 0, self.delta[np.clip(i, 0, self.delta.size - 1)], 0.0)  # noqa: E731
+            t_shift = t_half - s.steering_delay
+            return 0.5 * (value(held_index(t_half, self.dt, s.steering_delay)) + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
+        return np.interp(t_half, self.time, delta)
+
     def _rk4(self, p, wind, coeffs, delta, s: ModelStructure, groups=None, with_rhs: bool = False):
         """RK4 states (4, n, K + 1), a time-major view (as :func:`lti_foh_response`'s).
 
+        ``delta``: the actual steering (T,) of all realisations, or a list of (actual steering,
+        structure) of each consecutive part of ``germs.n`` realisations (``per_pair_input``).
         ``groups``: sizes (realisations) of consecutive parts whose gusts are computed as one
         product each (default: one part). BLAS rounds a product differently for other widths,
         so a realisation's last bits depend on the product it was computed in (and on nothing
@@ -350,16 +357,13 @@ class AugmentedSimulator:
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
         t_half = np.arange(2 * n_steps + 1) * (h / 2)
-        if self._held_input(s):
-            # the held value at each half step; where it jumps (a step's end, shared with the next
-            # step's start) the mean of both sides: the last stage of the step before and the first
-            # of the step after then err by opposite amounts, and the jump arrives in time
-            value = lambda i: np.where(i >= 0, self.delta[np.clip(i, 0, self.delta.size - 1)], 0.0)  # noqa: E731
-            t_shift = t_half - s.steering_delay
-            delta_half = 0.5 * (value(held_index(t_half, self.dt, s.steering_delay))
-                                + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
+        if isinstance(delta, list):  # (actual steering, structure) of each part of n realisations: the angle per realisation
+            n = self.germs.n
+            delta_half = np.empty((t_half.size, wind.size))
+            for i, (delta_i, s_i) in enumerate(delta):
+                delta_half[:, i * n:(i + 1) * n] = self._delta_half(delta_i, s_i, t_half)[:, None]
         else:
-            delta_half = np.interp(t_half, self.time, delta)
+            delta_half = self._delta_half(delta, s, t_half)
         f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
         # wind force per half step with one contiguous row of realisations each, (n_half, n)
         F_w_half = np.empty((t_half.size, wind.size))
