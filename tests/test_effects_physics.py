@@ -537,7 +537,7 @@ def test_half_angle_sine_and_cosine_are_numpys_to_rounding():
     and the three operations after it round once each, and cos = (1 - t^2) / (1 + t^2) loses no
     more near pi / 2); a course turned beyond 3 rad takes np.sin itself, where the half angle's
     tangent grows without bound."""
-    from uqdrive.vehicle.track_extended import _sine, half_angle_sin_cos
+    from uqdrive.vehicle.axle_loads import course_sine as _sine, half_angle_sin_cos
 
     rng = np.random.default_rng(5)
     angle = np.concatenate([rng.uniform(-np.pi + 1e-6, np.pi - 1e-6, 20000), rng.normal(0.0, 0.02, 2000)])
