@@ -46,18 +46,21 @@ class SideSlip:
 
     @property
     def sin(self):
+        """sin(beta) (n,) (-), by :func:`half_angle_sin_cos` with the cosine."""
         if self._sin is None:
             self._sin, self._cos = half_angle_sin_cos(self.beta)
         return self._sin
 
     @property
     def cos(self):
+        """cos(beta) (n,) (-), by :func:`half_angle_sin_cos` with the sine."""
         if self._cos is None:
             self._sin, self._cos = half_angle_sin_cos(self.beta)
         return self._cos
 
     @property
     def tan(self):
+        """tan(beta) (n,) (-)."""
         if self._tan is None:
             self._tan = np.tan(self.beta)
         return self._tan
