@@ -101,7 +101,8 @@ def posterior_table() -> str:
 def discover_default_table() -> str:
     r = _rec("discover_default")
     lines = ["| case | candidates | CPU s | wall s | verdict, gap before -> after |", "|---|---|---|---|---|"]
-    lines += [f"| {x['case']} | {x['candidates']} | {x['cpu_s']:g} | {x['wall_s']} | {x['verdict']}, {x['gap'][0]:g} -> {x['gap'][1]:g} |"
+    cpu = lambda x: f"{x['cpu_s_before']:g} -> {x['cpu_s']:g}" if "cpu_s_before" in x else f"{x['cpu_s']:g}"  # noqa: E731
+    lines += [f"| {x['case']} | {x['candidates']} | {cpu(x)} | {x['wall_s']} | {x['verdict']}, {x['gap'][0]:g} -> {x['gap'][1]:g} |"
               for x in r["rows"]]
     return "\n".join(lines) + "\n"
 
@@ -163,7 +164,9 @@ def substitutions() -> dict[str, str]:
     s.update(bench_pb_machine=pb["machine"], bench_pb_first_after=f"{pb['rows'][0]['after']:.1f}", bench_pb_ahead=f"{ahead['first_row_after']:.1f}",
              bench_pb_none20=f"{ahead['none_step_imu_speed_20']:.1f}",
              bench_pb_profile=", ".join(f"the {k} ({v} %)" for k, v in pb["profile_after_percent"].items()),
-             bench_fw_runs=str(fw["runs"]), bench_fw_candidates=str(fw["candidates"]), bench_fw_cpu=f"{fw['before']:.1f} / {fw['after']:.1f}")
+             bench_fw_runs=str(fw["runs"]), bench_fw_candidates=str(fw["candidates"]), bench_fw_cpu=f"{fw['before']:.1f} -> {fw['after']:.1f}",
+             bench_fw_machine=fw["machine"], bench_fw_probe_share=f"{fw['probe_percent']} %",
+             bench_fw_profile=", ".join(f"the {k} {v} %" for k, v in fw["profile_after_percent"].items()))
     s["bench_memo_machine"] = _rec("discover_memo")["machine"]
     s["bench_rj_machine"] = _rec("reproduce_jobs")["machine"]
     pce = _rec("pce")
@@ -206,7 +209,7 @@ def substitutions() -> dict[str, str]:
     b = dd["braking"]
     s.update(bench_dd_braking_runs=str(b["runs"]), bench_dd_speeds=f"{b['speed_from_mps']} to {b['speed_to_mps']} m/s",
              bench_dd_reality_h=f"{b['reality_cg_height_m']:g} m", bench_dd_vehicle_h=f"{b['vehicle_cg_height_m']:g}",
-             bench_dd_tour_runs=str(dd["tour"]["runs"]), bench_dd_machine=dd["machine"])
+             bench_dd_tour_runs=str(dd["tour"]["runs"]), bench_dd_machine=dd["machine"], bench_dd_side_by_side=dd["side_by_side"])
     ch = _rec("chassis")
     s.update(bench_chassis_realisations=str(ch["realisations"]), bench_chassis_duration=f"{ch['duration_s']} s", bench_chassis_machine=ch["machine"])
     sw = _rec("sweeps")["seconds"]

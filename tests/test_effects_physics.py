@@ -529,3 +529,22 @@ def test_every_chassis_candidate_is_testable_on_a_file_whose_speed_changes():
 
     names = ["longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation"]
     assert testable(names, CHANNELS) == (names, [])
+
+
+def test_half_angle_sine_and_cosine_are_numpys_to_rounding():
+    """The chassis right-hand side takes sin and cos from the tangent of the half angle (NumPy
+    vectorises tan, not the float64 sine): within 4 eps of np.sin and np.cos on |angle| < pi (tan
+    and the three operations after it round once each, and cos = (1 - t^2) / (1 + t^2) loses no
+    more near pi / 2); a course turned beyond 3 rad takes np.sin itself, where the half angle's
+    tangent grows without bound."""
+    from uqdrive.vehicle.axle_loads import course_sine as _sine, half_angle_sin_cos
+
+    rng = np.random.default_rng(5)
+    angle = np.concatenate([rng.uniform(-np.pi + 1e-6, np.pi - 1e-6, 20000), rng.normal(0.0, 0.02, 2000)])
+    s, c = half_angle_sin_cos(angle)
+    eps = np.finfo(float).eps
+    assert np.abs(s - np.sin(angle)).max() <= 4 * eps and np.abs(c - np.cos(angle)).max() <= 4 * eps
+    near = angle[-10:]  # within 3 rad
+    assert np.array_equal(_sine(near), half_angle_sin_cos(near)[0])
+    far = np.array([0.1, 7.5, -12.0])
+    assert np.array_equal(_sine(far), np.sin(far))

@@ -4,7 +4,11 @@ profile; lateral with tyre load sensitivity), compliance steer and tyre relaxati
 augmented simulator.
 
 Only structures that use one of these terms come here; the thesis' structures keep
-:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit.
+:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit. Here the sines and cosines
+come from the half angle's tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`: within an ulp of NumPy's, at a
+third of the cost, NumPy vectorising tan and not the float64 sine), and a state's trigonometry
+and the tyres' per-unit-peak force are computed once for every term and every step of the loads'
+loop that needs them.
 
 The loads follow the force the tyres carry, as a real car's do: the roll moment of their lateral
 force T = F_f cos(delta) + F_r about the centre of gravity moves h T / t across the track, and the
@@ -65,6 +69,7 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from ..settings import Vehicle
+from .axle_loads import AxleLoads, SideSlip, course_sine, half_angle_sin_cos
 from .single_track import VehicleParameters, curvature_argument
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
@@ -91,7 +96,7 @@ def chassis_max_step(s, v: float, max_step: float) -> float:
     return s.max_step(v, max_step)
 
 
-class ExtendedSingleTrackRHS:
+class ExtendedSingleTrackRHS(AxleLoads):
     """dx/dt of the single-track model with chassis effects, for n realisations.
 
     Parameters
@@ -162,6 +167,9 @@ class ExtendedSingleTrackRHS:
         self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
         self.a_lat = s.lateral_acceleration
         self.speed_half = None if speed_half is None else tuple(np.asarray(a, float) for a in speed_half)
+        self._last_delta = self._last_cos = None
+        self._filled: dict = {}
+        self._sigma_or_inf = np.where(self.sigma > 0, self.sigma, np.inf) if self.relaxed else None
 
     def _at(self, j: int):
         """Speed v (m/s), its rate (m/s^2), 1 / (m v) and a_lat / v at half step ``j``."""
@@ -175,74 +183,17 @@ class ExtendedSingleTrackRHS:
         """4, plus the two lagged slip angles, plus the roll steer angle and its rate."""
         return 4 + 2 * self.relaxed + 2 * self.rolling
 
-    def axle_loads(self, tyres, beta, v_dot=0.0, F_w=0.0, slope=False):
-        """Effective axle loads P (2, n) (N) while the tyres carry the lateral force ``tyres`` (n,) (N).
-
-        The roll moment of the tyres' forces about the centre of gravity moves chi_i h tyres / t to
-        each axle's outer wheel; the body's acceleration along x, a_x = v' cos(beta) - tan(beta)
-        (a_y - v' sin(beta)) with a_y = (tyres + F_w) / m + a_lat, moves m a_x h_x / L from the
-        front to the rear axle (the drive or brake force that holds the speed or follows ``v_dot``).
-        With ``slope``, also dP / d tyres (2, n), for the loop in :meth:`_forces`.
-        """
-        return self._loads(tyres, self._trig(beta), v_dot, F_w, slope)
-
-    def _trig(self, beta):
-        """tan, cos and sin of beta where the longitudinal transfer needs them (None without it)."""
-        if not self.pitching:
-            return None
-        return np.tan(beta), np.cos(beta), np.sin(beta)
-
-    def _loads(self, tyres, trig, v_dot, F_w, slope):
-        """:meth:`axle_loads` with beta's ``trig`` (:meth:`_trig`) computed once per state.
-
-        Without a longitudinal transfer the axles keep their static loads; without a lateral one
-        each axle's two wheels carry half its load at its peak per unit load (P = F_z, dP its
-        shift's slope): the same numbers as the general per-wheel sum, without its work."""
-        if trig is None:
-            raw = F_z = self.static
-            d_shift = 0.0
-        else:
-            tan_b, cos_b, sin_b = trig
-            a_y = (tyres + F_w) / self.m + self.a_lat
-            if np.ndim(v_dot) == 0 and v_dot == 0.0:  # held speed: the same numbers, fewer operations
-                a_x = -(tan_b * a_y)
-            else:
-                a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
-            shift = self.m * a_x * self.h_x / self.L
-            raw = self.static + np.stack([-shift, shift])
-            F_z = np.maximum(raw, 0.0)  # an axle cannot pull the road
-            d_shift = -tan_b * self.h_x / self.L if slope else 0.0  # d shift / d tyres
-        if not self.transferring:
-            if not slope:
-                return F_z
-            if trig is None:
-                return F_z, 0.0
-            return F_z, np.where(raw > 0, np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0)
-        dF = self.lateral_arm * tyres
-        F0 = 0.5 * self.static
-        P, dP = 0.0, 0.0
-        if slope:  # d (F_z / 2) / d tyres
-            d_half_load = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), 0.0) if trig is not None else 0.0
-        # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
-        for sign in (-1.0, 1.0):
-            w = np.maximum(0.5 * F_z + sign * dF, 0.0)
-            gain = 1.0 + self.p_Dz * (w - F0) / F0
-            P = P + w * np.maximum(gain, 0.0)
-            if slope:
-                d_w = d_half_load + sign * self.lateral_arm
-                dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, 0.0)
-        return (P, dP) if slope else P
-
-    def steady_slip(self, x, j: int, v=None):
+    def steady_slip(self, x, j: int, v=None, side_slip=None):
         """Slip angles (2, n) the tyres would have without relaxation and compliance, and the
-        commanded front steer angle, at speed ``v`` (default: the speed at half step ``j``)."""
-        psi_dot, beta = x[1], x[2]
+        commanded front steer angle, at speed ``v`` (default: the speed at half step ``j``);
+        ``side_slip``: x[2] with its sine and cosine where the caller has them."""
+        psi_dot, beta = x[1], SideSlip.of(x[2] if side_slip is None else side_slip)
         v = self._at(j)[0] if v is None else v
         delta = self.delta_half[j]
         if self.saturating:
-            q = -np.arctan((v * np.sin(beta) + self.lever * psi_dot) / (v * np.cos(beta)))
+            q = -np.arctan((v * beta.sin + self.lever * psi_dot) / (v * beta.cos))
         else:  # the LST's small angles
-            q = -(beta + self.lever * psi_dot / v)
+            q = -(beta.beta + self.lever * psi_dot / v)
         q[0] += delta
         return q, delta
 
@@ -256,8 +207,25 @@ class ExtendedSingleTrackRHS:
         """Force (N) at slip ``q`` (rad) and peak ``peak`` (N): Magic Formula or its slope at zero."""
         B = self.B if B is None else B
         if self.saturating:
-            return peak * np.sin(self.C * np.arctan(curvature_argument(B * q, self.E)))
+            return peak * self._unit_curve(q, B)
         return peak * B * self.C * q
+
+    def _unit_curve(self, q, B):
+        """The Magic Formula per unit peak, sin(C atan(u)) (-), at slip ``q`` (rad): the factor of the peak that the loads leave alone."""
+        return half_angle_sin_cos(self.C * np.arctan(curvature_argument(B * q, self.E)))[0]
+
+    def _load_free_curve(self, q_steady, lagged):
+        """Per unit peak (2, n), the force of the slip angles that the loads-forces loop of :meth:`_forces` does not move, or None.
+
+        On the Magic Formula a load scales the peak alone: the force of slip angles that do not
+        depend on the loads is peak times this factor, computed once for the loop's steps (the
+        same numbers: :meth:`_curve` multiplies the same factor). The lagged slip angles of a
+        relaxing tyre are states; the steady ones move with the loads only where the wheels
+        yield to their force (its front row then recomputed per step), and the load-sensitive
+        tyre moves its stiffness with the load."""
+        if not self.saturating or self.sensitive:
+            return None
+        return self._unit_curve(q_steady if lagged is None else lagged, self.B)
 
     def _yielded_front_slip(self, q0, peak, B=None):
         """Front slip (n,) (rad) with the wheels yielding to their own force: q = q0 - kappa F(q).
@@ -267,42 +235,25 @@ class ExtendedSingleTrackRHS:
         quadratically to round-off)."""
         B = self.B[0, 0] if B is None else B
         stiff = peak * B * self.C
-        q = q0 / np.maximum(1.0 + self.kappa * stiff, 0.05)
+        q = q0 / self._at_least(1.0 + self.kappa * stiff, 0.05)
         if not self.saturating:
             return q
         for _ in range(3):
             bx = B * q
             u = curvature_argument(bx, self.E)
-            slope = peak * np.cos(self.C * np.arctan(u)) * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
-            q = q - (q - q0 + self.kappa * self._curve(peak, q, B)) / np.maximum(1.0 + self.kappa * slope, 0.05)
+            angle = self.C * np.arctan(u)  # the force's and its slope's: D sin(angle), D cos(angle) C u' / (1 + u^2)
+            sin_a, cos_a = half_angle_sin_cos(angle)
+            slope = peak * cos_a * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
+            q = q - (q - q0 + self.kappa * (peak * sin_a)) / self._at_least(1.0 + self.kappa * slope, 0.05)
         return q
 
-    def lateral_capacity(self, tyres, beta, v_dot, F_w, P):
-        """Share (2, n) of each axle's lateral force the longitudinal force leaves (1 without
-        combined slip): sqrt(max(1 - (kappa F_x,i / (mu P_i))^2, 0)), F_x = m a_x (N) with the body's
-        a_x of :meth:`axle_loads` while the tyres carry ``tyres`` (n,) (N), on the loads ``P`` (2, n)."""
-        if not self.slipping:
-            return 1.0
-        a_y = (tyres + F_w) / self.m + self.a_lat
-        F_x = self.m * (v_dot * np.cos(beta) - np.tan(beta) * (a_y - v_dot * np.sin(beta)))
-        used = self.kappa_x * np.where(F_x > 0, self.drive_share, self.brake_share) * F_x / np.maximum(self.mu * P, 1e-3 * self.static)
-        return np.sqrt(np.maximum(1.0 - used * used, 0.0))
-
-    def load_factors(self, tyres, beta, v_dot, F_w):
-        """Peak and stiffness factors (2, n) each, 1 + p_Dz dfz and 1 + q dfz, while the tyres carry ``tyres`` (n,) (N)."""
-        if not self.sensitive:
-            return None
-        a_x = v_dot * np.cos(beta) - np.tan(beta) * ((tyres + F_w) / self.m + self.a_lat - v_dot * np.sin(beta))
-        shift = self.m * a_x * self.h_s / self.L
-        dfz = (self.static + np.stack([-shift, shift]) - self.reference) / self.reference
-        return np.maximum(1.0 + self.p_D * dfz, 0.05), np.maximum(1.0 + self.q_K * dfz, 0.05)
-
-    def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0, factors=None):
+    def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0, factors=None, unit=None):
         """Slip angles (2, n), front wheel angle (n,) and axle forces (2, n) on the effective loads
         ``P`` (2, n), each axle's peak times its lateral ``capacity`` (and the load-sensitive tyre's
         ``factors`` of :meth:`load_factors` on peak and stiffness): the force of the ``lagged``
         slip angles where the tyres relax (the wheels yield to it, which moves the slip's target),
-        the front wheels yielding to their force where the steering is compliant."""
+        the front wheels yielding to their force where the steering is compliant. ``unit``: the
+        force per unit peak of the slip angles the loads leave alone (:meth:`_load_free_curve`)."""
         peak = P * self.mu * capacity
         B = self.B
         if factors is not None:
@@ -310,7 +261,7 @@ class ExtendedSingleTrackRHS:
             B = B * (factors[1] / factors[0])
         q = q_steady.copy()
         if lagged is not None:
-            F = self._curve(peak, lagged, B)
+            F = self._curve(peak, lagged, B) if unit is None else peak * unit
             if self.compliant:
                 q[0] -= self.kappa * F[0]
                 delta = delta - self.kappa * F[0]
@@ -319,9 +270,14 @@ class ExtendedSingleTrackRHS:
             q_front = self._yielded_front_slip(q[0], peak[0], B[0])
             delta = delta - (q[0] - q_front)
             q[0] = q_front
-        return q, delta, self._curve(peak, q, B)
+            if unit is not None:  # the rear's slip is the steady one: only the front's force is new
+                F = np.empty_like(peak)
+                F[0] = peak[0] * self._unit_curve(q_front, B[0])
+                np.multiply(peak[1], unit[1], F[1])
+                return q, delta, F
+        return q, delta, self._curve(peak, q, B) if unit is None else peak * unit
 
-    def _forces(self, x, j: int, v, v_dot):
+    def _forces(self, x, j: int, v, v_dot, side_slip=None):
         """Steady slip angles (2, n), front wheel angle (n,) and axle forces (2, n) at ``x`` at speed ``v``
         changing at ``v_dot``.
 
@@ -330,30 +286,32 @@ class ExtendedSingleTrackRHS:
         T = m (v psi_dot cos(beta) + v' sin(beta) - a_lat) - F_w (``LOAD_NEWTON_STEPS`` steps; the
         slope neglects the compliant wheels' own loop beyond its linear part, which slows the
         convergence, not its limit)."""
-        q_steady, delta = self.steady_slip(x, j, v)
+        beta = SideSlip.of(x[2] if side_slip is None else side_slip)
+        q_steady, delta = self.steady_slip(x, j, v, beta)
         if self.rolling:  # the roll steer angle, a state: no loop
             q_steady[0] -= x[self.i_roll]
             delta = delta - x[self.i_roll]
         lagged = np.where(self.sigma > 0, x[4:6], q_steady) if self.relaxed else None
         if not self.loaded:
             return self._at_loads(self.static, q_steady, delta, lagged)
-        psi_dot, beta = x[1], x[2]
+        psi_dot = x[1]
         F_w = self.F_w_half[j]
-        T = self.m * (v * psi_dot * np.cos(beta) + v_dot * np.sin(beta) - self.a_lat) - F_w
+        T = self.m * (v * psi_dot * beta.cos + v_dot * beta.sin - self.a_lat) - F_w
         floor = 1e-3 * self.static
         trig = self._trig(beta)
+        unit = self._load_free_curve(q_steady, lagged)
         for _ in range(LOAD_NEWTON_STEPS):
             P, dP = self._loads(T, trig, v_dot, F_w, True)
             _, d, F = self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P),
-                                     self.load_factors(T, beta, v_dot, F_w))
+                                     self.load_factors(T, beta, v_dot, F_w), unit)
             dF = F / np.maximum(P, floor)
             if self.compliant and lagged is None:
                 dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0, 0] * self.C
-            front = np.cos(d) if self.saturating else 1.0
+            front = self._cos_of(d) if self.saturating else 1.0
             gain = front * dF[0] * dP[0] + dF[1] * dP[1] if np.ndim(dP) else 0.0  # static loads (combined slip alone): none
-            T = T + (front * F[0] + F[1] - T) / np.maximum(1.0 - gain, 0.05)
+            T = T + (front * F[0] + F[1] - T) / (self._at_least(1.0 - gain, 0.05) if np.ndim(gain) else max(1.0 - gain, 0.05))
         P = self._loads(T, trig, v_dot, F_w, False)
-        return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P), self.load_factors(T, beta, v_dot, F_w))
+        return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P), self.load_factors(T, beta, v_dot, F_w), unit)
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
@@ -364,16 +322,26 @@ class ExtendedSingleTrackRHS:
 
     def _front(self, F_f, delta):
         """The front axle's force across the car: F_f cos delta (NLST), F_f (LST)."""
-        return F_f * np.cos(delta) if self.saturating else F_f
+        return F_f * self._cos_of(delta) if self.saturating else F_f
+
+    def _cos_of(self, delta):
+        """cos(delta) (n,), of the last wheel angle asked for kept: the loads' loop and the
+        derivative ask for the same array while the wheels do not yield to their force."""
+        if np.ndim(delta) == 0:
+            return np.cos(delta)
+        if delta is not self._last_delta:
+            self._last_delta, self._last_cos = delta, half_angle_sin_cos(delta)[1]
+        return self._last_cos
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         psi, psi_dot, beta = x[0], x[1], x[2]
+        side_slip = SideSlip(beta)
         v, v_dot, inv_mv, a_v = self._at(j)
-        q, delta, F = self._forces(x, j, v, v_dot)
-        cos_b = np.cos(beta) if self.saturating else 1.0
+        q, delta, F = self._forces(x, j, v, v_dot, side_slip)
+        cos_b = side_slip.cos if self.saturating else 1.0
         if self.relaxed:
-            out[4:6] = (q - x[4:6]) * (v * cos_b) / np.where(self.sigma > 0, self.sigma, np.inf)
+            out[4:6] = (q - x[4:6]) * (v * cos_b) / self._sigma_or_inf
         F_w = self.F_w_half[j]
         fc = self._front(F[0], delta)
         if self.rolling:  # the roll mode, and the steer it makes, driven by the tyres' lateral force
@@ -385,9 +353,9 @@ class ExtendedSingleTrackRHS:
         out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
         out[2] = (fc + F[1] + F_w) * cos_b * inv_mv - psi_dot + a_v
         if self.speed_half is not None:
-            out[2] -= v_dot / v * (np.sin(beta) if self.saturating else beta)
+            out[2] -= v_dot / v * (side_slip.sin if self.saturating else beta)
         course = psi + self.k * beta
-        out[3] = v * (np.sin(course) if self.course_sine else course)
+        out[3] = v * (course_sine(course) if self.course_sine else course)
 
 
 def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,

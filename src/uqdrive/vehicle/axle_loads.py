@@ -1,0 +1,175 @@
+"""The axle loads of the chassis right-hand side (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`):
+load transfer, the friction ellipse's share and the load-sensitive tyre's factors, and the trigonometry they share.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["AxleLoads", "SideSlip", "course_sine", "half_angle_sin_cos", "opposite"]
+
+
+def half_angle_sin_cos(angle):
+    """sin and cos of ``angle`` (any shape) (rad, |angle| < pi) from the tangent of its half,
+    t = tan(angle / 2): sin = 2 t / (1 + t^2), cos = (1 - t^2) / (1 + t^2).
+
+    NumPy vectorises its tangent but not its float64 sine and cosine (here 14 ns an element
+    against 2 ns): the pair costs a third of np.sin alone, within 2 ulp of it (|angle| < pi, the
+    side slip, wheel and Magic-Formula angles of a car that has not spun)."""
+    t = np.tan(0.5 * angle)
+    t2 = t * t
+    inv = 1.0 / (1.0 + t2)
+    return 2.0 * t * inv, (1.0 - t2) * inv
+
+
+def course_sine(angle):
+    """sin(angle) (n,): by :func:`half_angle_sin_cos` while every angle is within 3 rad of zero
+    (a course that has turned further takes NumPy's sine)."""
+    if np.abs(angle).max(initial=0.0) < 3.0:
+        return half_angle_sin_cos(angle)[0]
+    return np.sin(angle)
+
+
+class SideSlip:
+    """The side-slip angle beta (n,) (rad) with its sine, cosine and tangent, each computed at most
+    once per state (sin and cos cost NumPy ten times an arctan: several terms need them)."""
+
+    __slots__ = ("beta", "_sin", "_cos", "_tan")
+
+    def __init__(self, beta):
+        self.beta, self._sin, self._cos, self._tan = beta, None, None, None
+
+    @classmethod
+    def of(cls, beta) -> "SideSlip":
+        """``beta`` itself when it is one already."""
+        return beta if isinstance(beta, cls) else cls(beta)
+
+    @property
+    def sin(self):
+        """sin(beta) (n,) (-), by :func:`half_angle_sin_cos` with the cosine."""
+        if self._sin is None:
+            self._sin, self._cos = half_angle_sin_cos(self.beta)
+        return self._sin
+
+    @property
+    def cos(self):
+        """cos(beta) (n,) (-), by :func:`half_angle_sin_cos` with the sine."""
+        if self._cos is None:
+            self._sin, self._cos = half_angle_sin_cos(self.beta)
+        return self._cos
+
+    @property
+    def tan(self):
+        """tan(beta) (n,) (-)."""
+        if self._tan is None:
+            self._tan = np.tan(self.beta)
+        return self._tan
+
+
+def opposite(shift):
+    """[-shift, shift] (2, n) of a load ``shift`` (n,) (N) moved from the front axle to the rear."""
+    out = np.empty((2,) + np.shape(shift))
+    np.negative(shift, out[0])
+    out[1] = shift
+    return out
+
+
+class AxleLoads:
+    """The loads' part of :class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS` (its
+    attributes set there): the effective axle loads while the tyres carry a lateral force, the
+    lateral share the longitudinal force leaves, the load-sensitive tyre's factors."""
+
+    def _full(self, value: float, like):
+        """A constant array of ``like``'s shape (never written): NumPy's maximum and where take their
+        vectorised loop only for operands of the full shape (a scalar one costs ten times the
+        arithmetic at a few thousand realisations); the same numbers as the scalar."""
+        key = (value, like.shape)
+        a = self._filled.get(key)
+        if a is None:
+            a = self._filled[key] = np.full(like.shape, value)
+        return a
+
+    def _at_least(self, x, value: float):
+        """np.maximum(x, value) by :meth:`_full`."""
+        return np.maximum(x, self._full(value, x))
+
+    def axle_loads(self, tyres, beta, v_dot=0.0, F_w=0.0, slope=False):
+        """Effective axle loads P (2, n) (N) while the tyres carry the lateral force ``tyres`` (n,) (N).
+
+        The roll moment of the tyres' forces about the centre of gravity moves chi_i h tyres / t to
+        each axle's outer wheel; the body's acceleration along x, a_x = v' cos(beta) - tan(beta)
+        (a_y - v' sin(beta)) with a_y = (tyres + F_w) / m + a_lat, moves m a_x h_x / L from the
+        front to the rear axle (the drive or brake force that holds the speed or follows ``v_dot``).
+        With ``slope``, also dP / d tyres (2, n), for the loop in :meth:`_forces`.
+        """
+        return self._loads(tyres, self._trig(beta), v_dot, F_w, slope)
+
+    def _trig(self, beta):
+        """tan, cos and sin of beta where the longitudinal transfer needs them (None without it)."""
+        if not self.pitching:
+            return None
+        b = SideSlip.of(beta)
+        return b.tan, b.cos, b.sin
+
+    def _loads(self, tyres, trig, v_dot, F_w, slope):
+        """:meth:`axle_loads` with beta's ``trig`` (:meth:`_trig`) computed once per state.
+
+        Without a longitudinal transfer the axles keep their static loads; without a lateral one
+        each axle's two wheels carry half its load at its peak per unit load (P = F_z, dP its
+        shift's slope): the same numbers as the general per-wheel sum, without its work."""
+        if trig is None:
+            raw = F_z = self.static
+            d_shift = 0.0
+        else:
+            tan_b, cos_b, sin_b = trig
+            a_y = (tyres + F_w) / self.m + self.a_lat
+            if np.ndim(v_dot) == 0 and v_dot == 0.0:  # held speed: the same numbers, fewer operations
+                a_x = -(tan_b * a_y)
+            else:
+                a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
+            shift = self.m * a_x * self.h_x / self.L
+            raw = self.static + opposite(shift)
+            F_z = self._at_least(raw, 0.0)  # an axle cannot pull the road
+            d_shift = -tan_b * self.h_x / self.L if slope else 0.0  # d shift / d tyres
+        if not self.transferring:
+            if not slope:
+                return F_z
+            if trig is None:
+                return F_z, 0.0
+            return F_z, np.where(raw > 0, np.stack(np.broadcast_arrays(-d_shift, d_shift)), self._full(0.0, raw))
+        dF = self.lateral_arm * tyres
+        F0 = 0.5 * self.static
+        P, dP = 0.0, 0.0
+        if slope:  # d (F_z / 2) / d tyres
+            d_half_load = np.where(raw > 0, 0.5 * np.stack(np.broadcast_arrays(-d_shift, d_shift)), self._full(0.0, raw)) if trig is not None else 0.0
+        # per wheel (inner, outer), a lifted wheel carrying nothing and no wheel's peak below zero
+        for sign in (-1.0, 1.0):
+            w = self._at_least(0.5 * F_z + sign * dF, 0.0)
+            gain = 1.0 + self.p_Dz * (w - F0) / F0
+            P = P + w * self._at_least(gain, 0.0)
+            if slope:
+                d_w = d_half_load + sign * self.lateral_arm
+                dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, self._full(0.0, w))
+        return (P, dP) if slope else P
+
+    def lateral_capacity(self, tyres, beta, v_dot, F_w, P):
+        """Share (2, n) of each axle's lateral force the longitudinal force leaves (1 without
+        combined slip): sqrt(max(1 - (kappa F_x,i / (mu P_i))^2, 0)), F_x = m a_x (N) with the body's
+        a_x of :meth:`axle_loads` while the tyres carry ``tyres`` (n,) (N), on the loads ``P`` (2, n)."""
+        if not self.slipping:
+            return 1.0
+        a_y = (tyres + F_w) / self.m + self.a_lat
+        b = SideSlip.of(beta)
+        F_x = self.m * (v_dot * b.cos - b.tan * (a_y - v_dot * b.sin))
+        used = self.kappa_x * np.where(F_x > 0, self.drive_share, self.brake_share) * F_x / np.maximum(self.mu * P, 1e-3 * self.static)
+        return np.sqrt(self._at_least(1.0 - used * used, 0.0))
+
+    def load_factors(self, tyres, beta, v_dot, F_w):
+        """Peak and stiffness factors (2, n) each, 1 + p_Dz dfz and 1 + q dfz, while the tyres carry ``tyres`` (n,) (N)."""
+        if not self.sensitive:
+            return None
+        b = SideSlip.of(beta)
+        a_x = v_dot * b.cos - b.tan * ((tyres + F_w) / self.m + self.a_lat - v_dot * b.sin)
+        shift = self.m * a_x * self.h_s / self.L
+        dfz = (self.static + opposite(shift) - self.reference) / self.reference
+        return self._at_least(1.0 + self.p_D * dfz, 0.05), self._at_least(1.0 + self.q_K * dfz, 0.05)
