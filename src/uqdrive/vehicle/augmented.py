@@ -179,10 +179,9 @@ class AugmentedSimulator:
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
         if not all(s.nonlinear for s in structures) or len(thetas) == 1:
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
-        if any(uses_chassis_terms(s) for s in structures) and same_input:
-            return self._in_passes(thetas, structures, self._chassis_kind, chassis=True)
-        if any(uses_chassis_terms(s) for s in structures):
-            return [self.simulate(th, s) for th, s in zip(thetas, structures)]
+        if any(uses_chassis_terms(s) for s in structures):  # a pass per steering input (a fitted lag's or delay's neighbours) and chassis kind
+            return self._in_passes(thetas, structures, lambda s: None if self._chassis_kind(s) is None else
+                                   (s.steering_lag, s.steering_delay, self._chassis_kind(s)), chassis=True)
         if not same_input:  # a fitted lag's or delay's neighbours: a pass per tyre, kinematics and step, each pair steered by its own angle
             return self._in_passes(thetas, structures, lambda s: (s.tyre, bool(s.course_exact), self._substeps(s)), max(1, _PASS_REALISATIONS // n),
                                    per_pair_input=True)

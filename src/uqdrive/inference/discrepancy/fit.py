@@ -15,37 +15,12 @@ from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "SimulationMemo", "StructureFit", "simulate_by_input"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "SimulationMemo", "StructureFit"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
 THETA_BOUNDS = ParameterLayout.bounds
 #: Typical magnitudes, so that the optimiser steps every parameter alike.
 THETA_SCALE = ParameterLayout.scales
-
-
-def simulate_by_input(simulator, thetas, structures, groups=None) -> list:
-    """:meth:`AugmentedSimulator.simulate_many` of (theta, structure) pairs, those numerically
-    integrated but on different steering inputs (a Jacobian's step in an actuator's lag or delay)
-    in one pass per input.
-
-    ``simulate_many`` integrates such a batch one pair at a time; each input's pairs are instead
-    one batch of groups of one pair, whose numbers are those of a call of its own
-    (``simulate_many``'s ``groups``), as one at a time gives them: the same numbers, bit for bit,
-    in fewer passes. Other batches go to ``simulate_many`` as they are (``groups`` theirs)."""
-    def key(s):
-        return (s.steering_lag, s.steering_delay)
-
-    if len(structures) < 3 or not all(s.nonlinear for s in structures) or len({key(s) for s in structures}) == 1:
-        return simulator.simulate_many(thetas, structures, groups=groups)
-    parts: dict = {}
-    for i, s in enumerate(structures):
-        parts.setdefault(key(s), []).append(i)
-    out = [None] * len(thetas)
-    for members in parts.values():
-        sims = simulator.simulate_many([thetas[i] for i in members], [structures[i] for i in members], groups=[1] * len(members))
-        for i, x in zip(members, sims):
-            out[i] = x
-    return out
 
 
 class SimulationMemo:
@@ -211,8 +186,8 @@ class StructureFit:
             if self.memo is not None and not any(st.nonlinear for _, st in batch):
                 sims = self._linear_simulations([keys[i] for i in todo] + [key for _, key in later], batch)
             else:
-                sims = simulate_by_input(self.simulator, [th for th, _ in batch], [st for _, st in batch],
-                                         groups=[len(todo)] + ([len(later)] if later else []))
+                sims = self.simulator.simulate_many([th for th, _ in batch], [st for _, st in batch],
+                                                    groups=[len(todo)] + ([len(later)] if later else []))
             if later:
                 self._ahead = ([key for _, key in later], sims[len(todo):])
         for i, x in zip(todo, sims):
