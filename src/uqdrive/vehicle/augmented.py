@@ -13,7 +13,7 @@ import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import ParameterLayout, Settings
-from .effects import ModelStructure
+from .effects import ModelStructure, with_tyre_shape
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
@@ -29,8 +29,7 @@ _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms
 #: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a
 #: step's NumPy calls cost their arithmetic, and the half-step wind forces (2 steps x realisations) grow.
 _PASS_REALISATIONS = 8000
-#: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000
-#: realisations and 2000 half steps).
+#: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000 realisations and 2000 half steps).
 _GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
 #: The structure's fields of the chassis terms (uqdrive.vehicle.track_extended), per realisation in a batch.
 _CHASSIS_FIELDS = ("pitch_height", "load_sensitivity", "roll_share_front", "compliance_steer", "relaxation_length", "roll_steer",
@@ -150,6 +149,7 @@ class AugmentedSimulator:
         default psi, psi_dot, beta, y) of every realisation (of ``germs`` if given, else of the
         simulator's own)."""
         p, wind, coeffs = self.parameters(theta, germs)
+        p = with_tyre_shape(p, structure)
         coeffs = coeffs * structure.gust_scale
         delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
         if self.speed is not None or self.channels != STATES:
@@ -165,16 +165,17 @@ class AugmentedSimulator:
         return x * gain + offset
 
     def simulate_many(self, thetas, structures, groups=None) -> list:
-        """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model
-        is integrated numerically (one RK4 pass over all realisations of all pairs: a step's
-        NumPy call overhead is paid once; at 300 realisations it is half the cost of a pass).
+        """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model is integrated numerically (one
+        RK4 pass over all realisations of all pairs: a step's NumPy call overhead is paid once; at 300 realisations it is half
+        the cost of a pass); pairs of different tyre shapes (b, C) in passes of one shape each.
 
-        ``groups``: numbers of consecutive pairs (summing to their count) that are computed as
-        if each group were a call of its own: the pairs of a group get the same numbers, to the
-        last bit, as ``simulate_many`` of that group alone (one pair: as :meth:`simulate`).
-        Default: one group.
+        ``groups``: numbers of consecutive pairs (summing to their count) that are computed as if each group were a call of its
+        own: the pairs of a group get the same numbers, to the last bit, as ``simulate_many`` of that group alone (one pair: as
+        :meth:`simulate`). Default: one group.
         """
         thetas = [np.asarray(th, float) for th in thetas]
+        if len({s.tyre_shape() for s in structures}) > 1:
+            return self._shapes_many(thetas, structures, groups)
         if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
             return self._profile_many(thetas, structures)
         first = structures[0]
@@ -186,12 +187,18 @@ class AugmentedSimulator:
         n = self.germs.n
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
 
+    def _shapes_many(self, thetas, structures, groups) -> list:
+        """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each
+        group of one shape in its own call, the pairs of a group of several shapes alone."""
+        ends = np.cumsum(groups or [len(thetas)])
+        parts = [(thetas[a:b], structures[a:b]) for a, b in zip([0, *ends[:-1]], ends)]
+        return [x for th, ss in parts for x in (self.simulate_many(th, ss) if len({s.tyre_shape() for s in ss}) == 1 else map(self.simulate, th, ss))]
+
     def _profile_many(self, thetas, structures) -> list:
-        """:meth:`simulate_many` of linear pairs along a speed profile (integrated by RK4): the
-        pairs that share the steering input, the course kinematics and whether a lateral
-        acceleration acts, in passes of at most :data:`_PASS_REALISATIONS` realisations, each
-        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`,
-        bit for bit (:class:`LinearTrackRHS` is element-wise in the realisations)."""
+        """:meth:`simulate_many` of linear pairs along a speed profile (integrated by RK4): the pairs that share the steering
+        input, the course kinematics and whether a lateral acceleration acts, in passes of at most :data:`_PASS_REALISATIONS`
+        realisations, each pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`, bit for bit
+        (:class:`LinearTrackRHS` is element-wise in the realisations)."""
         out = [None] * len(thetas)
         kinds: dict = {}
         for i, s in enumerate(structures):
@@ -225,8 +232,7 @@ class AugmentedSimulator:
                 for i, s in enumerate(structures)]
 
     def _batch(self, thetas, structures, chassis: bool = False):
-        """Parameters, mean wind, gust coefficients and one structure (its per-pair fields as
-        arrays of n per pair) of the pairs' realisations side by side."""
+        """Parameters, mean wind, gust coefficients and one structure (per-pair fields: arrays of n per pair), pairs side by side."""
         n = self.germs.n
         parts = [self.parameters(th) for th in thetas]
         p = replace(parts[0][0], mu=np.concatenate([q[0].mu for q in parts]), l_f=np.concatenate([q[0].l_f for q in parts]),
@@ -237,18 +243,16 @@ class AugmentedSimulator:
         fields = {"tyre_curvature": self.car.E, "lateral_acceleration": 0.0, "course_weight": 0.0}
         if chassis:
             fields.update({f: 0.0 for f in _CHASSIS_FIELDS})
-        return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
+        return with_tyre_shape(p, structures[0]), wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
 
     def _chassis_many(self, thetas, structures) -> list:
-        """:meth:`simulate_many` of non-linear pairs some of which have chassis terms: the pairs of
-        the same kind (the same terms switched on, the same RK4 step) integrated in one pass, each
-        pair's gusts its own product, so that every pair gets the numbers of :meth:`simulate`, bit
-        for bit (the right-hand side is element-wise); the others one by one."""
+        """:meth:`simulate_many` of non-linear pairs some of which have chassis terms: the pairs of the same kind (the same
+        terms switched on, the same RK4 step) integrated in one pass, each pair's gusts its own product, so that every pair gets
+        the numbers of :meth:`simulate`, bit for bit (the right-hand side is element-wise); the others one by one."""
         out = [None] * len(thetas)
         kinds: dict = {}
         for i, s in enumerate(structures):
-            key = self._chassis_kind(s)
-            kinds.setdefault(key, []).append(i)
+            kinds.setdefault(self._chassis_kind(s), []).append(i)
         for key, members in kinds.items():
             if key is None or len(members) == 1:
                 for i in members:
