@@ -8,7 +8,7 @@ from uqdrive.inference.discrepancy.band import statistic_scale
 from uqdrive.inference.discrepancy.fit import StructureFit
 from uqdrive.settings import Settings
 from uqdrive.vehicle.augmented import AugmentedSimulator
-from uqdrive.vehicle.effects import with_tyre_shape
+from uqdrive.vehicle.effects import shape_parts, with_tyre_shape
 from uqdrive.vehicle.effects import EFFECTS, VANISHES, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 from uqdrive.vehicle.track_rk4 import SingleTrackRHS
@@ -114,3 +114,11 @@ def test_b_C_E_fitted_jointly_with_the_distributions_from_the_start(sim):
     sat = StructureFit(sim, index, noise, 0.2, effect=EFFECTS["tyre_saturation"], fit_theta=True, max_nfev=40).fit(
         measured, scale, start, effect_start=list(EFFECTS["tyre_saturation"].start))
     assert sat.chi2_ > 1e3
+
+
+def test_a_batch_is_split_by_group_then_by_shape():
+    """Indices by group and, within one, by shape in order of first use: a shape shared across two
+    groups is two parts (each group's numbers its own call's)."""
+    a, b, c = _shape(), _shape(0.8, 1.6, 0.2), ModelStructure()
+    assert shape_parts([a, b, a, c]) == [[0, 2], [1], [3]]
+    assert shape_parts([a, b, a, a], groups=[2, 2]) == [[0], [1], [2, 3]]

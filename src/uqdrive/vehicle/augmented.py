@@ -1,9 +1,9 @@
 """Ensembles of the single-track model with named effects added (a :class:`ModelStructure`), on
 any measured time grid and steering signal, from fixed germs (common random numbers).
 
-Linear structures are discretised exactly (first-order hold, as the LST ensembles); a non-linear
-tyre is integrated by vectorised RK4. With the germs fixed, the moments are smooth functions of
-the distribution and effect parameters, so optimisers can fit them (past the thesis).
+Linear structures are discretised exactly (first-order hold, as the LST ensembles); a non-linear tyre is integrated by
+vectorised RK4. With the germs fixed, the moments are smooth functions of the distribution and effect parameters, so
+optimisers can fit them (past the thesis).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import ParameterLayout, Settings
-from .effects import ModelStructure, with_tyre_shape
+from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
@@ -26,8 +26,7 @@ __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_in
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ParameterLayout.names
 _RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
-#: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a
-#: step's NumPy calls cost their arithmetic, and the half-step wind forces (2 steps x realisations) grow.
+#: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a step's NumPy calls cost their arithmetic.
 _PASS_REALISATIONS = 8000
 #: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000 realisations and 2000 half steps).
 _GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
@@ -103,8 +102,8 @@ class AugmentedSimulator:
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
               matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None) -> "AugmentedSimulator":
-        """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
-        moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
+        """A simulator on ``n`` germs drawn from ``rng`` (the KLE modes the horizon needs), moment-matched if ``matched``
+        (:meth:`Germs.matched`: for model ensembles, not for data)."""
         n_modes = kle_of_wind(settings.wind, float(np.asarray(time)[-1])).n_modes
         return cls(settings, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
 
@@ -188,11 +187,12 @@ class AugmentedSimulator:
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
 
     def _shapes_many(self, thetas, structures, groups) -> list:
-        """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each
-        group of one shape in its own call, the pairs of a group of several shapes alone."""
-        ends = np.cumsum(groups or [len(thetas)])
-        parts = [(thetas[a:b], structures[a:b]) for a, b in zip([0, *ends[:-1]], ends)]
-        return [x for th, ss in parts for x in (self.simulate_many(th, ss) if len({s.tyre_shape() for s in ss}) == 1 else map(self.simulate, th, ss))]
+        """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each group's pairs of one shape in one call."""
+        out = [None] * len(thetas)
+        for m in shape_parts(structures, groups):
+            for i, x in zip(m, self.simulate_many([thetas[i] for i in m], [structures[i] for i in m])):
+                out[i] = x
+        return out
 
     def _profile_many(self, thetas, structures) -> list:
         """:meth:`simulate_many` of linear pairs along a speed profile (integrated by RK4): the pairs that share the steering

@@ -12,10 +12,10 @@ import numpy as np
 
 from .sensors import SENSOR_CHANNELS, SensorBias, SensorScale, channel_effects
 from .structure import Effect, ModelStructure
-from .tyre import LoadSensitiveTyre, TyreShape, with_tyre_shape
+from .tyre import LoadSensitiveTyre, TyreShape, shape_parts, with_tyre_shape
 
 __all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS",
-           "SensorBias", "SensorScale", "LoadSensitiveTyre", "TyreShape", "with_tyre_shape"]
+           "SensorBias", "SensorScale", "LoadSensitiveTyre", "TyreShape", "with_tyre_shape", "shape_parts"]
 
 
 class TyreSaturation(Effect):

@@ -9,7 +9,7 @@ from dataclasses import replace
 from ..single_track import VehicleParameters
 from .structure import Effect, ModelStructure
 
-__all__ = ["LoadSensitiveTyre", "TyreShape", "with_tyre_shape"]
+__all__ = ["LoadSensitiveTyre", "TyreShape", "with_tyre_shape", "shape_parts"]
 
 
 class LoadSensitiveTyre(Effect):
@@ -46,3 +46,16 @@ def with_tyre_shape(p: VehicleParameters, s: ModelStructure) -> VehicleParameter
     if b == 1.0 and C is None:
         return p
     return replace(p, c_Sf=p.c_Sf * b, c_Sr=p.c_Sr * b, C=p.C if C is None else C)
+
+
+def shape_parts(structures, groups=None) -> list:
+    """Indices of ``structures`` by group (``groups``: sizes of consecutive runs of them; None: one)
+    and within a group by tyre shape (:meth:`ModelStructure.tyre_shape`), a group's shapes in order of first use."""
+    parts, start = [], 0
+    for size in groups or [len(structures)]:
+        shapes: dict = {}
+        for i in range(start, start + size):
+            shapes.setdefault(structures[i].tyre_shape(), []).append(i)
+        parts += shapes.values()
+        start += size
+    return parts
