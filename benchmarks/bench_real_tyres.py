@@ -55,16 +55,32 @@ EXPECTED = {
 
 def judge(row: dict) -> str:
     """Physical (every named effect present in the reality, the gap at least halved or an
-    `unrecognised` rest after what is named), or what is wrong."""
+    `unrecognised` rest after what is named, or `unrecognised` alone where no candidate fitted
+    closes half the chi2 excess), or what is wrong."""
     named = [e["effect"] for e in row.get("effects") or []]
     wrong = [n for n in named if n not in PRESENT_BY_CAR[row.get("car", "sedan")]]
     if wrong:
         return f"names {', '.join(wrong)}, absent from the reality"
     if named == ["unrecognised"] and row["gap_after"] >= row["gap_before"]:
+        best = row.get("best") or {}
+        if best.get("share_closed") is not None and best["share_closed"] < 0.5:
+            return f"physical: `unrecognised`, no candidate closes half the chi2 excess (`{best['effect']}` {best['share_closed']:.2f})"
         return "`unrecognised` alone, gap unchanged"
     if row["gap_after"] <= 0.5 * row["gap_before"] or "unrecognised" in named or row["gap_before"] == 0:
         return "physical"
     return "gap not halved"
+
+
+def best_candidate(verdict: dict) -> dict:
+    """The first forward step's best candidate of a ``verdict`` (its document) and the share of the
+    baseline's chi2 excess it closes on the linear footing, as the acceptance judged it."""
+    ev = verdict["evidence"]
+    fits = {k: c for k, c in (ev.get("candidates") or {}).items() if "chi2_linear_footing" in c}
+    if not fits:
+        return {}
+    name = min(fits, key=lambda k: fits[k]["chi2_linear_footing"])
+    share = (ev["chi2_baseline"] - fits[name]["chi2_linear_footing"]) / ev["excess_chi2"] if ev.get("excess_chi2") else None
+    return {"effect": name, "chi2": fits[name]["chi2_linear_footing"], "share_closed": None if share is None else round(share, 4)}
 
 
 def _effect_cell(e) -> str:
@@ -141,6 +157,7 @@ def main(argv=None):
             v = json.loads((target / "verdict.json").read_text())
             row.update({k: v.get(k) for k in ("effect", "effects", "gap_before", "gap_after", "warnings")})
             row["steps"] = [{k: s.get(k) for k in ("effect", "chi2", "explains") if k in s} for s in (v["evidence"].get("steps") or [])]
+            row["best"] = best_candidate(v)
             row["judged"] = judge(row)
         old[case.name] = row
         print(json.dumps(row, default=str), flush=True)
