@@ -1,9 +1,13 @@
 """The real-tyres discovery benchmark: measured ensembles of the independent Pacejka single-track
 reality (uqdrive.vehicle.realities: load-dependent tyres, wheel spin, combined slip, a speed-holding
-drive) in a step and a slalom at 0.3, 0.6 and 0.9 of its limit, each given to `uqdrive discover`
+drive) in a step and a slalom at 0.3, 0.6 and 0.9 of its limit, a car whose tyres have their own
+shape and a multi-body-like car (roll camber, relaxing tyres), each given to `uqdrive discover`
 with every registered candidate, as a new user would (labels in a folder discover never reads).
 
     python benchmarks/bench_real_tyres.py --out DIR [--samples 200] [--cases a,b] [--json FILE]
+
+A run merges its cases' rows into the rows of --json (when it exists) and of DIR/summary.json (a
+case run again replaces its row) and writes them all to both: one case can be added to the record.
     python benchmarks/bench_real_tyres.py --out DIR --table      # the results table of docs/real_tyres.md
 
 Writes DIR/config.yaml (the default config plus cg_height and track_width: the vehicle file a user
@@ -23,15 +27,17 @@ import yaml
 
 from uqdrive.config import load_config
 from uqdrive.io import write_dataset
-from uqdrive.studies.real_tyres import amplitude_for, case_label, generate, real_tyre_cases, steady_limit
-from uqdrive.vehicle.realities import PacejkaCar
+from uqdrive.studies.real_tyres import CARS, amplitude_for, case_label, generate, real_tyre_cases, steady_limit
 
 CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m: the car's; the track is what a user enters for a real car, the reality has none
 
-#: Effects the reality has (a named effect outside it is a false one), and those it has not.
-PRESENT = ("tyre_saturation", "lateral_kinematics", "longitudinal_load_transfer", "load_sensitive_tyre", "combined_slip", "unrecognised")
+#: Effects the reality has (a named effect outside it is a false one), and those it has not; the
+#: rolling car's front roll camber is a steer by the roll mode (roll_steer's physics), its rear's no candidate's.
+PRESENT = ("tyre_saturation", "tyre_shape", "lateral_kinematics", "longitudinal_load_transfer", "load_sensitive_tyre", "combined_slip",
+           "unrecognised")
 ABSENT = ("lateral_load_transfer", "road_bank", "wind_gust", "sensor_bias", "sensor_scale", "actuator_lag", "actuator_delay",
           "compliance_steer", "roll_steer", "tyre_relaxation")
+PRESENT_BY_CAR = {"sedan": PRESENT, "reshaped": PRESENT, "rolling": PRESENT + ("roll_steer", "tyre_relaxation")}
 
 #: What discover should name on each case (docs/real_tyres.md, stated before the run), order free.
 EXPECTED = {
@@ -41,21 +47,40 @@ EXPECTED = {
     "rt_slalom_030": "lateral_kinematics; load_sensitive_tyre possible",
     "rt_slalom_060": "lateral_kinematics, tyre_saturation; load_sensitive_tyre or an `unrecognised` rest",
     "rt_slalom_090": "tyre_saturation, lateral_kinematics, load_sensitive_tyre or combined_slip; `unrecognised` rest possible",
+    "rt_shape_step_090": "tyre_shape with b 1.45, C 1.3, E -0.3 in its intervals, lateral_kinematics; nothing else",
+    "rt_roll_slalom_060": "roll_steer (the front camber: K about 0.7 deg/g, f 1.4 Hz), tyre_relaxation (sigma 0.6 m), lateral_kinematics, "
+                          "tyre_saturation or tyre_shape; the rear camber an `unrecognised` rest",
 }
 
 
 def judge(row: dict) -> str:
     """Physical (every named effect present in the reality, the gap at least halved or an
-    `unrecognised` rest after what is named), or what is wrong."""
+    `unrecognised` rest after what is named, or `unrecognised` alone where no candidate fitted
+    closes half the chi2 excess), or what is wrong."""
     named = [e["effect"] for e in row.get("effects") or []]
-    wrong = [n for n in named if n not in PRESENT]
+    wrong = [n for n in named if n not in PRESENT_BY_CAR[row.get("car", "sedan")]]
     if wrong:
         return f"names {', '.join(wrong)}, absent from the reality"
     if named == ["unrecognised"] and row["gap_after"] >= row["gap_before"]:
+        best = row.get("best") or {}
+        if best.get("share_closed") is not None and best["share_closed"] < 0.5:
+            return f"physical: `unrecognised`, no candidate closes half the chi2 excess (`{best['effect']}` {best['share_closed']:.2f})"
         return "`unrecognised` alone, gap unchanged"
     if row["gap_after"] <= 0.5 * row["gap_before"] or "unrecognised" in named or row["gap_before"] == 0:
         return "physical"
     return "gap not halved"
+
+
+def best_candidate(verdict: dict) -> dict:
+    """The first forward step's best candidate of a ``verdict`` (its document) and the share of the
+    baseline's chi2 excess it closes on the linear footing, as the acceptance judged it."""
+    ev = verdict["evidence"]
+    fits = {k: c for k, c in (ev.get("candidates") or {}).items() if "chi2_linear_footing" in c}
+    if not fits:
+        return {}
+    name = min(fits, key=lambda k: fits[k]["chi2_linear_footing"])
+    share = (ev["chi2_baseline"] - fits[name]["chi2_linear_footing"]) / ev["excess_chi2"] if ev.get("excess_chi2") else None
+    return {"effect": name, "chi2": fits[name]["chi2_linear_footing"], "share_closed": None if share is None else round(share, 4)}
 
 
 def _effect_cell(e) -> str:
@@ -100,20 +125,24 @@ def main(argv=None):
     config = load_config(None)
     config["vehicle"].update(cg_height=CG_HEIGHT, track_width=TRACK_WIDTH)
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-    car = PacejkaCar()
-    limit = steady_limit(config, car)
+    limits = {}
     keep = set(args.cases.split(",")) if args.cases else None
-    old = {r["name"]: r for r in json.loads((out / "summary.json").read_text())} if (out / "summary.json").exists() else {}
+    old = {}
+    for record in (args.json, out / "summary.json"):  # the record's rows, then this folder's (newer) ones
+        if record is not None and record.exists():
+            old.update({r["name"]: r for r in json.loads(record.read_text())})
     for i, case in enumerate(real_tyre_cases(config, samples=args.samples)):
         if keep and case.name not in keep:
             continue
         tag = f"case_{i + 1:02d}"
         data = out / "data" / f"{tag}.nc"
+        car = CARS[case.car]
         if not data.exists():
+            limit = limits[case.car] = limits.get(case.car) or steady_limit(config, car)
             amplitude = amplitude_for(config, car, case, limit)
             write_dataset(generate(config, case, amplitude, car), data)
             (out / "labels" / f"{tag}.json").write_text(json.dumps(case_label(case, amplitude, limit, car), indent=1))
-        row = {"case": tag, "name": case.name, "level": case.level, "runs": case.samples,
+        row = {"case": tag, "name": case.name, "car": case.car, "level": case.level, "runs": case.samples,
                "amplitude_deg": json.loads((out / "labels" / f"{tag}.json").read_text())["amplitude_deg"]}
         target = out / "discover" / tag
         cpu0 = _children_cpu()
@@ -128,6 +157,7 @@ def main(argv=None):
             v = json.loads((target / "verdict.json").read_text())
             row.update({k: v.get(k) for k in ("effect", "effects", "gap_before", "gap_after", "warnings")})
             row["steps"] = [{k: s.get(k) for k in ("effect", "chi2", "explains") if k in s} for s in (v["evidence"].get("steps") or [])]
+            row["best"] = best_candidate(v)
             row["judged"] = judge(row)
         old[case.name] = row
         print(json.dumps(row, default=str), flush=True)

@@ -89,6 +89,7 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "gpu_ensembles.md", gpu_ensembles(root / "docs" / "measurements" / "gpu.json"))
     _write(outdir / "real_tyres_cases.md", real_tyres(root, "cases"))
     _write(outdir / "real_tyres_results.md", real_tyres(root, "results"))
+    _write(outdir / "real_tyres_cars.md", real_tyres(root, "cars"))
 
 
 def substitutions() -> dict[str, str]:
@@ -146,22 +147,31 @@ def four_wheel_cases(root: Path) -> str:
 
 def real_tyres(root: Path, part: str) -> str:
     """The real-tyres benchmark's cases with the expectation benchmarks/bench_real_tyres.py states
-    for each (``part`` "cases"), or its results table from the committed docs/real_tyres.json
-    ("results")."""
+    for each (``part`` "cases"), its results table from the committed docs/real_tyres.json
+    ("results"), or each car's constants that differ from the sedan's ("cars")."""
     import importlib.util
     import json
 
-    from uqdrive.studies.real_tyres import real_tyre_cases
+    from dataclasses import asdict
+
+    from uqdrive.studies.real_tyres import CARS, real_tyre_cases
 
     spec = importlib.util.spec_from_file_location("bench_real_tyres", root / "benchmarks" / "bench_real_tyres.py")
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
     if part == "results":
         return bench.table(json.loads((root / "docs" / "real_tyres.json").read_text())) + "\n"
-    lines = ["| case | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---:|---:|---|"]
+    if part == "cars":
+        sedan = asdict(CARS["sedan"])
+        lines = ["| car | constants other than the sedan's |", "|---|---|"]
+        for name, car in CARS.items():
+            own = {k: v for k, v in asdict(car).items() if sedan.get(k) != v}
+            lines.append(f"| `{name}` | {', '.join(f'{k} {v:.4g}' for k, v in own.items()) or '(the sedan)'} |")
+        return "\n".join(lines) + "\n"
+    lines = ["| case | car | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---|---:|---:|---|"]
     for c in real_tyre_cases({"seed": 0}):
         params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
-        lines.append(f"| `{c.name}` | {c.manoeuvre} ({params}) | {c.level:g} | {c.t_end:g} | {_cell(bench.EXPECTED[c.name])} |")
+        lines.append(f"| `{c.name}` | `{c.car}` | {c.manoeuvre} ({params}) | {c.level:g} | {c.t_end:g} | {_cell(bench.EXPECTED[c.name])} |")
     return "\n".join(lines) + "\n"
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import ParameterLayout, Settings
-from .effects import ModelStructure
+from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .effects.terms import CHASSIS_FIELDS
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
@@ -22,7 +22,7 @@ from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, in
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
 from .uncertainty import Germs, kle_of_wind, uniform_from_germ
 
-__all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator", "ensemble_moments"]
+__all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator"]
 
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ParameterLayout.names
@@ -148,6 +148,7 @@ class AugmentedSimulator:
         default psi, psi_dot, beta, y) of every realisation (of ``germs`` if given, else of the
         simulator's own)."""
         p, wind, coeffs = self.parameters(theta, germs)
+        p = with_tyre_shape(p, structure)
         coeffs = coeffs * structure.gust_scale
         delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
         if self.speed is not None or self.channels != STATES:
@@ -165,7 +166,8 @@ class AugmentedSimulator:
     def simulate_many(self, thetas, structures, groups=None) -> list:
         """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model
         is integrated numerically (one RK4 pass over all realisations of all pairs: a step's
-        NumPy call overhead is paid once; at 300 realisations it is half the cost of a pass).
+        NumPy call overhead is paid once; at 300 realisations it is half the cost of a pass);
+        pairs of different tyre shapes (b, C) in passes of one shape each.
 
         ``groups``: numbers of consecutive pairs (summing to their count) that are computed as
         if each group were a call of its own: the pairs of a group get the same numbers, to the
@@ -173,6 +175,8 @@ class AugmentedSimulator:
         Default: one group.
         """
         thetas, n = [np.asarray(th, float) for th in thetas], self.germs.n
+        if len({s.tyre_shape() for s in structures}) > 1:
+            return self._shapes_many(thetas, structures, groups)
         if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
             return self._profile_many(thetas, structures)
         first = structures[0]
@@ -186,6 +190,14 @@ class AugmentedSimulator:
             return self._in_passes(thetas, structures, lambda s: (s.tyre, bool(s.course_exact), self._substeps(s)), max(1, _PASS_REALISATIONS // n),
                                    per_pair_input=True)
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
+
+    def _shapes_many(self, thetas, structures, groups) -> list:
+        """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each group's pairs of one shape in one call."""
+        out = [None] * len(thetas)
+        for m in shape_parts(structures, groups):
+            for i, x in zip(m, self.simulate_many([thetas[i] for i in m], [structures[i] for i in m])):
+                out[i] = x
+        return out
 
     def _in_passes(self, thetas, structures, kind, per_pass: int | None = None, **options) -> list:
         """:meth:`simulate_many` of the pairs whose ``kind(structure)`` is equal (None: a pair of
@@ -247,7 +259,7 @@ class AugmentedSimulator:
         fields = {"tyre_curvature": self.car.E, "lateral_acceleration": 0.0, "course_weight": 0.0}
         if chassis:
             fields.update({f: 0.0 for f in CHASSIS_FIELDS})
-        return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
+        return with_tyre_shape(p, structures[0]), wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
 
     def _chassis_kind(self, s: ModelStructure):
         """What must be equal for pairs to share an RK4 pass of the chassis right-hand side: the
@@ -389,27 +401,3 @@ class AugmentedSimulator:
                                      reference_loads=self._reference_loads)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
-
-
-def ensemble_moments(x, spin_threshold: float | None = None):
-    """Mean and standard deviation (ddof 1) over realisations, without those that lost control.
-
-    Parameters
-    ----------
-    x : ndarray, shape (4, n, T)
-        n realisations of the four states, each in its unit (rad, rad/s, rad, m).
-    spin_threshold : float, optional
-        |beta| (rad) above which a realisation counts as lost control (excluded).
-
-    Returns
-    -------
-    mean, std : ndarray, shape (4, T)
-    used : ndarray of bool, shape (n,)
-    """
-    used = np.ones(x.shape[1], bool)
-    if spin_threshold is not None:
-        used = ~np.any(np.abs(x[2]) > spin_threshold, axis=-1)
-    if used.sum() < 2:
-        used[:] = True
-    xs = x[:, used]
-    return xs.mean(axis=1), xs.std(axis=1, ddof=1), used

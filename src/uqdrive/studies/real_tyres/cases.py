@@ -1,5 +1,6 @@
 """Measured ensembles of the Pacejka single-track reality (:mod:`uqdrive.vehicle.realities`): a
-step steer and the thesis' slalom at 0.3, 0.6 and 0.9 of the car's lateral-acceleration limit.
+step steer and the thesis' slalom at 0.3, 0.6 and 0.9 of the car's lateral-acceleration limit, a
+car whose tyres have another shape than the vehicle file's, and a multi-body-like car.
 
 A run draws mu, m_load, l_f (normal) and the mean wind (uniform) from the config's ``uncertainty``
 section and the KLE gusts from ``wind``, as the Monte Carlo ensembles do; the car's own tyres,
@@ -16,7 +17,7 @@ import numpy as np
 
 from ...rng import rng_stream
 from ...settings import Settings
-from ...vehicle.realities import PacejkaCar, simulate_pacejka
+from ...vehicle.realities import PacejkaCar, RollingCar, simulate_pacejka
 from ..four_wheel.cases import add_noise, case_label, measured_dataset, output_grid
 from ..hidden_effects import wind_kle
 from ..manoeuvres import steering_command
@@ -24,7 +25,7 @@ from ..manoeuvres import steering_command
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["RealTyreCase", "REAL_TYRE_CASES", "real_tyre_cases", "steady_limit", "amplitude_for", "simulate_case", "generate", "case_label"]
+__all__ = ["RealTyreCase", "REAL_TYRE_CASES", "CARS", "real_tyre_cases", "steady_limit", "amplitude_for", "simulate_case", "generate", "case_label"]
 
 STEP = 0.002  # s, RK4 step: the wheels' slip mode has |h lambda| < 1 below it
 STREAM_KEY = 5  # keys the streams apart from the other benchmarks'
@@ -34,8 +35,8 @@ STREAM_KEY = 5  # keys the streams apart from the other benchmarks'
 class RealTyreCase:
     """One case: ``name`` (a label), ``manoeuvre`` ("step" or "slalom"), ``level`` (the nominal
     car's peak |a_y| as a fraction of its steady limit), ``manoeuvre_params``, ``samples``,
-    ``seed``, ``t_end`` (s) and ``noise`` (measurement-noise std per channel, a fraction of its
-    typical RMS)."""
+    ``seed``, ``t_end`` (s), ``noise`` (measurement-noise std per channel, a fraction of its
+    typical RMS) and ``car`` (a name of :data:`CARS`)."""
 
     name: str
     manoeuvre: str
@@ -45,6 +46,7 @@ class RealTyreCase:
     seed: int = 0
     t_end: float = 10.0
     noise: float = 0.01
+    car: str = "sedan"
 
     def __post_init__(self):
         object.__setattr__(self, "manoeuvre_params", tuple(sorted(dict(self.manoeuvre_params).items())))
@@ -124,19 +126,31 @@ def generate(config: Mapping[str, Any], case: RealTyreCase, amplitude_deg: float
     return measured_dataset(t, delta, y, _speed(config))
 
 
-#: name, manoeuvre, level (of the steady limit), manoeuvre parameters, duration (s)
+#: The cars of the cases: the sedan (the vehicle file's chassis and tyre shape, load-sensitive tyres);
+#: ``reshaped``, tyres whose own shape (B_f, B_r 1.45 times the file's, C 1.3, E -0.3) is not the
+#: file's (1.9, 0.97) and otherwise ideal (peak and cornering stiffness proportional to the load);
+#: ``rolling``, the sedan with a roll mode, roll camber on both axles and relaxing tyres.
+CARS = {
+    "sedan": PacejkaCar(),
+    "reshaped": PacejkaCar(B_f=10.6 * 1.45, B_r=30.4 * 1.45, C=1.3, E=-0.3, p_Dz=0.0, q_Ky=1e6),
+    "rolling": RollingCar(),
+}
+
+#: name, manoeuvre, level (of the steady limit), manoeuvre parameters, duration (s), car
 REAL_TYRE_CASES = [
-    ("rt_step_030", "step", 0.3, {"ramp": 0.4}, 6.0),
-    ("rt_step_060", "step", 0.6, {"ramp": 0.4}, 6.0),
-    ("rt_step_090", "step", 0.9, {"ramp": 0.4}, 6.0),
-    ("rt_slalom_030", "slalom", 0.3, {"period": 4.0}, 10.0),
-    ("rt_slalom_060", "slalom", 0.6, {"period": 4.0}, 10.0),
-    ("rt_slalom_090", "slalom", 0.9, {"period": 4.0}, 10.0),
+    ("rt_step_030", "step", 0.3, {"ramp": 0.4}, 6.0, "sedan"),
+    ("rt_step_060", "step", 0.6, {"ramp": 0.4}, 6.0, "sedan"),
+    ("rt_step_090", "step", 0.9, {"ramp": 0.4}, 6.0, "sedan"),
+    ("rt_slalom_030", "slalom", 0.3, {"period": 4.0}, 10.0, "sedan"),
+    ("rt_slalom_060", "slalom", 0.6, {"period": 4.0}, 10.0, "sedan"),
+    ("rt_slalom_090", "slalom", 0.9, {"period": 4.0}, 10.0, "sedan"),
+    ("rt_shape_step_090", "step", 0.9, {"ramp": 0.4}, 6.0, "reshaped"),
+    ("rt_roll_slalom_060", "slalom", 0.6, {"period": 2.0}, 8.0, "rolling"),
 ]
 
 
 def real_tyre_cases(config: Mapping[str, Any], samples: int = 200) -> list[RealTyreCase]:
-    """The six cases, seeds from the config's root seed."""
+    """The cases, seeds from the config's root seed."""
     root = int(config["seed"])
-    return [RealTyreCase(name, manoeuvre, level, params, samples, root + 501 + i, t_end)
-            for i, (name, manoeuvre, level, params, t_end) in enumerate(REAL_TYRE_CASES)]
+    return [RealTyreCase(name, manoeuvre, level, params, samples, root + 501 + i, t_end, car=car)
+            for i, (name, manoeuvre, level, params, t_end, car) in enumerate(REAL_TYRE_CASES)]

@@ -12,10 +12,10 @@ import numpy as np
 
 from .sensors import SENSOR_CHANNELS, SensorBias, SensorScale, channel_effects
 from .structure import Effect, ModelStructure
-from .tyre import LoadSensitiveTyre
+from .tyre import LoadSensitiveTyre, TyreShape, shape_parts, with_tyre_shape
 
 __all__ = ["ModelStructure", "Effect", "EFFECTS", "FAMILIES", "VANISHES", "PHYSICAL", "effect", "expand_names", "channel_effects", "structure_from_effects", "acts_on", "SENSOR_CHANNELS",
-           "SensorBias", "SensorScale", "LoadSensitiveTyre"]
+           "SensorBias", "SensorScale", "LoadSensitiveTyre", "TyreShape", "with_tyre_shape", "shape_parts"]
 
 
 class TyreSaturation(Effect):
@@ -183,6 +183,12 @@ EFFECTS: dict[str, Effect] = {
         "longitudinal acceleration at the car's cg_height) against the nominal car's",
         "the spread of the yaw-rate gain over the runs shrinks (q < 0: a more loaded axle gains less than its load); "
         "braking in a turn adds understeer, driving oversteer; with p_Dz the saturated forces too", requires=("cg_height",)),
+    "tyre_shape": TyreShape(
+        "tyre_shape", ("b", "C", "E"), ("-", "-", "-"), ((0.3, 3.0), (1.0, 2.5), (-2.0, 1.0)), (1.0, 1.6, 0.5),
+        "the tyre's own Magic-Formula shape instead of the car's: F_i = mu F_z,i sin(C atan(b B_i alpha - E (b B_i alpha - atan(b B_i alpha)))), "
+        "b the factor on the car's B_f and B_r, C and E fitted with the distributions",
+        "like tyre_saturation, with the slope at small slip (b C) and the fall past the peak (C) the data's own: "
+        "peaks of psi_dot and beta flattened where the lateral acceleration is high, the spread over mu changed with them"),
 }
 
 #: The value of an effect's magnitude parameter at which the effect vanishes (the baseline's model):

@@ -67,6 +67,10 @@ class ModelStructure:
         q (-) and p_Dz (-) of the load-sensitive tyre: axle i's cornering stiffness and peak times
         1 + q dfz_i and 1 + p_Dz dfz_i, dfz_i its relative load change by the longitudinal
         acceleration at the car's cg_height (``pitch_height`` where set); 0, 0: none.
+    tyre_stiffness_factor : float
+        b (-): factor on the car's Magic-Formula stiffness factors B_f and B_r (the tyre's own shape); 1: the car's.
+    tyre_shape_factor : float or None
+        The Magic-Formula shape factor C (-); None takes the car's ``C``.
     a_y_offset, a_y_gain : float
         Measured lateral acceleration = gain * a_y + offset (m/s^2, -): the accelerometer's own
         bias and scale error (the states' are in ``output_offset``, ``output_gain``).
@@ -97,6 +101,13 @@ class ModelStructure:
     drive_share_front: float = 0.0
     stiffness_load_sensitivity: float = 0.0
     peak_load_sensitivity: float = 0.0
+    tyre_stiffness_factor: float = 1.0
+    tyre_shape_factor: float | None = None
+
+    def tyre_shape(self) -> tuple[float, float | None]:
+        """(b, C) of the tyre's own shape: what a :class:`~uqdrive.vehicle.single_track.VehicleParameters`
+        takes from the structure (B_f, B_r times b; C unless None)."""
+        return float(self.tyre_stiffness_factor), None if self.tyre_shape_factor is None else float(self.tyre_shape_factor)
 
     def output_map(self, channels=STATES) -> tuple[np.ndarray, np.ndarray]:
         """Gain and offset (each shape (C,)) of the measured ``channels`` (names of

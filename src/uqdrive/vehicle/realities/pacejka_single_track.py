@@ -90,6 +90,10 @@ class PacejkaCar:
         m = self.m_base + self.m_load_nominal
         return np.array([[m * self.g * (self.wheelbase - self.l_f_nominal)], [m * self.g * self.l_f_nominal]]) / self.wheelbase
 
+    def right_hand_side(self, *args) -> "PacejkaRHS":
+        """The car's :class:`PacejkaRHS` of ``args`` (its arguments after the car)."""
+        return PacejkaRHS(self, *args)
+
 
 class PacejkaRHS:
     """dx/dt (8, n) of the car for runs with friction ``mu``, load ``m_load`` (kg) and ``l_f`` (m),
@@ -113,13 +117,25 @@ class PacejkaRHS:
         c = self.car
         return c.rolling_resistance * self.m * c.g + 0.5 * c.air_density * c.drag_area * v_x * v_x
 
+    #: Rows of the state: :data:`STATE_ROWS` (a richer car's right-hand side appends its own).
+    n_states = len(STATE_ROWS)
+
+    def kinematic_slip(self, x, delta):
+        """Slip angles (2, n) (rad) of the wheels' velocities at state ``x`` and steer angle ``delta`` (n,)."""
+        r, v_x, v_y = x[1], x[2], x[3]
+        return np.stack([delta - np.arctan((v_y + self.l_f * r) / v_x), -np.arctan((v_y - self.l_r * r) / v_x)])
+
+    def slip_angles(self, x, kinematic):
+        """The slip angles (2, n) (rad) the tyres' forces follow: the ``kinematic`` ones."""
+        return kinematic
+
     def forces(self, x, j):
         """Tyre forces F_x, F_y (2, n) each (N) in the wheels' frames, loads F_z (2, n) (N), slips
         kappa, alpha (2, n) and the steer angle (n,) at state ``x`` (8, n) and half step ``j``."""
         c = self.car
         r, v_x, v_y, om = x[1], x[2], x[3], x[5:7]
         delta = np.broadcast_to(self.delta(j), v_x.shape)
-        alpha = np.stack([delta - np.arctan((v_y + self.l_f * r) / v_x), -np.arctan((v_y - self.l_r * r) / v_x)])
+        alpha = self.slip_angles(x, self.kinematic_slip(x, delta))
         u = np.stack([v_x * np.cos(delta) + (v_y + self.l_f * r) * np.sin(delta), v_x])
         kappa = (c.wheel_radius * om - u) / np.maximum(np.abs(u), 1.0)
         a_x = np.zeros_like(v_x)
@@ -135,9 +151,13 @@ class PacejkaRHS:
         return F_x, F_y, F_z, kappa, alpha, delta
 
     def __call__(self, x, j):
+        return self.derivatives(x, j, *self.forces(x, j))
+
+    def derivatives(self, x, j, F_x, F_y, F_z, kappa, alpha, delta):
+        """dx/dt (``n_states``, n) at state ``x`` and half step ``j`` of the tyre forces
+        F_x, F_y (2, n) (N) and the steer angle ``delta`` (n,) (rad) of :meth:`forces`."""
         c = self.car
         r, v_x, v_y, psi = x[1], x[2], x[3], x[0]
-        F_x, F_y, _, _, _, delta = self.forces(x, j)
         F_res = self.resistance(v_x)
         F_w = self.F_w(j)
         lat_f = F_x[0] * np.sin(delta) + F_y[0] * np.cos(delta)
@@ -184,20 +204,21 @@ def simulate_pacejka(car: PacejkaCar, mu, m_load, l_f, delta_half, v_ref: float,
 
     Returns
     -------
-    x : ndarray, shape (8, n, K + 1)
-        The rows of :data:`STATE_ROWS` at every ``every``-th step, K = n_steps // every.
+    x : ndarray, shape (S, n, K + 1)
+        The rows of :data:`STATE_ROWS` (and a richer car's own after them: S its right-hand side's
+        ``n_states``) at every ``every``-th step, K = n_steps // every.
     a_y : ndarray, shape (n, K + 1)
         Lateral acceleration (m/s^2).
     """
     mu = np.asarray(mu, float)
     n = mu.size
     delta_half = np.asarray(delta_half, float)
-    rhs = PacejkaRHS(car, mu, m_load, l_f, lambda j: delta_half[j], lambda j: F_w_half[j], lambda j: M_w_half[j], v_ref, torque)
-    x = np.zeros((8, n))
+    rhs = car.right_hand_side(mu, m_load, l_f, lambda j: delta_half[j], lambda j: F_w_half[j], lambda j: M_w_half[j], v_ref, torque)
+    x = np.zeros((rhs.n_states, n))
     x[2] = v_ref
     x[5:7] = v_ref / car.wheel_radius
     K = n_steps // every
-    states, a_y = np.empty((8, n, K + 1)), np.empty((n, K + 1))
+    states, a_y = np.empty((rhs.n_states, n, K + 1)), np.empty((n, K + 1))
     states[:, :, 0], a_y[:, 0] = x, rhs.lateral_acceleration(x, 0)
     for k in range(1, n_steps + 1):
         j = 2 * (k - 1)
