@@ -247,3 +247,15 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
         structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta, scale_=np.ones((2, 4, 10)))
     f.joint = joint_lowered_wins
     assert list(f.probe(lowered, ["tyre_saturation"], {}, chi2).theta_) == lowered
+
+
+def test_of_candidates_tied_with_the_best_the_one_with_fewest_parameters_leads():
+    """tyre_shape (3 parameters) fits 2 better than tyre_saturation (1): within a margin of 5
+    the data cannot tell them apart and the special case leads; outside it the better fit does."""
+    from uqdrive.inference.discrepancy.selection import simplest_first
+
+    fits = {"tyre_shape": 100.0, "tyre_saturation": 102.0, "road_bank": 150.0}
+    chi2 = lambda f: f  # noqa: E731
+    assert simplest_first(fits, chi2, 5.0) == ["tyre_saturation", "tyre_shape", "road_bank"]
+    assert simplest_first(fits, chi2, 1.0) == ["tyre_shape", "tyre_saturation", "road_bank"]
+    assert simplest_first({}, chi2, 1.0) == []

@@ -218,6 +218,20 @@ def dynamic_pairs(comparison, fitter, cur, cur_band, names, values, fits, screen
     return _pair_steps(comparison, fits, screening, a, comparison.own_band(fits[a], key=key), b, pair, prev_gap, key, margin)
 
 
+def simplest_first(fits, chi2, margin) -> list:
+    """The candidates of ``fits`` by chi2, except that of those tied with the best (within
+    ``margin``, as :func:`_step` calls them ambiguous) the one with the fewest parameters leads:
+    where the data cannot tell a general effect from a special case of it (the tyre's whole
+    shape from its peak alone), the special case is named and the general one listed as
+    ambiguous, not the other way round."""
+    order = sorted(fits, key=lambda c: chi2(fits[c]))
+    if not order:
+        return order
+    tied = [c for c in order if chi2(fits[c]) - chi2(fits[order[0]]) <= margin]
+    lead = min(tied, key=lambda c: (len(EFFECTS[c].parameters), chi2(fits[c])))
+    return [lead] + [c for c in order if c != lead]
+
+
 def forward_selection(comparison, fitter, candidates, max_effects, base, band, start_effects, lap) -> Forward:
     """Add effects of ``candidates`` (at most ``max_effects``) to ``base`` (judged by ``band``) while each one is justified: its joint fit lowers chi2 by more than its
     penalty plus the null-calibrated margin, its size is resolvable and told from none
@@ -244,7 +258,7 @@ def forward_selection(comparison, fitter, candidates, max_effects, base, band, s
         margin, per_param = criterion(cur_band)
         prev_gap = excess_rms(cur.z_, cur_band)
         chosen, stalled, best = None, None, min(fits, key=lambda c: chi2(fits[c]))
-        for c in sorted(fits, key=lambda c: chi2(fits[c])):
+        for c in simplest_first(fits, chi2, margin):
             fc = fits[c]
             ok, why = resolvable(c, fitted_values(fc)[c], data.delta, data.dt)
             if not ok:

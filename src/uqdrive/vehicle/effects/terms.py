@@ -80,7 +80,7 @@ class Term:
 #: The model's terms; every field of ModelStructure (but the provenance ``effects``) is in one.
 TERMS = (
     Term("actuator", ("steering_lag", "steering_delay"), (("steering_lag", _positive), ("steering_delay", _positive))),
-    Term("tyre", ("tyre", "tyre_curvature"), (("tyre", _saturating),), integrated=True),
+    Term("tyre", ("tyre", "tyre_curvature", "tyre_stiffness_factor", "tyre_shape_factor"), (("tyre", _saturating),), integrated=True),
     Term("kinematics", ("course_weight", "course_exact"), (("course_weight", _nonzero), ("course_exact", _nonzero))),
     Term("disturbance", ("lateral_acceleration", "gust_scale"), (("lateral_acceleration", _nonzero), ("gust_scale", _not_one))),
     Term("load_transfer", ("pitch_height", "load_sensitivity", "roll_share_front"),
