@@ -21,3 +21,10 @@ def test_readme_python_example_runs(capsys, tmp_path, monkeypatch):
     out = capsys.readouterr().out
     assert out.splitlines()[0] == est.summary() and "mu N(" in out
     assert os.path.getsize(tmp_path / "fit.png") > 0
+
+
+def test_readme_types_no_measured_time():
+    """Measured times live in committed records that docs/benchmarks.md renders; a time typed
+    into the README ("24 min 54 s", "5 min 56 s") drifts from them."""
+    typed = re.findall(r"\b\d+ min \d+ s\b|\b\d+(?:\.\d+)? (?:minutes|min|CPU-s(?:econds)?) (?:measured|on an idle)", README.read_text())
+    assert not typed, f"README.md types measured times {typed}: point to docs/benchmarks.md instead"
