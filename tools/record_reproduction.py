@@ -14,6 +14,7 @@ import collections
 import csv
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -41,6 +42,16 @@ def scorecard_counts(path: Path) -> dict:
     return {"rows": len(status), "pass": status.count("pass"), "deviate": status.count("deviates"), "fail": status.count("fail")}
 
 
+def dag_steps(results: Path) -> int | None:
+    """The DAG's steps (its jobs, the target rule included) from the run's newest Snakemake log that finished one."""
+    logs = sorted((results.parent / ".snakemake" / "log").glob("*.snakemake.log"), reverse=True)
+    for log in logs:
+        done = re.findall(r"^(\d+) of \1 steps \(100%\) done", log.read_text(errors="replace"), re.M)
+        if done:
+            return int(done[-1])
+    return None
+
+
 def record(results: Path, wall_s: float, machine: str, command: str) -> dict:
     times = rule_times(results)
     ranked = sorted(times.items(), key=lambda kv: -kv[1][1])
@@ -50,7 +61,7 @@ def record(results: Path, wall_s: float, machine: str, command: str) -> dict:
         "machine": machine,
         "date": None,
         "wall_s": round(wall_s),
-        "dag_jobs": sum(v[0] for v in times.values()),
+        "dag_jobs": dag_steps(results) or sum(v[0] for v in times.values()),
         "job_seconds": round(sum(v[1] for v in times.values())),
         "cpu_seconds": round(sum(v[3] for v in times.values())),
         "scorecard": scorecard_counts(results / "scorecard.csv"),
