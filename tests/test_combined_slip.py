@@ -10,7 +10,7 @@ from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
 from uqdrive.vehicle.effects import EFFECTS, VANISHES, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
-from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS, uses_chassis_terms
+from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
 V = 20.0
 N = 30
@@ -32,9 +32,9 @@ def test_the_registry_entry_and_where_it_vanishes():
     e = EFFECTS["combined_slip"]
     assert e.parameters == ("kappa", "chi_d") and e.units == ("-", "-") and VANISHES["combined_slip"] == ("kappa", 0.0)
     s = effect("combined_slip").augment(ModelStructure(), [1.0, 0.0])
-    assert s.combined_slip == 1.0 and s.drive_share_front == 0.0 and s.nonlinear and uses_chassis_terms(s)
+    assert s.combined_slip == 1.0 and s.drive_share_front == 0.0 and s.nonlinear and s.uses_chassis
     off = effect("combined_slip").augment(ModelStructure(), [0.0, 0.3])
-    assert not off.nonlinear and not uses_chassis_terms(off)
+    assert not off.nonlinear and not off.uses_chassis
 
 
 @pytest.mark.parametrize("tyre", ["linear", "magic_formula"])

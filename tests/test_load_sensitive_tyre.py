@@ -11,7 +11,7 @@ from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
 from uqdrive.vehicle.effects import EFFECTS, VANISHES, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters, curvature_argument
-from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS, uses_chassis_terms
+from uqdrive.vehicle.track_extended import ExtendedSingleTrackRHS
 
 V, N, H_CG = 20.0, 30, 0.55
 Q, P_DZ = -0.5, -0.2
@@ -41,10 +41,10 @@ def test_the_registry_entry_and_where_it_vanishes():
     assert e.parameters == ("q", "p_Dz") and e.units == ("-", "-") and VANISHES["load_sensitive_tyre"] == ("q", 0.0)
     assert all(lo < st < hi for (lo, hi), st in zip(e.bounds, e.start))
     s = effect("load_sensitive_tyre").augment(ModelStructure(), [Q, P_DZ])
-    assert s.stiffness_load_sensitivity == Q and s.peak_load_sensitivity == P_DZ and s.nonlinear and uses_chassis_terms(s)
+    assert s.stiffness_load_sensitivity == Q and s.peak_load_sensitivity == P_DZ and s.nonlinear and s.uses_chassis
     off = effect("load_sensitive_tyre").augment(ModelStructure(), [0.0, 0.0])
-    assert not off.nonlinear and not uses_chassis_terms(off)
-    assert uses_chassis_terms(effect("load_sensitive_tyre").augment(ModelStructure(), [0.0, -0.1]))
+    assert not off.nonlinear and not off.uses_chassis
+    assert effect("load_sensitive_tyre").augment(ModelStructure(), [0.0, -0.1]).uses_chassis
 
 
 @pytest.mark.parametrize("tyre", ["linear", "magic_formula"])

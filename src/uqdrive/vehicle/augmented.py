@@ -16,7 +16,7 @@ from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .effects.terms import CHASSIS_FIELDS
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
-from .track_extended import chassis_max_step, integrate_chassis, uses_chassis_terms
+from .track_extended import integrate_chassis
 from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
@@ -183,7 +183,7 @@ class AugmentedSimulator:
         same_input = all((s.steering_lag, s.steering_delay) == (first.steering_lag, first.steering_delay) for s in structures)
         if not all(s.nonlinear for s in structures) or len(thetas) == 1:
             return [self.simulate(th, s) for th, s in zip(thetas, structures)]
-        if any(uses_chassis_terms(s) for s in structures):  # a pass per steering input (a fitted lag's or delay's neighbours) and chassis kind
+        if any(s.uses_chassis for s in structures):  # a pass per steering input (a fitted lag's or delay's neighbours) and chassis kind
             return self._in_passes(thetas, structures, lambda s: None if self._chassis_kind(s) is None else
                                    (s.steering_lag, s.steering_delay, self._chassis_kind(s)), chassis=True)
         if not same_input:  # a fitted lag's or delay's neighbours: a pass per tyre, kinematics and step, each pair steered by its own angle
@@ -264,7 +264,7 @@ class AugmentedSimulator:
     def _chassis_kind(self, s: ModelStructure):
         """What must be equal for pairs to share an RK4 pass of the chassis right-hand side: the
         tyre, the kinematics, which terms are on, the step; None: not a chassis structure."""
-        if not uses_chassis_terms(s):
+        if not s.uses_chassis:
             return None
         return (s.tyre, bool(s.course_exact), s.chassis_switches(), self._substeps(s))
 
@@ -272,7 +272,7 @@ class AugmentedSimulator:
         """RK4 steps per sample of the grid: the step at most ``_RK4_MAX_STEP``, and short enough
         for the fastest slip lag and the roll mode of the chassis terms."""
         v_max = self.base.v_c if self.speed is None else max(float(self.base.v_c), float(np.max(self.speed)))
-        return max(1, int(np.ceil(self.dt / chassis_max_step(s, v_max, _RK4_MAX_STEP) - 1e-9)))
+        return max(1, int(np.ceil(self.dt / s.max_step(v_max, _RK4_MAX_STEP) - 1e-9)))
 
     def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
@@ -386,7 +386,7 @@ class AugmentedSimulator:
         if with_rhs:
             js = np.arange(self.output_time.size) * (2 * sub * self.stride)
             speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
-            if uses_chassis_terms(s) and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
+            if s.uses_chassis and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed, self._reference_loads), js)
             heading = bool({"psi", "y"} & set(self.channels))  # else psi_dot and beta alone: the same numbers
@@ -396,7 +396,7 @@ class AugmentedSimulator:
             rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
             out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed, heading)
             return out.transpose(1, 2, 0), rhs, js
-        if uses_chassis_terms(s):
+        if s.uses_chassis:
             return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride,
                                      reference_loads=self._reference_loads)
         out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)

@@ -69,6 +69,7 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from ..settings import Vehicle
+from .effects.terms import term_of
 from .axle_loads import AxleLoads, SideSlip, course_sine, half_angle_sin_cos
 from .single_track import VehicleParameters, curvature_argument
 
@@ -77,23 +78,11 @@ from .single_track import VehicleParameters, curvature_argument
 #: within 1.2e-5 of its range of the converged loop (three: 1e-8; none, the steady loads: 2e-2).
 LOAD_NEWTON_STEPS = 2
 
-__all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_max_step", "integrate_chassis", "uses_chassis_terms"]
-
-
-def uses_chassis_terms(s) -> bool:
-    """True when structure ``s`` needs this right-hand side in a numerical integration (load
-    transfer, relaxation, compliance or roll steer, combined slip): ``s.uses_chassis``."""
-    return s.uses_chassis
+__all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
 
 
 def _load_sensitive(s) -> bool:  # q or p_Dz of the load-sensitive tyre not 0
-    return any(np.any(np.asarray(getattr(s, f, 0.0)) != 0) for f in ("stiffness_load_sensitivity", "peak_load_sensitivity"))
-
-
-def chassis_max_step(s, v: float, max_step: float) -> float:
-    """Largest RK4 step (s): ``max_step``, or sigma / v (|h lambda| <= 1 for the slip lag), or
-    1 / omega of the roll mode: ``s.max_step``."""
-    return s.max_step(v, max_step)
+    return term_of("stiffness_load_sensitivity").active(s)
 
 
 class ExtendedSingleTrackRHS(AxleLoads):

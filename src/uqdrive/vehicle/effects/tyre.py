@@ -39,7 +39,6 @@ class TyreShape(Effect):
         return replace(s, tyre="magic_formula", tyre_stiffness_factor=float(v[0]), tyre_shape_factor=float(v[1]), tyre_curvature=float(v[2]))
 
 
-
 def with_tyre_shape(p: VehicleParameters, s: ModelStructure) -> VehicleParameters:
     """``p`` with the structure's tyre shape (:class:`TyreShape`): B_f and B_r times b, C replaced; ``p`` itself without one."""
     b, C = s.tyre_shape()
