@@ -13,10 +13,10 @@ import argparse
 import collections
 import csv
 import json
-import os
 import re
-import tempfile
 from pathlib import Path
+
+from uqdrive.outputs import atomic_path
 
 TOP = 8  # rules listed one by one; the rest summed
 
@@ -79,11 +79,8 @@ def main(argv=None) -> None:
     ap.add_argument("--json", type=Path, default=Path(__file__).resolve().parents[1] / "docs/measurements/benchmarks_reproduction.json")
     a = ap.parse_args(argv)
     rec = record(a.results, a.wall_s, a.machine, a.command)
-    fd, tmp = tempfile.mkstemp(dir=a.json.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(rec, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, a.json)
+    with atomic_path(a.json) as tmp:
+        tmp.write_text(json.dumps(rec, indent=1) + "\n")
     print(f"{a.json}: {rec['dag_jobs']} jobs, {rec['job_seconds']} job-s, {rec['cpu_seconds']} CPU-s, wall {rec['wall_s']} s")
 
 

@@ -5,7 +5,8 @@ read from the run's log (``.snakemake/log/*.snakemake.log``, the newest one by d
     .venv/bin/python tools/rule_times.py                      # newest log of this folder
     .venv/bin/python tools/rule_times.py path/to/x.snakemake.log --top 15
 
-Prints a Markdown table (the timing table of docs/benchmarks.md is made by it) and the run's span. A job's
+Prints a Markdown table and the run's span (docs/benchmarks.md's record of a finished run is written by
+tools/record_reproduction.py from the benchmark files instead). A job's
 time runs from the timestamp before its "rule X:" block to the one before "Finished jobid: N";
 group jobs are listed under their member rules, as Snakemake logs them.
 """
