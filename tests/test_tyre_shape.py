@@ -11,7 +11,7 @@ from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import shape_parts, with_tyre_shape
 from uqdrive.vehicle.effects import EFFECTS, VANISHES, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
-from uqdrive.vehicle.track_rk4 import SingleTrackRHS
+from uqdrive.vehicle.dynamics import SingleTrackRHS
 
 V, N = 22.0, 12
 B_FACTOR, C_SHAPE, E_CURV = 1.45, 1.3, -0.3  # a shape far from the car's (B_f 10.6, B_r 30.4, C 1.9, E 0.97)
@@ -46,7 +46,7 @@ def _axle_forces(config, s):
     p = with_tyre_shape(VehicleParameters.from_settings(Settings.from_config(config), mu=mu, l_f=np.full(N, 1.55), v_c=V), s)
     delta = np.deg2rad([3.0, 4.0, 5.0])
     E = config["tyre"]["E"] if s.tyre_curvature is None else s.tyre_curvature
-    rhs = SingleTrackRHS(p, s, E, delta, np.zeros((3, N)), True, np.zeros(N))
+    rhs = SingleTrackRHS.of_structure(p, s, E, delta, np.zeros((3, N)), True, np.zeros(N))
     x = np.vstack([np.zeros(N), rng.uniform(0.1, 0.5, N), rng.uniform(-0.06, 0.02, N), np.zeros(N)])
     out = np.empty_like(x)
     rhs(x, 1, out)

@@ -5,7 +5,8 @@ from hypothesis import strategies as st
 
 from conftest import REPO
 from uqdrive.config import load_config
-from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, magic_formula, make_nlst_rhs, nlst_rhs, steering_input
+from uqdrive.vehicle.dynamics import SingleTrackRHS, nlst_rhs
+from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, magic_formula, steering_input
 from uqdrive.settings import Settings
 
 
@@ -71,11 +72,11 @@ def test_lst_matrices_broadcast_over_realisations(config):
     mu=st.floats(0.3, 1.6),
     l_f=st.floats(1.0, 2.0),
 )
-def test_fast_nlst_rhs_equals_reference(config, x, delta, wind, mu, l_f):
+def test_the_balances_two_roundings_agree(config, x, delta, wind, mu, l_f):
     p = VehicleParameters.from_settings(Settings.from_config(config), mu=np.array([mu, 1.0]), l_f=np.array([l_f, 1.55]))
     X = np.array([x, x]).T
     ref = nlst_rhs(X, delta, wind, p)
-    fast = make_nlst_rhs(p)(X, delta, wind)
+    fast = SingleTrackRHS(p, n=2).rates(X, delta, wind)
     assert fast == pytest.approx(ref, rel=1e-12, abs=1e-12)
 
 
@@ -94,5 +95,5 @@ def test_nlst_is_odd_in_state_steering_and_wind(x, delta, F_w, mu):
     data must be the mirror of the normal-steering one (Table 6.3 discussion, docs/reproduction.md)."""
     p = VehicleParameters.from_settings(Settings.from_config(load_config(REPO / "config" / "config.yaml")), mu=np.array([mu]), m_load=np.array([100.0]), l_f=np.array([1.55]))
     xs = np.array(x)[:, None]
-    f = make_nlst_rhs(p)
+    f = SingleTrackRHS(p, n=1).rates
     assert f(-xs, -delta, -np.array([F_w])) == pytest.approx(-f(xs, delta, np.array([F_w])), rel=1e-12, abs=1e-12)

@@ -18,7 +18,8 @@ from ..vehicle.montecarlo import TimeGrid, gust_input_column, wind_yaw_moment, w
 from ..rng import rng_stream
 from ..control.slqr import ClosedLoopChaos, LaneKeepingCase
 from ..vehicle.uncertainty import ParameterDistribution
-from ..vehicle.single_track import STATES, VehicleParameters, lst_matrices, make_nlst_rhs
+from ..vehicle.dynamics.rhs import SingleTrackRHS
+from ..vehicle.single_track import STATES, VehicleParameters, lst_matrices
 from ..settings import Settings
 
 __all__ = ["weights", "lqr_mean_gain", "slqr_gain", "closed_loop_monte_carlo", "closed_loop_moments", "gamma_sweep", "distribution_from_theta", "gains_dataset", "controller_table_rows"]
@@ -106,7 +107,7 @@ def closed_loop_monte_carlo(config, gains: Mapping[str, np.ndarray], model: str,
         else:
             t_half = grid.fine(2)
             f_half = np.ascontiguousarray(kle.eigenfunctions(t_half).T)
-            rhs_vehicle = make_nlst_rhs(p)
+            rhs_vehicle = SingleTrackRHS(p, n=samples).rates
             wind_mean = draws["F_w_mean"]
 
             def rhs(xs, j):

@@ -9,7 +9,8 @@ from .._lazy import lazy_exports
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .chaos import ChaosMoments, LSTChaosModel  # noqa: F401
     from .montecarlo import simulate_ensemble  # noqa: F401
-    from .single_track import STATES, VehicleParameters, lst_matrices, nlst_rhs, steering_input  # noqa: F401
+    from .dynamics.rhs import nlst_rhs  # noqa: F401
+    from .single_track import STATES, VehicleParameters, lst_matrices, steering_input  # noqa: F401
     from .statistics import ensemble_statistics  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -19,7 +20,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "STATES": ".single_track",
     "VehicleParameters": ".single_track",
     "lst_matrices": ".single_track",
-    "nlst_rhs": ".single_track",
+    "nlst_rhs": ".dynamics.rhs",
     "steering_input": ".single_track",
     "ensemble_statistics": ".statistics",
 })

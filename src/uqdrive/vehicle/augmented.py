@@ -17,7 +17,8 @@ from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .effects.terms import CHASSIS_FIELDS
 from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
 from .track_extended import integrate_chassis
-from .track_rk4 import (LinearTrackRHS, SingleTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
+from .dynamics.rhs import SingleTrackRHS
+from .track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
 from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
 from .uncertainty import Germs, kle_of_wind, uniform_from_germ
@@ -393,11 +394,11 @@ class AugmentedSimulator:
             if not s.nonlinear:
                 rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=heading)
                 return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
-            rhs = SingleTrackRHS(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
-            out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, speed, heading)
-            return out.transpose(1, 2, 0), rhs, js
+            rhs = SingleTrackRHS.of_structure(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
+            return integrate_single_track(rhs, h, n_steps, sub * self.stride).transpose(1, 2, 0), rhs, js
         if s.uses_chassis:
             return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride,
                                      reference_loads=self._reference_loads)
-        out = integrate_single_track(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
+        rhs = SingleTrackRHS.of_structure(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind)
+        out = integrate_single_track(rhs, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it

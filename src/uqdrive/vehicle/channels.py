@@ -26,12 +26,13 @@ from typing import Sequence
 import numpy as np
 
 from ..numerics.discretise import foh_discretise, foh_discretise_derivatives_batched
-from ..numerics.integrate import foh_discretise_single, lti_response_single, rk4_fixed_step
+from ..numerics.integrate import foh_discretise_single, lti_response_single, rk4_fixed_step_into
 from ..numerics.recursion import decoupled_blocks
 from ..numerics.threads import with_single_blas_thread
 from ..settings import SpeedRamp
+from .dynamics.rhs import GustInputs, HalfStepInputs, SingleTrackRHS
 from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lateral_acceleration_map,
-                           lst_matrices_at_speed, nlst_rhs, wind_yaw_moment)
+                           lst_matrices_at_speed)
 
 __all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel", "speed_ramp",
            "simulate_lst_ltv", "simulate_nlst_ltv", "lateral_acceleration"]
@@ -354,18 +355,11 @@ def simulate_nlst_ltv(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, 
         v (m/s) on the half-step grid; other arguments as :func:`simulate_nlst`.
     """
     wind_mean = np.asarray(wind_mean, float)
-    coeffs = np.asarray(wind_coeffs, float)
-    f_half = np.ascontiguousarray(np.asarray(eigenfunctions_half, float).T)
     v_half = np.asarray(speed_half, float)
-    v_dot_half = np.gradient(v_half, grid.step / 2.0)
-
-    def rhs(x, j):
-        gust = coeffs @ f_half[j]
-        dx = nlst_rhs(x, delta_half[j], wind_mean + gust, replace(p, v_c=v_half[j]), wind_yaw_moment(p.M_c, wind_mean, gust, gust_yaw_moment))
-        dx[2] -= v_dot_half[j] / v_half[j] * np.sin(x[2])
-        return dx
-
-    out = rk4_fixed_step(rhs, np.zeros((4, n := wind_mean.shape[0])), grid.step, grid.n_out * grid.substeps, grid.substeps)
+    M_w = None if gust_yaw_moment else p.M_c * wind_mean
+    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w),
+                         speed_half=(v_half, np.gradient(v_half, grid.step / 2.0)), quotient=True)
+    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
     return np.ascontiguousarray(out.transpose(1, 2, 0))
 
 
@@ -397,12 +391,12 @@ def lateral_acceleration(model: str, x, p: VehicleParameters, delta, F_w, speed)
         Lateral acceleration at the centre of gravity (m/s^2).
     """
     out = np.empty(x.shape[1:])
+    if model != "lst":  # the output grid as the right-hand side's half-step grid
+        rhs = SingleTrackRHS(p, HalfStepInputs(delta, np.asarray(F_w, float).T), speed_half=(speed, None), quotient=True)
+        for k in range(x.shape[2]):
+            out[:, k] = rhs.lateral_acceleration(x[:, :, k], k)
+        return out
     for k in range(x.shape[2]):
-        pk = replace(p, v_c=float(speed[k]))
-        if model == "lst":
-            C, D_delta, D_w = lateral_acceleration_map(pk)
-            out[:, k] = np.einsum("ni,in->n", C, x[:, :, k]) + D_delta * delta[k] + D_w * F_w[:, k]
-        else:
-            dx = nlst_rhs(x[:, :, k], delta[k], F_w[:, k], pk)
-            out[:, k] = speed[k] * (dx[2] + x[1, :, k]) / np.cos(x[2, :, k])
+        C, D_delta, D_w = lateral_acceleration_map(replace(p, v_c=float(speed[k])))
+        out[:, k] = np.einsum("ni,in->n", C, x[:, :, k]) + D_delta * delta[k] + D_w * F_w[:, k]
     return out

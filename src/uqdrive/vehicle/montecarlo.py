@@ -13,10 +13,11 @@ from .._version import __version__
 from ..settings import Settings, TimeGrid
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
-from ..numerics.integrate import lti_foh_response, rk4_fixed_step
+from ..numerics.integrate import lti_foh_response, rk4_fixed_step_into
 from ..rng import rng_stream
 from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, make_nlst_rhs,
+from .dynamics.rhs import GustInputs, SingleTrackRHS
+from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices,
                            steering_input, wind_yaw_moment)
 
 __all__ = [
@@ -83,7 +84,8 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
 
 
 def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
-    """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4.
+    """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4
+    (:class:`uqdrive.vehicle.dynamics.SingleTrackRHS`).
 
     Parameters
     ----------
@@ -106,17 +108,9 @@ def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eige
     ndarray, shape (4, n, n_out + 1)
     """
     wind_mean = np.asarray(wind_mean, float)
-    coeffs = np.asarray(wind_coeffs, float)
-    f_half = np.ascontiguousarray(np.asarray(eigenfunctions_half, float).T)  # (n_half, n_c)
-    n = wind_mean.shape[0]
-    vehicle_rhs = make_nlst_rhs(p)
-
-    def rhs(x, j):
-        gust = coeffs @ f_half[j]
-        return vehicle_rhs(x, delta_half[j], wind_mean + gust, wind_yaw_moment(p.M_c, wind_mean, gust, gust_yaw_moment))
-
-    n_steps = grid.n_out * grid.substeps
-    out = rk4_fixed_step(rhs, np.zeros((4, n)), grid.step, n_steps, grid.substeps)
+    M_w = None if gust_yaw_moment else p.M_c * wind_mean
+    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w))
+    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
     return np.ascontiguousarray(out.transpose(1, 2, 0))
 
 

@@ -11,7 +11,8 @@ from scipy.integrate import solve_ivp
 from ..settings import Settings
 from .montecarlo import STEERS, gust_input_column, wind_yaw_moment
 from .uncertainty import KarhunenLoeve
-from .single_track import VehicleParameters, lst_matrices, nlst_rhs, steering_input
+from .dynamics.rhs import nlst_rhs
+from .single_track import VehicleParameters, lst_matrices, steering_input
 
 __all__ = ["solve_realisations"]
 

@@ -1,4 +1,5 @@
-"""Single-track vehicle models of the thesis: the linear LST (5.4) and the non-linear NLST (5.3).
+"""Single-track vehicle models of the thesis: the parameters, the tyre laws, the linear LST (5.4); the
+non-linear NLST (5.3)'s right-hand side is :mod:`uqdrive.vehicle.dynamics`.
 
 Every function is vectorised over realisations: parameters may be scalars or arrays of shape (n,).
 """
@@ -19,9 +20,8 @@ __all__ = [
     "VehicleParameters",
     "magic_formula",
     "curvature_argument",
+    "tyre_angle",
     "lst_matrices",
-    "nlst_rhs",
-    "make_nlst_rhs",
     "steering_input",
     "lateral_acceleration_map",
     "lst_matrices_at_speed",
@@ -183,6 +183,19 @@ def curvature_argument(bx, E, out=None):
     return out
 
 
+def tyre_angle(bx, C, E, out=None):
+    """The Magic Formula's angle C atan(u) of (2.2a), whose sine is the force per unit peak:
+    ``bx`` (any shape) is B x (-), C and E the shape and curvature factors (-; E may be an array
+    broadcasting against ``bx``); ``out`` (``bx``'s shape) takes the angle without temporaries (the
+    RK4 inner loops pass one). Returns the angle (rad)."""
+    if out is None:
+        return C * np.arctan(curvature_argument(bx, E))
+    curvature_argument(bx, E, out)
+    np.arctan(out, out)
+    out *= C
+    return out
+
+
 def magic_formula(slip, F_z, B, C, D, E):
     """Pacejka's Magic Formula without shifts, thesis (2.2a) with S_H = S_V = 0.
 
@@ -200,7 +213,7 @@ def magic_formula(slip, F_z, B, C, D, E):
     ndarray, the broadcast shape of the arguments
         Tyre force (N), F_z D sin(C atan(B x - E (B x - atan(B x)))).
     """
-    return F_z * D * np.sin(C * np.arctan(curvature_argument(B * slip, E)))
+    return F_z * D * np.sin(tyre_angle(B * slip, C, E))
 
 
 def lst_matrices(p: VehicleParameters):
@@ -240,87 +253,6 @@ def lst_matrices(p: VehicleParameters):
     W[..., 1] = p.M_c / I_z
     W[..., 2] = 1.0 / (m * v)
     return A, B, W
-
-
-def nlst_rhs(x, delta, F_w, p: VehicleParameters, M_w=None):
-    """Right-hand side of the non-linear single-track model, thesis (5.3a)-(5.3h).
-
-    Parameters
-    ----------
-    x : ndarray, shape (4, n)
-        States [psi (rad), psi_dot (rad/s), beta (rad), y (m)] of n realisations.
-    delta : float or ndarray, shape (n,)
-        Front steering angle (rad).
-    F_w : float or ndarray, shape (n,)
-        Side-wind force (N).
-    p : VehicleParameters
-        Per-realisation parameters with arrays of shape (n,) or scalars.
-    M_w : float or ndarray, shape (n,), optional
-        Wind yaw moment (N m); M_c F_w by default, (5.3f).
-
-    Returns
-    -------
-    ndarray, shape (4, n)
-        Time derivative of ``x``.
-    """
-    psi, psi_dot, beta, _ = x
-    v = p.v_c
-    vy, vx = v * np.sin(beta), v * np.cos(beta)
-    alpha_f = delta - np.arctan((vy + p.l_f * psi_dot) / vx)
-    alpha_r = -np.arctan((vy - p.l_r * psi_dot) / vx)
-    F_fy = magic_formula(alpha_f, p.F_fz, p.c_Sf, p.C, p.mu, p.E)
-    F_ry = magic_formula(alpha_r, p.F_rz, p.c_Sr, p.C, p.mu, p.E)
-    F_fy_cos = F_fy * np.cos(delta)
-    M_w = p.M_c * F_w if M_w is None else M_w
-    psi_ddot = (p.l_f * F_fy_cos - F_ry * p.l_r + M_w) / p.I_z
-    beta_dot = (F_fy_cos + F_ry + F_w) * np.cos(beta) / (p.m * v) - psi_dot
-    y_dot = np.sin(psi) * v
-    return np.stack(np.broadcast_arrays(psi_dot, psi_ddot, beta_dot, y_dot))
-
-
-def make_nlst_rhs(p: VehicleParameters):
-    """Fast form of :func:`nlst_rhs` for repeated calls with the same parameters.
-
-    Every parameter-only product is computed once, and the front and rear Magic Formulas are
-    evaluated on one stacked (2, n) array, which halves the number of NumPy calls per
-    evaluation (the cost of a 2000-realisation evaluation is dominated by call overhead).
-
-    Parameters
-    ----------
-    p : VehicleParameters
-        Per-realisation parameters, arrays of shape (n,) or scalars.
-
-    Returns
-    -------
-    callable
-        ``rhs(x, delta, F_w, M_w=None)`` with the arguments and result of :func:`nlst_rhs`.
-    """
-    v = float(p.v_c)
-    n = np.broadcast_shapes(np.shape(p.mu), np.shape(p.m_load), np.shape(p.l_f))
-    l_f = np.broadcast_to(np.asarray(p.l_f, float), n)
-    l_r = np.broadcast_to(p.l_r, n)
-    lever = np.stack([l_f, -l_r])  # (2, n): alpha_f uses +l_f psi_dot, alpha_r uses -l_r psi_dot
-    stiffness = np.array([[p.c_Sf], [p.c_Sr]])
-    peak = np.stack([np.broadcast_to(p.F_fz * p.mu, n), np.broadcast_to(p.F_rz * p.mu, n)])
-    inv_I_z = 1.0 / np.broadcast_to(p.I_z, n)
-    inv_mv = 1.0 / np.broadcast_to(p.m * v, n)
-    C, E, M_c = p.C, p.E, p.M_c
-
-    def rhs(x, delta, F_w, M_w=None):
-        psi, psi_dot, beta, _ = x
-        sin_b, cos_b = np.sin(beta), np.cos(beta)
-        slip = -np.arctan((v * sin_b + lever * psi_dot) / (v * cos_b))
-        slip[0] += delta
-        F = peak * np.sin(C * np.arctan(curvature_argument(stiffness * slip, E)))
-        F_fy_cos = F[0] * np.cos(delta)
-        out = np.empty_like(x)
-        out[0] = psi_dot
-        out[1] = (l_f * F_fy_cos - l_r * F[1] + (M_c * F_w if M_w is None else M_w)) * inv_I_z
-        out[2] = (F_fy_cos + F[1] + F_w) * cos_b * inv_mv - psi_dot
-        out[3] = v * np.sin(psi)
-        return out
-
-    return rhs
 
 
 def steering_input(t, delta_max: float, period: float, sign: float = 1.0):

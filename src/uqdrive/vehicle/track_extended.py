@@ -4,7 +4,9 @@ profile; lateral with tyre load sensitivity), compliance steer and tyre relaxati
 augmented simulator.
 
 Only structures that use one of these terms come here; the thesis' structures keep
-:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`, to the last bit. Here the sines and cosines
+:class:`uqdrive.vehicle.dynamics.SingleTrackRHS`, to the last bit, whose Magic-Formula slip angles
+and yaw and lateral balances this one shares (:func:`uqdrive.vehicle.dynamics.rhs.slip_angles`,
+:class:`uqdrive.vehicle.dynamics.rhs.Balance`). Here the sines and cosines
 come from the half angle's tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`: within an ulp of NumPy's, at a
 third of the cost, NumPy vectorising tan and not the float64 sine), and a state's trigonometry
 and the tyres' per-unit-peak force are computed once for every term and every step of the loads'
@@ -22,7 +24,7 @@ times the lateral one; along a speed profile v(t) the drive or brake force that 
 v' cos(beta) (braking in a turn: the front axle loaded by m |v'| h / L). T depends on the loads it
 makes; the loop is solved by Newton's method from the steady guess m v psi_dot cos(beta) (whose
 error is the transient m v beta_dot). The speed change acts along the velocity as in
-:class:`uqdrive.vehicle.track_rk4.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
+:class:`uqdrive.vehicle.dynamics.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
 The kinematics are the baseline's, so that a chassis effect adds its own term and nothing else:
 with the Magic-Formula tyre those of the NLST (5.3) (slip angles by arctan, F_f cos delta, beta_dot
@@ -71,7 +73,8 @@ from ..numerics.integrate import rk4_fixed_step_into
 from ..settings import Vehicle
 from .effects.terms import term_of
 from .axle_loads import AxleLoads, SideSlip, course_sine, half_angle_sin_cos
-from .single_track import VehicleParameters, curvature_argument
+from .dynamics.rhs import Balance, slip_angles
+from .single_track import VehicleParameters, curvature_argument, tyre_angle
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
@@ -100,7 +103,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
     E : float or ndarray, shape (n,)
         Magic-Formula curvature factor (-).
     delta_half, F_w_half, yaw_gust, wind
-        As :class:`uqdrive.vehicle.track_rk4.SingleTrackRHS`.
+        As :meth:`uqdrive.vehicle.dynamics.SingleTrackRHS.of_structure`.
     cg_height, track_width : float
         h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
     speed_half : tuple of two ndarrays, shape (J,), optional
@@ -112,9 +115,8 @@ class ExtendedSingleTrackRHS(AxleLoads):
     def __init__(self, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, cg_height: float = 0.0,
                  track_width: float = 1.0, speed_half=None, reference_loads=None, tyre_load_height: float = 0.0):
         self.v = v = float(p.v_c)
-        self.l_f = np.asarray(p.l_f, float)
-        self.l_r = p.l_r
-        self.lever = np.stack(np.broadcast_arrays(self.l_f, -self.l_r))
+        self.balance = Balance(p)
+        self.lever = np.stack(np.broadcast_arrays(self.balance.l_f, -p.l_r))
         self.m, self.L, self.g = p.m, p.wheelbase, p.g
         self.static = np.stack(np.broadcast_arrays(p.F_fz, p.F_rz))  # (2, n) static axle loads
         self.mu, self.B, self.C, self.E = p.mu, np.array([[p.c_Sf], [p.c_Sr]]), p.C, E
@@ -150,9 +152,8 @@ class ExtendedSingleTrackRHS(AxleLoads):
         self.reference = self.static if ref is None else np.asarray(ref, float).reshape(2, 1)
         self.loaded = self.pitching or bool(np.any(self.p_Dz != 0)) or self.slipping or self.sensitive
         self.k, self.a_v = s.course_weight, s.lateral_acceleration / v
-        self.inv_I_z, self.inv_mv = 1.0 / p.I_z, 1.0 / (p.m * v)
+        self.inv_mv = self.balance.mass_factor(p.m, v)
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
-        self.M_c = p.M_c
         self.M_w = None if yaw_gust else p.M_c * np.asarray(wind, float)
         self.a_lat = s.lateral_acceleration
         self.speed_half = None if speed_half is None else tuple(np.asarray(a, float) for a in speed_half)
@@ -165,7 +166,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         if self.speed_half is None:
             return self.v, 0.0, self.inv_mv, self.a_v
         v = float(self.speed_half[0][j])
-        return v, float(self.speed_half[1][j]), 1.0 / (self.m * v), self.a_lat / v
+        return v, float(self.speed_half[1][j]), self.balance.mass_factor(self.m, v), self.a_lat / v
 
     @property
     def n_states(self) -> int:
@@ -180,9 +181,8 @@ class ExtendedSingleTrackRHS(AxleLoads):
         v = self._at(j)[0] if v is None else v
         delta = self.delta_half[j]
         if self.saturating:
-            q = -np.arctan((v * beta.sin + self.lever * psi_dot) / (v * beta.cos))
-        else:  # the LST's small angles
-            q = -(beta.beta + self.lever * psi_dot / v)
+            return slip_angles(v, beta.sin, beta.cos, self.lever, psi_dot, delta), delta
+        q = -(beta.beta + self.lever * psi_dot / v)  # the LST's small angles
         q[0] += delta
         return q, delta
 
@@ -201,7 +201,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
 
     def _unit_curve(self, q, B):
         """The Magic Formula per unit peak, sin(C atan(u)) (-), at slip ``q`` (rad): the factor of the peak that the loads leave alone."""
-        return half_angle_sin_cos(self.C * np.arctan(curvature_argument(B * q, self.E)))[0]
+        return half_angle_sin_cos(tyre_angle(B * q, self.C, self.E))[0]
 
     def _load_free_curve(self, q_steady, lagged):
         """Per unit peak (2, n), the force of the slip angles that the loads-forces loop of :meth:`_forces` does not move, or None.
@@ -337,10 +337,9 @@ class ExtendedSingleTrackRHS(AxleLoads):
             w, eps, rate = self.roll_omega, x[self.i_roll], x[self.i_roll + 1]
             out[self.i_roll] = rate
             out[self.i_roll + 1] = w * w * (self.roll_gain * (fc + F[1]) - eps) - 2.0 * self.roll_zeta * w * rate
-        M_w = F_w * self.M_c if self.M_w is None else self.M_w
         out[0] = psi_dot
-        out[1] = (self.l_f * fc - self.l_r * F[1] + M_w) * self.inv_I_z
-        out[2] = (fc + F[1] + F_w) * cos_b * inv_mv - psi_dot + a_v
+        self.balance.rates(fc, F[1], F_w, self.M_w, psi_dot, cos_b if self.saturating else None, inv_mv, out[1], out[2], np.empty_like(psi_dot))
+        out[2] += a_v
         if self.speed_half is not None:
             out[2] -= v_dot / v * (side_slip.sin if self.saturating else beta)
         course = psi + self.k * beta

@@ -1,9 +1,9 @@
 """The NLST ensemble (thesis (5.3)) by RK4 in JAX: one compiled scan over time with the
 realisations as the vector axis, the operations of the NumPy path in the same order (float64).
 
-The right-hand sides repeat :func:`uqdrive.vehicle.single_track.make_nlst_rhs` (constant speed)
-and :func:`uqdrive.vehicle.single_track.nlst_rhs` with the speed term of
-:func:`uqdrive.vehicle.channels.simulate_nlst_ltv` (a speed profile) operation for operation, and
+The right-hand sides repeat :class:`uqdrive.vehicle.dynamics.SingleTrackRHS` (constant speed: its
+balances multiplied by the inverses; a speed profile: divided, ``quotient``, with the speed term of
+:func:`uqdrive.vehicle.channels.simulate_nlst_ltv`) operation for operation, and
 the stepper repeats :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`: the two paths differ
 by the last bits of the transcendental functions, of the gusts' sums and of the multiply-adds a
 compiler fuses, nothing else.
@@ -33,7 +33,7 @@ def _curved_slip_force(peak, stiffness, slip, C, E):
 
 
 def _rhs_constant_speed(q, x, delta, F_w, M_w):
-    """dx/dt of (5.3) at the constant speed q["v"]: :func:`make_nlst_rhs`'s operations; ``x``
+    """dx/dt of (5.3) at the constant speed q["v"]: :class:`~uqdrive.vehicle.dynamics.SingleTrackRHS`'s operations; ``x``
     and the result are tuples of the four states' arrays (n,)."""
     import jax.numpy as jnp
 
@@ -52,8 +52,9 @@ def _rhs_constant_speed(q, x, delta, F_w, M_w):
 
 
 def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
-    """dx/dt of (5.3) at the speed v (m/s) changing at v_dot (m/s^2): :func:`nlst_rhs`'s
-    operations, then beta_dot - (v_dot / v) sin(beta) as :func:`simulate_nlst_ltv` adds it."""
+    """dx/dt of (5.3) at the speed v (m/s) changing at v_dot (m/s^2): the operations of
+    :class:`~uqdrive.vehicle.dynamics.SingleTrackRHS` with ``quotient`` and the speed term, as
+    :func:`~uqdrive.vehicle.channels.simulate_nlst_ltv` integrates it."""
     import jax.numpy as jnp
 
     psi, psi_dot, beta, _ = x
