@@ -501,7 +501,7 @@ def test_a_vanishing_chassis_effect_on_the_linear_tyre_is_the_lst(config):
 def test_the_chassis_model_along_a_speed_profile_is_the_single_track_model_when_its_terms_vanish(config):
     """With a vanishing transfer (h = 1e-12 m routes the simulation through the chassis model) the
     Magic-Formula chassis model braking in a turn gives the states of the single-track model along
-    the same speed profile (uqdrive.vehicle.dynamics.SingleTrackRHS) to 1e-9 of each state's range;
+    the same speed profile (uqdrive.vehicle.dynamics.rhs.SingleTrackRHS) to 1e-9 of each state's range;
     with h = 0.55 m the braking loads the front axle and the yaw rate rises while the car brakes
     (more front force: oversteer), above 1 % of its peak."""
     t = np.arange(801) * DT

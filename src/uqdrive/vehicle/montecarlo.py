@@ -85,7 +85,7 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
 
 def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
     """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4
-    (:class:`uqdrive.vehicle.dynamics.SingleTrackRHS`).
+    (:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`).
 
     Parameters
     ----------

@@ -4,7 +4,7 @@ profile; lateral with tyre load sensitivity), compliance steer and tyre relaxati
 augmented simulator.
 
 Only structures that use one of these terms come here; the thesis' structures keep
-:class:`uqdrive.vehicle.dynamics.SingleTrackRHS`, to the last bit, whose Magic-Formula slip angles
+:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`, to the last bit, whose Magic-Formula slip angles
 and yaw and lateral balances this one shares (:func:`uqdrive.vehicle.dynamics.rhs.slip_angles`,
 :class:`uqdrive.vehicle.dynamics.rhs.Balance`). Here the sines and cosines
 come from the half angle's tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`: within an ulp of NumPy's, at a
@@ -24,7 +24,7 @@ times the lateral one; along a speed profile v(t) the drive or brake force that 
 v' cos(beta) (braking in a turn: the front axle loaded by m |v'| h / L). T depends on the loads it
 makes; the loop is solved by Newton's method from the steady guess m v psi_dot cos(beta) (whose
 error is the transient m v beta_dot). The speed change acts along the velocity as in
-:class:`uqdrive.vehicle.dynamics.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
+:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
 The kinematics are the baseline's, so that a chassis effect adds its own term and nothing else:
 with the Magic-Formula tyre those of the NLST (5.3) (slip angles by arctan, F_f cos delta, beta_dot
@@ -103,7 +103,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
     E : float or ndarray, shape (n,)
         Magic-Formula curvature factor (-).
     delta_half, F_w_half, yaw_gust, wind
-        As :meth:`uqdrive.vehicle.dynamics.SingleTrackRHS.of_structure`.
+        As :meth:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS.of_structure`.
     cg_height, track_width : float
         h and t (m) of the lateral load transfer (used only where ``load_sensitivity`` != 0).
     speed_half : tuple of two ndarrays, shape (J,), optional

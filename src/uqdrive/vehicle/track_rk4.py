@@ -1,6 +1,6 @@
 """RK4 of the single-track model for the augmented simulator
 (:class:`uqdrive.vehicle.augmented.AugmentedSimulator`): the non-linear model's right-hand side
-(:class:`uqdrive.vehicle.dynamics.SingleTrackRHS`) integrated, and the linear model along a speed profile.
+(:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`) integrated, and the linear model along a speed profile.
 
 What the sensors of an augmented single-track model record: the lateral acceleration a_y beside
 the states, and the linear model along a speed profile v(t) (past the thesis).

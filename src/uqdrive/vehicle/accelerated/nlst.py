@@ -1,7 +1,7 @@
 """The NLST ensemble (thesis (5.3)) by RK4 in JAX: one compiled scan over time with the
 realisations as the vector axis, the operations of the NumPy path in the same order (float64).
 
-The right-hand sides repeat :class:`uqdrive.vehicle.dynamics.SingleTrackRHS` (constant speed: its
+The right-hand sides repeat :class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` (constant speed: its
 balances multiplied by the inverses; a speed profile: divided, ``quotient``, with the speed term of
 :func:`uqdrive.vehicle.channels.simulate_nlst_ltv`) operation for operation, and
 the stepper repeats :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`: the two paths differ
@@ -33,7 +33,7 @@ def _curved_slip_force(peak, stiffness, slip, C, E):
 
 
 def _rhs_constant_speed(q, x, delta, F_w, M_w):
-    """dx/dt of (5.3) at the constant speed q["v"]: :class:`~uqdrive.vehicle.dynamics.SingleTrackRHS`'s operations; ``x``
+    """dx/dt of (5.3) at the constant speed q["v"]: :class:`~uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`'s operations; ``x``
     and the result are tuples of the four states' arrays (n,)."""
     import jax.numpy as jnp
 
@@ -53,7 +53,7 @@ def _rhs_constant_speed(q, x, delta, F_w, M_w):
 
 def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
     """dx/dt of (5.3) at the speed v (m/s) changing at v_dot (m/s^2): the operations of
-    :class:`~uqdrive.vehicle.dynamics.SingleTrackRHS` with ``quotient`` and the speed term, as
+    :class:`~uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` with ``quotient`` and the speed term, as
     :func:`~uqdrive.vehicle.channels.simulate_nlst_ltv` integrates it."""
     import jax.numpy as jnp
 

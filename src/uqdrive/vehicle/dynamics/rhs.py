@@ -48,7 +48,7 @@ def slip_angles(v, sin_b, cos_b, lever, psi_dot, delta, out=None, work=None):
     delta : float or ndarray, shape (n,)
         Front wheel angle (rad).
     out : ndarray, shape (2, n), optional
-        Takes the slip angles; ``work`` (n,) a temporary (the RK4 loops pass both, else allocated).
+        Takes the slip angles (rad); ``work`` (n,) a temporary (the RK4 loops pass both, else allocated).
 
     Returns
     -------
@@ -154,7 +154,7 @@ class GustInputs:
     eigenfunctions_half : ndarray, shape (n_c, J)
         KLE eigenfunctions on the half-step grid (-).
     M_w : ndarray, shape (n,), optional
-        As :class:`HalfStepInputs`.
+        A constant wind yaw moment (N m), as :class:`HalfStepInputs`.
     """
 
     def __init__(self, delta_half, wind_mean, coeffs, eigenfunctions_half, M_w=None):

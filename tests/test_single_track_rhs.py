@@ -1,0 +1,114 @@
+"""The one right-hand side of the non-linear single-track model (uqdrive.vehicle.dynamics) gives the
+Monte Carlo ensembles the numbers of (5.3) written out one expression per state, to the last bit:
+the data sets made with the package are reproduced exactly, so the tests compare with
+``np.array_equal``, not a tolerance."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from uqdrive.settings import Settings, TimeGrid
+from uqdrive.numerics.integrate import rk4_fixed_step
+from uqdrive.vehicle.channels import lateral_acceleration, simulate_nlst_ltv
+from uqdrive.vehicle.dynamics import SingleTrackRHS, nlst_rhs
+from uqdrive.vehicle.montecarlo import simulate_nlst
+from uqdrive.vehicle.single_track import VehicleParameters
+
+N = 6
+
+
+def _written_out(p, quotient):
+    """(5.3) one expression per state, allocating: the balances divided by I_z and m v
+    (``quotient``) or multiplied by their inverses, beta_dot with -(v_dot / v) sin beta."""
+    l_f, l_r = np.asarray(p.l_f, float), p.l_r
+
+    def rhs(x, delta, F_w, M_w, v, v_dot=None):
+        psi, psi_dot, beta, _ = x
+        sin_b, cos_b = np.sin(beta), np.cos(beta)
+        a_f = -np.arctan((v * sin_b + l_f * psi_dot) / (v * cos_b)) + delta
+        a_r = -np.arctan((v * sin_b - l_r * psi_dot) / (v * cos_b))
+        F_f = p.F_fz * p.mu * np.sin(p.C * np.arctan(p.c_Sf * a_f - p.E * (p.c_Sf * a_f - np.arctan(p.c_Sf * a_f))))
+        F_r = p.F_rz * p.mu * np.sin(p.C * np.arctan(p.c_Sr * a_r - p.E * (p.c_Sr * a_r - np.arctan(p.c_Sr * a_r))))
+        front = F_f * np.cos(delta)
+        if quotient:
+            psi_ddot = (l_f * front - l_r * F_r + M_w) / p.I_z
+            beta_dot = (front + F_r + F_w) * cos_b / (p.m * v) - psi_dot
+        else:
+            psi_ddot = (l_f * front - l_r * F_r + M_w) * (1.0 / p.I_z)
+            beta_dot = (front + F_r + F_w) * cos_b * (1.0 / (p.m * v)) - psi_dot
+        if v_dot is not None:
+            beta_dot = beta_dot - v_dot / v * sin_b
+        return np.stack([psi_dot, psi_ddot, beta_dot, v * np.sin(psi)])
+
+    return rhs
+
+
+@pytest.fixture(scope="module")
+def case(config):
+    settings = Settings.from_config(config)
+    grid = TimeGrid(3.0, 0.01, 0.005)
+    rng = np.random.default_rng(11)
+    p = VehicleParameters.from_settings(settings, mu=rng.uniform(0.4, 1.2, N), m_load=rng.uniform(0, 200, N), l_f=rng.uniform(1.4, 1.7, N))
+    t_half = grid.fine(2)
+    delta = np.deg2rad(5.0) * np.cos(np.pi * t_half / 2.0)
+    wind, coeffs = rng.uniform(-400, 400, N), rng.normal(0, 200, (N, 3))
+    f_half = np.stack([np.sin((k + 1) * np.pi * t_half / 3.0) for k in range(3)])
+    return p, delta, wind, coeffs, f_half, grid
+
+
+def _gusts(f_half):
+    """The eigenfunctions per half step as contiguous rows, as the ensembles take them (a
+    product with a strided column may round differently)."""
+    return np.ascontiguousarray(f_half.T)
+
+
+@pytest.mark.parametrize("gust_yaw", [True, False])
+def test_the_ensemble_at_constant_speed_is_5_3_written_out_bit_for_bit(case, gust_yaw):
+    p, delta, wind, coeffs, f_half, grid = case
+    rhs, rows = _written_out(p, quotient=False), _gusts(f_half)
+
+    def f(x, j):
+        F_w = wind + coeffs @ rows[j]
+        return rhs(x, delta[j], F_w, p.M_c * (F_w if gust_yaw else wind), float(p.v_c))
+
+    want = rk4_fixed_step(f, np.zeros((4, N)), grid.step, grid.n_out * grid.substeps, grid.substeps).transpose(1, 2, 0)
+    assert np.array_equal(simulate_nlst(p, delta, wind, coeffs, f_half, grid, gust_yaw), want)
+
+
+def test_the_ensemble_along_a_speed_profile_divides_bit_for_bit(case):
+    """Along a speed profile the balances divide by I_z and m v (the rounding of the ensembles
+    along a profile); multiplying by the inverses would differ in the last bits, so this fails."""
+    p, delta, wind, coeffs, f_half, grid = case
+    v_half = np.linspace(25.0, 15.0, delta.size)
+    v_dot = np.gradient(v_half, grid.step / 2.0)
+    rhs, rows = _written_out(p, quotient=True), _gusts(f_half)
+
+    def f(x, j):
+        F_w = wind + coeffs @ rows[j]
+        return rhs(x, delta[j], F_w, p.M_c * F_w, v_half[j], v_dot[j])
+
+    want = rk4_fixed_step(f, np.zeros((4, N)), grid.step, grid.n_out * grid.substeps, grid.substeps).transpose(1, 2, 0)
+    x = simulate_nlst_ltv(p, delta, wind, coeffs, f_half, grid, v_half)
+    assert np.array_equal(x, want)
+    inverse = _written_out(p, quotient=False)
+    other = rk4_fixed_step(lambda x, j: inverse(x, delta[j], wind + coeffs @ rows[j], p.M_c * (wind + coeffs @ rows[j]), v_half[j], v_dot[j]),
+                           np.zeros((4, N)), grid.step, grid.n_out * grid.substeps, grid.substeps).transpose(1, 2, 0)
+    assert not np.array_equal(x, other)
+
+
+def test_the_ensembles_lateral_acceleration_is_the_forces_over_the_mass(case):
+    """a_y = v (beta_dot + psi_dot) / cos beta with beta_dot of the divided balances, bit for bit;
+    with the multiplied ones to rounding (1e-12 of its range: the two differ in the last bits)."""
+    p = case[0]
+    rng = np.random.default_rng(3)
+    x = rng.normal(0, 0.1, (4, N, 5))
+    delta, F_w, speed = rng.normal(0, 0.05, 5), rng.normal(0, 300, (N, 5)), np.linspace(20.0, 24.0, 5)
+    a_y = lateral_acceleration("nlst", x, p, delta, F_w, speed)
+    rhs = _written_out(p, quotient=True)
+    for k in range(5):
+        dx = rhs(x[:, :, k], delta[k], F_w[:, k], p.M_c * F_w[:, k], float(speed[k]))
+        assert np.array_equal(a_y[:, k], speed[k] * (dx[2] + x[1, :, k]) / np.cos(x[2, :, k]))
+        assert np.array_equal(nlst_rhs(x[:, :, k], delta[k], F_w[:, k], replace(p, v_c=float(speed[k]))), dx)
+        dx = SingleTrackRHS(replace(p, v_c=float(speed[k])), n=N).rates(x[:, :, k], delta[k], F_w[:, k])
+        assert np.allclose(a_y[:, k], speed[k] * (dx[2] + x[1, :, k]) / np.cos(x[2, :, k]), rtol=0, atol=1e-12 * np.abs(a_y).max())
