@@ -18,7 +18,7 @@ from ..rng import rng_stream
 from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
 from .dynamics.rhs import GustInputs, SingleTrackRHS
 from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices,
-                           steering_input, wind_yaw_moment)
+                           steering_input)
 
 __all__ = [
     "MODELS",

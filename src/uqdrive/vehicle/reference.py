@@ -9,10 +9,10 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 
 from ..settings import Settings
-from .montecarlo import STEERS, gust_input_column, wind_yaw_moment
+from .montecarlo import STEERS, gust_input_column
 from .uncertainty import KarhunenLoeve
 from .dynamics.rhs import nlst_rhs
-from .single_track import VehicleParameters, lst_matrices, steering_input
+from .single_track import VehicleParameters, lst_matrices, steering_input, wind_yaw_moment
 
 __all__ = ["solve_realisations"]
 
