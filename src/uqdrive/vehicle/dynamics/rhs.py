@@ -251,7 +251,7 @@ class SingleTrackRHS:
         if self.speed_half is None:
             return self.v, self.mass_factor, self.a_v, None
         v = float(self.speed_half[j])
-        mass = self.m * v if self.balance.quotient else self.inv_m / v
+        mass = self.m * v if self.balance.quotient else self.inv_m / v  # (1 / m) / v: the augmented model's rounding along a profile
         return v, mass, (self.a_lat / v if self._lateral else None), (None if self.v_dot_half is None else self.v_dot_half[j])
 
     def __call__(self, x, j: int, out) -> None:
@@ -259,8 +259,9 @@ class SingleTrackRHS:
         self._rates(x, out, *self.inputs.at(j), *self._at(j))
 
     def rates(self, x, delta, F_w, M_w=None):
-        """dx/dt (4, n) of ``x`` (4, n) at the constant speed for the inputs given: ``delta`` (rad)
-        and ``F_w`` (N), floats or arrays (n,), ``M_w`` (N m; None: M_c F_w)."""
+        """dx/dt (4, n) of ``x`` (4, n) at the speed ``p.v_c`` for the inputs given, without a
+        speed profile: ``delta`` (rad) and ``F_w`` (N), floats or arrays (n,), ``M_w`` (N m; None:
+        M_c F_w)."""
         out = np.empty_like(x)
         self._rates(x, out, delta, np.cos(delta), F_w, M_w, *self._at(0))
         return out
