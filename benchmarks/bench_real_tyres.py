@@ -71,7 +71,9 @@ def judge(row: dict) -> str:
             return f"physical: `unrecognised`, no candidate closes half the chi2 excess (`{best['effect']}` {best['share_closed']:.2f})"
         return "`unrecognised` alone, gap unchanged"
     if row["gap_after"] <= 0.5 * row["gap_before"] or "unrecognised" in named or row["gap_before"] == 0:
-        return "physical"
+        best = row.get("best") or {}
+        return "physical" + (f" (`{best['effect']}` alone closes {best['share_closed']:.2f} of the chi2 excess)"
+                             if best.get("share_closed") is not None else "")
     return "gap not halved"
 
 
