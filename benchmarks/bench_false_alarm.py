@@ -14,7 +14,10 @@ the number to hold against the 5 % target; FILE.scorecard.csv holds it as a scor
     python benchmarks/bench_false_alarm.py --replicates 120 [--samples 1000] [--out FILE.json] [--first-seed 50000]
 
 Results are written after every replicate (atomically), so an interrupted run keeps what it
-measured; `--resume` continues a file.
+measured; `--resume` continues a file. The committed record is docs/measurements/false_alarm.json
+(--out) with its scorecard row beside it. The candidate list enters only after the null gate: a
+replicate the gate finds not significant is named `none` whatever the candidates are; only a
+significant one can be an alarm, and the candidates decide what it names.
 """
 
 from __future__ import annotations

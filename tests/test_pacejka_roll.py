@@ -50,3 +50,22 @@ def test_front_camber_understeers_and_rear_camber_oversteers(front, rear, sign):
     yaw = _run(RollingCar(camber_slip_front=front, camber_slip_rear=rear))[0][1, 0, -1]
     none = _run(RollingCar(camber_slip_front=0.0, camber_slip_rear=0.0))[0][1, 0, -1]
     assert sign * (yaw - none) > 0.01 * none
+
+
+def test_front_camber_slip_is_a_steer_that_follows_the_roll():
+    """The front axle's roll slip (camber and kinematic roll steer, the roll_steering car's 0.30)
+    acts as a steer angle -epsilon_f phi: at steady state the car turns as the car without roll
+    slip steered by delta - epsilon_f phi_ss does. 1e-4 relative: the two differ only in the
+    projection of the front force through delta (F_yf (1 - cos(epsilon_f phi)) ~ 1e-5 of it) and in
+    the free-rolling front wheel's small F_xf sin(delta)."""
+    steering = RollingCar(camber_slip_front=0.30, camber_slip_rear=0.0)
+    x, _ = _run(steering)
+    phi = x[10, 0, -1]
+    n_steps = int(round(5.0 / H))
+    t_half = np.arange(2 * n_steps + 1) * H / 2
+    zero = np.zeros((t_half.size, 1))
+    steer = HELD(t_half) * (1.0 - 0.30 * phi / np.deg2rad(1.0))
+    y, _ = simulate_pacejka(RollingCar(camber_slip_front=0.0, camber_slip_rear=0.0), np.array([1.0]), np.array([100.0]), np.array([1.55]),
+                            steer, V, zero, zero, H, n_steps, 5)
+    assert phi > 0.005 and x[1, 0, -1] == pytest.approx(y[1, 0, -1], rel=1e-4)
+    assert abs(x[1, 0, -1] - _run(RollingCar(camber_slip_front=0.0, camber_slip_rear=0.0))[0][1, 0, -1]) > 0.05 * y[1, 0, -1]

@@ -129,11 +129,15 @@ def generate(config: Mapping[str, Any], case: RealTyreCase, amplitude_deg: float
 #: The cars of the cases: the sedan (the vehicle file's chassis and tyre shape, load-sensitive tyres);
 #: ``reshaped``, tyres whose own shape (B_f, B_r 1.45 times the file's, C 1.3, E -0.3) is not the
 #: file's (1.9, 0.97) and otherwise ideal (peak and cornering stiffness proportional to the load);
-#: ``rolling``, the sedan with a roll mode, roll camber on both axles and relaxing tyres.
+#: ``rolling``, the sedan with a roll mode, roll camber on both axles and relaxing tyres;
+#: ``roll_steering``, the rolling car whose front axle also toes out of the turn as the body rolls
+#: (0.18 rad of kinematic roll steer per rad of roll on top of the camber's 0.12: 1.8 deg of front
+#: steer per g where the rolling car has 0.72), the rear's camber unchanged.
 CARS = {
     "sedan": PacejkaCar(),
     "reshaped": PacejkaCar(B_f=10.6 * 1.45, B_r=30.4 * 1.45, C=1.3, E=-0.3, p_Dz=0.0, q_Ky=1e6),
     "rolling": RollingCar(),
+    "roll_steering": RollingCar(camber_slip_front=0.30),
 }
 
 #: name, manoeuvre, level (of the steady limit), manoeuvre parameters, duration (s), car
@@ -146,6 +150,7 @@ REAL_TYRE_CASES = [
     ("rt_slalom_090", "slalom", 0.9, {"period": 4.0}, 10.0, "sedan"),
     ("rt_shape_step_090", "step", 0.9, {"ramp": 0.4}, 6.0, "reshaped"),
     ("rt_roll_slalom_060", "slalom", 0.6, {"period": 2.0}, 8.0, "rolling"),
+    ("rt_rollsteer_slalom_060", "slalom", 0.6, {"period": 2.0}, 8.0, "roll_steering"),
 ]
 
 

@@ -42,7 +42,8 @@ class RollingCar(PacejkaCar):
         f (Hz) and zeta (-) of the roll mode.
     camber_slip_front, camber_slip_rear : float
         epsilon_i (rad of slip per rad of roll): the camber gain times the camber over the
-        cornering stiffness of the axle's tyres.
+        cornering stiffness of the axle's tyres, plus the axle's kinematic roll steer (its toe
+        change per rad of roll, positive out of the turn), which moves the slip the same way.
     """
 
     relaxation_length: float = 0.6
