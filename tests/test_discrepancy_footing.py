@@ -40,13 +40,14 @@ def test_the_footings_germ_sets_simulated_together_give_each_replicate_its_own_n
     realisations excluded per set, a sensor gain the statistics apply) the sets share RK4 passes
     of at most 400 realisations (10 sets; the last chunk's 10 in one); the exact discretisation
     simulates each set alone. Every array and number of the band equals the replicate-by-replicate
-    band's exactly: a realisation's arithmetic must not depend on the others in its pass."""
+    band's exactly: a realisation's arithmetic (its ten gust modes' product included) must not
+    depend on the others in its pass."""
     t = np.arange(101) * 0.01
     delta = np.deg2rad(8.0 if case == "magic_formula" else 3.0) * np.sin(2 * np.pi * t / 1.0)
     speed = np.interp(t, [0.0, 0.3, 0.8, 1.0], [25.0, 25.0, 18.0, 18.0]) if case == "speed_profile" else None
     channels = ("psi_dot", "a_y") if case == "speed_profile" else STATES
-    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, delta, 25.0, 16, np.random.default_rng(4), stride=4,
-                                   channels=channels, speed=speed)
+    settings = Settings.from_config({**config, "wind": {**config["wind"], "Tc": 0.1}})  # ten gust modes over the second
+    sim = AugmentedSimulator.drawn(settings, t, delta, 25.0, 16, np.random.default_rng(4), stride=4, channels=channels, speed=speed)
     structure = ModelStructure()
     if case == "magic_formula":
         structure = EFFECTS["sensor_scale_psi_dot"].augment(EFFECTS["tyre_saturation"].augment(structure, [0.9]), [1.05])
