@@ -315,8 +315,8 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
         keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[sim.spin_row]) > spin, axis=-1)
         whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
         stats, scale = np.empty((reps, 2, x.shape[0], xb.shape[-1])), np.empty((reps, 2, x.shape[0], xb.shape[-1]))
-        if whole.any():
-            stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
+        if whole.any():  # xb itself where every replicate is whole: xb[:, whole] would be a copy of the same numbers
+            stats[whole], scale[whole] = replicate_statistics(xb if whole.all() else xb[:, whole], model_ratio=ratio)
         for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
             stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
         model = base.statistics_ if model_statistics is None else model_statistics(rng, reps)
