@@ -333,8 +333,8 @@ def test_a_band_with_the_models_own_sampling_holds_it():
                                  statistics_=np.stack([np.full((4, 6), 0.5), np.full((4, 6), 2.0)])))()
     model_sim = _Recording()
 
-    def model(rng):
-        return moment_statistics(model_sim.simulate(base.theta_, None, _Germs.draw(rng, m, 32)), index)
+    def model(rng, reps):
+        return np.array([moment_statistics(model_sim.simulate(base.theta_, None, _Germs.draw(rng, m, 32)), index) for _ in range(reps)])
 
     fixed = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05)
     fresh = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05, model_statistics=model)

@@ -295,10 +295,11 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
 
     ``model_statistics``: None compares every replicate with ``base.statistics_`` (a model whose
     own sampling error is negligible: moment-matched germs of a linear model). A callable
-    ``model_statistics(rng)`` -> (2, C, K) gives the model's statistics on fresh germs for each
-    replicate instead, so that the band holds the model's own sampling (a model evaluated on a
-    few raw germs); ``jacobian`` (default ``base.jacobian_``) then is d z / d parameters on the
-    scale of that comparison.
+    ``model_statistics(rng, reps)`` -> (reps, 2, C, K) gives the model's statistics on fresh
+    germs for each of the ``reps`` replicates simulated together instead (its draws from ``rng``
+    after theirs, replicate after replicate), so that the band holds the model's own sampling (a
+    model evaluated on a few raw germs); ``jacobian`` (default ``base.jacobian_``) then is
+    d z / d parameters on the scale of that comparison.
     """
     per_call = max(1, 4000 // max(n, 1))
     z = []
@@ -314,11 +315,11 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
         keep = np.ones((reps, n), bool) if spin is None else ~np.any(np.abs(xb[sim.spin_row]) > spin, axis=-1)
         whole = keep.all(axis=1) | (keep.sum(axis=1) < 2)  # replicates used with all realisations
         stats, scale = np.empty((reps, 2, x.shape[0], xb.shape[-1])), np.empty((reps, 2, x.shape[0], xb.shape[-1]))
-        if whole.any():
-            stats[whole], scale[whole] = replicate_statistics(xb[:, whole], model_ratio=ratio)
+        if whole.any():  # xb itself where every replicate is whole: xb[:, whole] would be a copy of the same numbers
+            stats[whole], scale[whole] = replicate_statistics(xb if whole.all() else xb[:, whole], model_ratio=ratio)
         for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
             stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
-        model = base.statistics_ if model_statistics is None else np.array([model_statistics(rng) for _ in range(reps)])
+        model = base.statistics_ if model_statistics is None else model_statistics(rng, reps)
         z.extend((stats - model) / scale)
     z = refit_projection(np.array(z), base.jacobian_ if jacobian is None else jacobian)
     return NullBand.from_replicates(z, scan_windows(index.size), level)
