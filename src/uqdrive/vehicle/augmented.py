@@ -11,12 +11,13 @@ from __future__ import annotations
 from dataclasses import replace
 import numpy as np
 
-from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
+from ..numerics.integrate import cumulative_trapezoid
 from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .effects.terms import CHASSIS_FIELDS
-from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
+from .single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
 from .track_extended import integrate_chassis
+from .dynamics.ensemble import exact_response
 from .dynamics.rhs import SingleTrackRHS
 from .track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                         rk4_lateral_acceleration, speed_on_half_steps)
@@ -321,20 +322,16 @@ class AugmentedSimulator:
         A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
         A = A.copy()
         A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        W_gust = gust_input_column(W, self.gust_yaw_moment)
-        const = W * wind[:, None]
-        const[:, 2] += s.lateral_acceleration / p.v_c
+        bank = np.zeros((A.shape[0], 4))
+        bank[:, 2] = s.lateral_acceleration / p.v_c
         held = self._held_input(s)
+        steer = None
         if held:
             # x' = A x + B u with u held: z = x - B w, w = int u dt (piecewise linear) obeys
             # z' = A z + (A B) w, which the first-order hold integrates exactly
             steer = np.einsum("nij,nj->ni", A, B)
             delta = held_integral(self.delta, self.dt, s.steering_delay)
-        else:
-            steer = B
-        E = input_matrix(steer, const, W_gust, coeffs)
-        g = np.column_stack([delta, np.ones_like(delta), self.f.T])
-        x = lti_foh_response(A, E, g, self.dt, self.stride, np.zeros((A.shape[0], 4)))
+        x = exact_response((A, B, W), delta, wind, coeffs, self.f, self.dt, self.stride, self.gust_yaw_moment, bank, steer)
         if held:
             x += B.T[:, :, None] * delta[:: self.stride][None, None, :]
         if s.course_exact:
@@ -354,7 +351,7 @@ class AugmentedSimulator:
         return np.interp(t_half, self.time, delta)
 
     def _rk4(self, p, wind, coeffs, delta, s: ModelStructure, groups=None, with_rhs: bool = False):
-        """RK4 states (4, n, K + 1), a time-major view (as :func:`lti_foh_response`'s).
+        """RK4 states (4, n, K + 1), a time-major view (as :func:`~uqdrive.vehicle.dynamics.ensemble.exact_response`'s).
 
         ``delta``: the actual steering (T,) of all realisations, or a list of (actual steering,
         structure) of each consecutive part of ``germs.n`` realisations (``per_pair_input``).
