@@ -15,6 +15,7 @@ from ..settings import Settings, TimeGrid
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
 from ..rng import rng_stream
+from .dynamics.engine import EnsembleSimulator
 from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv
 from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, steering_input
 
@@ -121,18 +122,19 @@ def simulate_ensemble(
     refine = 1 if model == "lst" else 2
     t_fine = grid.fine(refine)
     delta_fine = steering_input(t_fine, delta_max, st.period, STEERS[steer])
-    f_fine = kle.eigenfunctions(t_fine)
     ramp = settings.speed
     on_jax = backend == "jax" and model == "nlst"
-    if on_jax:
+    if model == "lst" and ramp is None:  # the one ensemble simulator, on the fine grid
+        x = EnsembleSimulator(settings, t_fine, delta_fine, p.v_c, stride=grid.substeps, kle=kle).realise(p, draws["F_w_mean"], coeffs)
+    elif on_jax:
         from .accelerated.nlst import simulate_nlst_jax
 
-        x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment,
+        x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment,
                               None if ramp is None else ramp.on(t_fine))
     elif ramp is None:
-        simulate = simulate_lst if model == "lst" else simulate_nlst
-        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment)
+        x = simulate_nlst(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment)
     else:
+        f_fine = kle.eigenfunctions(t_fine)
         simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
         x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, ramp.on(t_fine), wind_settings.gust_yaw_moment)
 

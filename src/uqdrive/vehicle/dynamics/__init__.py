@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
+    from .engine import EnsembleSimulator  # noqa: F401
     from .ensemble import exact_response, lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv  # noqa: F401
     from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS, nlst_rhs  # noqa: F401
 
@@ -15,6 +16,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "HalfStepInputs": ".rhs",
     "SingleTrackRHS": ".rhs",
     "nlst_rhs": ".rhs",
+    "EnsembleSimulator": ".engine",
     "exact_response": ".ensemble",
     "lateral_acceleration": ".ensemble",
     "simulate_lst": ".ensemble",
@@ -23,5 +25,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "simulate_nlst_ltv": ".ensemble",
 })
 
-__all__ = ["GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs", "exact_response", "lateral_acceleration", "simulate_lst",
+__all__ = ["EnsembleSimulator", "GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs", "exact_response", "lateral_acceleration", "simulate_lst",
            "simulate_lst_ltv", "simulate_nlst", "simulate_nlst_ltv"]
