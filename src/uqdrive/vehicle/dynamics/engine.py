@@ -29,7 +29,8 @@ from .rhs import SingleTrackRHS
 
 __all__ = ["RK4_MAX_STEP", "GUST_PRODUCTS", "GUST_BYTES", "EnsembleSimulator"]
 
-RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
+#: The longest RK4 step (s): stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference.
+RK4_MAX_STEP = 0.01
 #: Gust products kept per simulator (:meth:`EnsembleSimulator._gusts`; 16 MB each at 1000
 #: realisations and 2000 half steps), and the size past which a product is not kept.
 GUST_PRODUCTS, GUST_BYTES = 4, 40_000_000
@@ -94,7 +95,7 @@ class EnsembleSimulator:
         self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
 
     def with_input(self, delta) -> "EnsembleSimulator":
-        """The same model and germs steered by another command ``delta`` (rad) on the same grid
+        """The same model (and realisations) steered by another command ``delta`` (rad) on the same grid
         (shape (T,) of the grid given at construction, or already cut to ``time``)."""
         other = object.__new__(type(self))
         other.__dict__.update(self.__dict__)
@@ -103,7 +104,6 @@ class EnsembleSimulator:
             raise ValueError(f"the input has {delta.size} samples; the grid needs {self.time.size}")
         other.delta = delta[: self.time.size]
         return other
-
 
     def realise(self, p: VehicleParameters, wind, coeffs, structure: ModelStructure = ModelStructure()) -> np.ndarray:
         """Channels as measured, shape (C, n, K + 1) at ``output_time``, of n realisations given by
@@ -130,7 +130,6 @@ class EnsembleSimulator:
         v_max = self.base.v_c if self.speed is None else max(float(self.base.v_c), float(np.max(self.speed)))
         return max(1, int(np.ceil(self.dt / s.max_step(v_max, RK4_MAX_STEP) - 1e-9)))
 
-
     def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
         """The measured channels (C, n, K + 1) with the structure's output map: the states of the
         exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
@@ -144,7 +143,6 @@ class EnsembleSimulator:
                 F_w = wind[:, None] + coeffs @ self.f[:, :: self.stride]
                 a_y = linear_lateral_acceleration(p, x, delta[:: self.stride], F_w, p.v_c, s.compliance_steer)
         return measured_channels(x, a_y, s, self.channels)
-
 
     def _eigenfunctions(self, t_half):  # the KLE eigenfunctions (n_c, J), kept for the next call on the same grid
         key = (t_half.size, float(t_half[-1]))
@@ -178,8 +176,6 @@ class EnsembleSimulator:
         A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
         A = A.copy()
         A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        bank = np.zeros((A.shape[0], 4))
-        bank[:, 2] = s.lateral_acceleration / p.v_c
         held = self._held_input(s)
         steer = None
         if held:
@@ -187,7 +183,8 @@ class EnsembleSimulator:
             # z' = A z + (A B) w, which the first-order hold integrates exactly
             steer = np.einsum("nij,nj->ni", A, B)
             delta = held_integral(self.delta, self.dt, s.steering_delay)
-        x = exact_response((A, B, W), delta, wind, coeffs, self.f, self.dt, self.stride, self.gust_yaw_moment, bank, steer)
+        x = exact_response((A, B, W), delta, wind, coeffs, self.f, self.dt, self.stride, self.gust_yaw_moment,
+                           s.lateral_acceleration / p.v_c, steer)
         if held:
             x += B.T[:, :, None] * delta[:: self.stride][None, None, :]
         if s.course_exact:

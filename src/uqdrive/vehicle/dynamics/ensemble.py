@@ -48,10 +48,11 @@ def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunct
 
 
 def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step: float, stride: int, gust_yaw_moment: bool = True,
-                   constant=None, steer=None):
+                   slip_rate=None, steer=None):
     """States of the linear model x' = A x + E g(t) from rest, exact for piecewise-linear signals
     g(t) = [delta(t), 1, f_1(t), ..., f_nc(t)] (first-order hold, :func:`lti_foh_response`), with
-    E = [B, W F_w_mean + constant, W_gust c_1, ..., W_gust c_nc] of (5.4), (5.1), (5.21).
+    E = [B, W F_w_mean + b, W_gust c_1, ..., W_gust c_nc] of (5.4), (5.1), (5.21), b a constant
+    side-slip rate.
 
     Every linear ensemble at constant speed is computed here: the Monte Carlo LST
     (:func:`simulate_lst`) and the augmented model's linear structures
@@ -75,8 +76,8 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
         States returned every ``stride`` steps (the maps of the skipped steps folded exactly).
     gust_yaw_moment : bool
         Whether the gusts also exert the yaw moment M_c F_w.
-    constant : ndarray, shape (n, 4), optional
-        A constant input added to W F_w_mean (an effect's, e.g. a road bank's a_lat / v).
+    slip_rate : float or ndarray, shape (n,), optional
+        A constant rate added to beta_dot (rad/s): a road bank's a_lat / v.
     steer : ndarray, shape (n, 4), optional
         The first signal's column (default B).
 
@@ -87,8 +88,8 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     A, B, W = matrices
     W_gust = gust_input_column(W, gust_yaw_moment)
     const = W * np.asarray(wind_mean)[:, None]
-    if constant is not None:
-        const += constant
+    if slip_rate is not None:
+        const[:, 2] += slip_rate
     E = input_matrix(B if steer is None else steer, const, W_gust, np.asarray(wind_coeffs))
     g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
     return lti_foh_response(A, E, g, step, stride, np.zeros((A.shape[0], 4)))
