@@ -61,7 +61,8 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     Parameters
     ----------
     matrices : tuple of ndarray
-        A (n, 4, 4), B (n, 4), W (n, 4) of the realisations (:func:`lst_matrices`).
+        A (n, 4, 4), B (n, 4), W (n, 4) of the realisations (:func:`~uqdrive.vehicle.single_track.lst_matrices`),
+        in the units of (5.4) (1/s for A's rates).
     delta : ndarray, shape (T,)
         The first signal on the grid (rad): the steering angle, or ``steer``'s signal.
     wind_mean : ndarray, shape (n,)
@@ -79,7 +80,7 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     slip_rate : float or ndarray, shape (n,), optional
         A constant rate added to beta_dot (rad/s): a road bank's a_lat / v.
     steer : ndarray, shape (n, 4), optional
-        The first signal's column (default B).
+        The first signal's column (default B), in the units of B.
 
     Returns
     -------
