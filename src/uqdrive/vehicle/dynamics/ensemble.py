@@ -1,5 +1,9 @@
-"""The Monte Carlo ensembles' simulators of the single-track model on analytic inputs: the LST
-exactly (at constant speed and along a speed profile), the NLST by RK4, and the a_y they record.
+"""Ensemble integrators of the single-track model on analytic inputs (steering, wind modes and
+speed known at every time): the exact LST response, the NLST by RK4, a speed profile, their a_y.
+
+The exact response (:func:`exact_response`) is the one ensemble simulator's
+(:class:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator`) for linear structures; the NLST and
+speed-profile loops are the Monte Carlo data sets' (:func:`uqdrive.vehicle.montecarlo.simulate_ensemble`).
 """
 
 from __future__ import annotations
@@ -54,9 +58,9 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     E = [B, W F_w_mean + b, W_gust c_1, ..., W_gust c_nc] of (5.4), (5.1), (5.21), b a constant
     side-slip rate.
 
-    Every linear ensemble at constant speed is computed here: the Monte Carlo LST
-    (:func:`simulate_lst`) and the augmented model's linear structures
-    (:class:`uqdrive.vehicle.augmented.AugmentedSimulator`).
+    Every linear ensemble at constant speed is computed here: the ensemble simulator's linear
+    structures (:class:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator`: the Monte Carlo LST
+    and the augmented model) and :func:`simulate_lst` (:func:`uqdrive.vehicle.montecarlo.lst_response`).
 
     Parameters
     ----------
