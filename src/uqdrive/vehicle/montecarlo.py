@@ -1,6 +1,5 @@
 """Monte Carlo ensembles of the stochastic single-track vehicle (thesis sec. 5.1): the draws, the
-data set in the uqdrive schema, spin detection and chunked moments; the simulators are in
-:mod:`uqdrive.vehicle.dynamics.ensemble`.
+data set in the uqdrive schema, spin detection and chunked moments over the ensemble simulators.
 """
 
 from __future__ import annotations
@@ -11,7 +10,7 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..settings import Settings, TimeGrid
+from ..settings import Settings
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
 from ..rng import rng_stream
@@ -22,7 +21,6 @@ from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehiclePar
 __all__ = [
     "MODELS",
     "STEERS",
-    "TimeGrid",
     "wind_kle",
     "spin_mask",
     "simulate_ensemble",
