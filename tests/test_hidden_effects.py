@@ -27,12 +27,9 @@ from uqdrive.studies.manoeuvres import (
     steering_command,
     step_steer,
 )
-from uqdrive.vehicle.montecarlo import (
-    TimeGrid,
-    simulate_ensemble,
-    simulate_lst,
-    simulate_nlst,
-)
+from uqdrive.settings import TimeGrid
+from uqdrive.vehicle.dynamics.ensemble import simulate_lst, simulate_nlst
+from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.single_track import (
     STATES,
     VehicleParameters,

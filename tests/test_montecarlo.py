@@ -9,7 +9,10 @@ from uqdrive.vehicle.montecarlo import simulate_ensemble, spin_mask, wind_kle
 from uqdrive.io import validate_ensemble
 from uqdrive.vehicle.reference import solve_realisations
 from uqdrive.vehicle.statistics import ensemble_statistics
-from uqdrive.vehicle.single_track import STATES
+from uqdrive.vehicle.single_track import STATES, VehicleParameters, steering_input
+from uqdrive.vehicle.dynamics.engine import EnsembleSimulator
+from uqdrive.vehicle.dynamics.ensemble import simulate_lst
+from uqdrive.vehicle.effects import ModelStructure
 from uqdrive.settings import Settings
 
 
@@ -130,3 +133,22 @@ def test_time_grid(config):
 def test_unknown_model_is_rejected(config):
     with pytest.raises(ValueError, match="unknown model"):
         simulate_ensemble(Settings.from_config(config), "bicycle", samples=2)
+
+
+def test_lst_ensemble_is_the_ensemble_simulators_realisation_to_the_last_bit(config):
+    """simulate_ensemble's LST at constant speed is realised by the one ensemble simulator; on its
+    draws the analytic simulator (simulate_lst, as lst_response) and the engine with a structure
+    whose effects are all off (a zero bank rate, course weight 0, no compliance) give the same
+    bits, and a bank of 1e-9 m/s^2 moves them (the comparison can fail)."""
+    settings = Settings.from_config(config)
+    ds = simulate_ensemble(settings, "lst", samples=6)
+    x = np.stack([ds[s].values for s in STATES])
+    grid, kle = settings.time, wind_kle(settings)
+    p = VehicleParameters.from_settings(settings, mu=ds.mu.values, m_load=ds.m_load.values, l_f=ds.l_f.values)
+    coeffs = settings.wind.sigma * ds.xi_wind.values * np.sqrt(kle.eigenvalues)
+    t = grid.fine(1)
+    delta = steering_input(t, settings.steering.delta_max, settings.steering.period)
+    assert np.array_equal(simulate_lst(p, delta, ds.F_w_mean.values, coeffs, kle.eigenfunctions(t), grid), x)
+    engine = EnsembleSimulator(settings, t, delta, p.v_c, stride=grid.substeps, kle=kle)
+    assert np.array_equal(engine.realise(p, ds.F_w_mean.values, coeffs, ModelStructure(lateral_acceleration=0.0)), x)
+    assert not np.array_equal(engine.realise(p, ds.F_w_mean.values, coeffs, ModelStructure(lateral_acceleration=1e-9)), x)

@@ -10,9 +10,8 @@ import pytest
 
 from uqdrive.settings import Settings, TimeGrid
 from uqdrive.numerics.integrate import rk4_fixed_step
-from uqdrive.vehicle.channels import lateral_acceleration, simulate_nlst_ltv
+from uqdrive.vehicle.dynamics.ensemble import lateral_acceleration, simulate_nlst, simulate_nlst_ltv
 from uqdrive.vehicle.dynamics import SingleTrackRHS, nlst_rhs
-from uqdrive.vehicle.montecarlo import simulate_nlst
 from uqdrive.vehicle.single_track import VehicleParameters
 
 N = 6

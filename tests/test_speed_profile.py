@@ -16,7 +16,7 @@ from uqdrive.vehicle.chaos import LSTChaosModel
 from uqdrive.vehicle.montecarlo import simulate_ensemble
 from uqdrive.vehicle.noise import add_noise
 from uqdrive.vehicle.single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed
-from uqdrive.vehicle.channels import speed_ramp
+from uqdrive.settings import SpeedRamp
 
 from test_channels import assert_moment_gradients
 from uqdrive.settings import Settings
@@ -35,7 +35,7 @@ def coarse(config, dt=0.05, ramp=None):
 
 
 def test_speed_ramp_golden_values():
-    v = speed_ramp([0.0, 0.5, 2.0, 3.5, 9.0], 72.0, 36.0, t_start=0.5, duration=3.0)
+    v = SpeedRamp(72.0, 36.0, duration=3.0, t_start=0.5).on([0.0, 0.5, 2.0, 3.5, 9.0])
     np.testing.assert_allclose(v, [20.0, 20.0, 15.0, 10.0, 10.0], rtol=1e-15)
 
 
@@ -104,7 +104,7 @@ def test_chaos_model_along_the_ramp_matches_monte_carlo(config):
 def test_ltv_gradient_is_the_derivative(config):
     cfg = coarse(config, dt=0.1)
     model = LSTChaosModel(Settings.from_config(cfg), uncertain=UNCERTAIN, time_variant_wind=False, order=1, quadrature_points=2, fixed={"m_load": 100.0})
-    cm = ChannelChaosModel(model, ["a_y", "beta"], speed=speed_ramp(model.time, **RAMP))
+    cm = ChannelChaosModel(model, ["a_y", "beta"], speed=SpeedRamp(**RAMP).on(model.time))
     theta = Settings.from_config(cfg).uncertainty.theta(UNCERTAIN)
     assert_moment_gradients(cm, theta, variance=False)
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from uqdrive.numerics.integrate import rk4_fixed_step, rk4_fixed_step_into
-from uqdrive.vehicle.augmented import _RK4_MAX_STEP, AugmentedSimulator, actual_steering
+from uqdrive.vehicle.augmented import AugmentedSimulator, actual_steering
+from uqdrive.vehicle.dynamics.engine import RK4_MAX_STEP
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 from uqdrive.settings import Settings
 
@@ -54,7 +55,7 @@ def _reference(sim, theta, s):
     p, wind, coeffs = sim.parameters(theta)
     coeffs = coeffs * s.gust_scale
     delta = actual_steering(sim.delta, sim.dt, s.steering_lag, s.steering_delay)
-    sub = max(1, int(np.ceil(sim.dt / _RK4_MAX_STEP - 1e-9)))
+    sub = max(1, int(np.ceil(sim.dt / RK4_MAX_STEP - 1e-9)))
     h = sim.dt / sub
     n_steps = (sim.time.size - 1) * sub
     t_half = np.arange(2 * n_steps + 1) * (h / 2)

@@ -14,13 +14,13 @@ from .._version import __version__
 from ..config import config_hash
 from ..control.lqr import lqr_gain
 from ..numerics.integrate import lti_foh_response, rk4_fixed_step
-from ..vehicle.montecarlo import TimeGrid, gust_input_column, wind_kle
+from ..vehicle.montecarlo import wind_kle
 from ..rng import rng_stream
 from ..control.slqr import ClosedLoopChaos, LaneKeepingCase
 from ..vehicle.uncertainty import ParameterDistribution
 from ..vehicle.dynamics.rhs import SingleTrackRHS
-from ..vehicle.single_track import STATES, VehicleParameters, lst_matrices, wind_yaw_moment
-from ..settings import Settings
+from ..vehicle.single_track import STATES, VehicleParameters, gust_input_column, lst_matrices, wind_yaw_moment
+from ..settings import Settings, TimeGrid
 
 __all__ = ["weights", "lqr_mean_gain", "slqr_gain", "closed_loop_monte_carlo", "closed_loop_moments", "gamma_sweep", "distribution_from_theta", "gains_dataset", "controller_table_rows"]
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..vehicle.channels import speed_ramp
+from ..settings import SpeedRamp
 
 __all__ = ["MANOEUVRES", "SPEED_PROFILES", "braking_in_turn", "braking_in_turn_speed", "chirp", "double_lane_change", "slalom",
            "speed_command", "steering_command", "step_steer"]
@@ -112,7 +112,7 @@ def braking_in_turn_speed(t, start_kmh: float = 80.0, end_kmh: float = 50.0, t_b
     ndarray, shape (T,)
         v(t) (m/s) on the times ``t``.
     """
-    return speed_ramp(t, start_kmh, end_kmh, t_brake, duration)
+    return SpeedRamp(start_kmh, end_kmh, duration, t_brake).on(t)
 
 
 

@@ -1,9 +1,10 @@
 """Ensembles of the single-track model with named effects added (a :class:`ModelStructure`), on
 any measured time grid and steering signal, from fixed germs (common random numbers).
 
-Linear structures are discretised exactly (first-order hold, as the LST ensembles); a non-linear
-tyre is integrated by vectorised RK4. With the germs fixed, the moments are smooth functions of
-the distribution and effect parameters, so optimisers can fit them (past the thesis).
+The realisations are simulated by :class:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator`
+(exact for linear structures, vectorised RK4 otherwise); this module maps distribution parameters
+and germs onto them and batches several models into one pass. With the germs fixed, the moments
+are smooth functions of the distribution and effect parameters, so optimisers can fit them.
 """
 
 from __future__ import annotations
@@ -11,32 +12,25 @@ from __future__ import annotations
 from dataclasses import replace
 import numpy as np
 
-from ..numerics.integrate import cumulative_trapezoid, lti_foh_response
 from ..settings import ParameterLayout, Settings
 from .effects import ModelStructure, shape_parts, with_tyre_shape
 from .effects.terms import CHASSIS_FIELDS
-from .single_track import STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices, with_compliance_steer
-from .track_extended import integrate_chassis
-from .dynamics.rhs import SingleTrackRHS
-from .track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
-                        rk4_lateral_acceleration, speed_on_half_steps)
-from ..numerics.sampled_input import INTERPOLATIONS, checked_interpolation, actual_steering, held_index, held_integral, reconstruction_error
+from .single_track import STATES, VehicleParameters
+from .dynamics.engine import EnsembleSimulator
+from .track_rk4 import measured_channels, rk4_lateral_acceleration
+from ..numerics.sampled_input import INTERPOLATIONS, actual_steering, held_index, held_integral, reconstruction_error
 from .uncertainty import Germs, kle_of_wind, uniform_from_germ
 
 __all__ = ["THETA_NAMES", "INTERPOLATIONS", "Germs", "actual_steering", "held_index", "held_integral", "reconstruction_error", "AugmentedSimulator"]
 
 #: Distribution parameters identified with every structure: mu ~ N, l_f ~ N, mean wind ~ U.
 THETA_NAMES = ParameterLayout.names
-_RK4_MAX_STEP = 0.01  # s: stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference
 #: Realisations of one RK4 pass of linear models along a speed profile: past a few thousand a
 #: step's NumPy calls cost their arithmetic, and the half-step wind forces (2 steps x realisations) grow.
 _PASS_REALISATIONS = 8000
-#: Gust products kept per simulator (:meth:`AugmentedSimulator._gusts`; 16 MB each at 1000
-#: realisations and 2000 half steps).
-_GUST_PRODUCTS, _GUST_BYTES = 4, 40_000_000
 
 
-class AugmentedSimulator:
+class AugmentedSimulator(EnsembleSimulator):
     """Simulate an augmented single-track model for distribution parameters ``theta``.
 
     Parameters
@@ -60,7 +54,7 @@ class AugmentedSimulator:
         How ``delta`` is reconstructed between its samples (the data file's ``delta`` attribute
         ``interpolation``): piecewise linear, or each sample held (zero-order hold).
     channels : sequence of str
-        Measured channels returned, in order: of psi, psi_dot, beta, y, a_y (:mod:`.track_rk4`).
+        Measured channels returned, in order: of psi, psi_dot, beta, y, a_y (:mod:`uqdrive.vehicle.track_rk4`).
     speed : ndarray, shape (T,), optional
         Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
 
@@ -72,33 +66,12 @@ class AugmentedSimulator:
 
     def __init__(self, settings: Settings, time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear",
                  channels=STATES, speed=None):
-        time = np.asarray(time, float)
-        self.channels = tuple(channels)
-        self.spin_row = self.channels.index("beta") if "beta" in self.channels else None
-        self.interpolation = checked_interpolation(interpolation)
-        self.stride = max(1, int(stride))
-        horizon = float(time[-1])  # the wind's KLE lives on the data's whole horizon
-        usable = 1 + ((time.size - 1) // self.stride) * self.stride
-        self.time = time[:usable]
-        delta = np.asarray(delta, float)[:usable]
-        self.output_time = self.time[:: self.stride]
-        self.dt = float(self.time[1] - self.time[0])
-        self.delta = delta
-        self.germs = germs
-        self.car = settings.vehicle
-        self.load = settings.uncertainty.m_load
-        w = settings.wind
-        self.kle = kle_of_wind(w, horizon)
+        super().__init__(settings, time, delta, v_c, stride, interpolation, channels, speed)
         if germs.kle.shape[1] < self.kle.n_modes:
             raise ValueError(f"germs hold {germs.kle.shape[1]} KLE modes; the wind needs {self.kle.n_modes}")
-        self.f = self.kle.eigenfunctions(self.time)  # (n_c, T)
-        self.sigma = float(w.sigma)
-        self.gust_yaw_moment = bool(w.gust_yaw_moment)
+        self.germs = germs
+        self.load = settings.uncertainty.m_load
         self.m_load = self.load.mean + self.load.std * germs.m_load
-        self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
-        self.speed = None if speed is None else np.asarray(speed, float)[:usable]
-        self._gust_products: dict = {}  # shared by the copies (with_germs, with_input): see _gusts
-        self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
 
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
@@ -114,17 +87,6 @@ class AugmentedSimulator:
         other.__dict__.update(self.__dict__)
         other.germs = germs
         other.m_load = self.load.mean + self.load.std * germs.m_load
-        return other
-
-    def with_input(self, delta) -> "AugmentedSimulator":
-        """The same model and germs steered by another command ``delta`` (rad) on the same grid
-        (shape (T,) of the grid given at construction, or already cut to ``time``)."""
-        other = object.__new__(AugmentedSimulator)
-        other.__dict__.update(self.__dict__)
-        delta = np.asarray(delta, float)
-        if delta.size < self.time.size:
-            raise ValueError(f"the input has {delta.size} samples; the grid needs {self.time.size}")
-        other.delta = delta[: self.time.size]
         return other
 
     def parameters(self, theta, germs: Germs | None = None) -> tuple[VehicleParameters, np.ndarray, np.ndarray]:
@@ -147,22 +109,8 @@ class AugmentedSimulator:
     def simulate(self, theta, structure: ModelStructure = ModelStructure(), germs: Germs | None = None) -> np.ndarray:
         """Channels as measured, shape (C, n, K + 1) at ``output_time``: the ``channels`` (by
         default psi, psi_dot, beta, y) of every realisation (of ``germs`` if given, else of the
-        simulator's own)."""
-        p, wind, coeffs = self.parameters(theta, germs)
-        p = with_tyre_shape(p, structure)
-        coeffs = coeffs * structure.gust_scale
-        delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
-        if self.speed is not None or self.channels != STATES:
-            return self._channels(p, wind, coeffs, delta, structure)
-        if structure.nonlinear:
-            x = self._rk4(p, wind, coeffs, delta, structure)
-        else:
-            x = self._exact(p, wind, coeffs, delta, structure)
-        gain = np.asarray(structure.output_gain, float)[:, None, None]
-        offset = np.asarray(structure.output_offset, float)[:, None, None]
-        if np.all(gain == 1.0) and not np.any(offset):  # as measured = as simulated: no copy of x
-            return x
-        return x * gain + offset
+        simulator's own), :meth:`realise` of :meth:`parameters`."""
+        return self.realise(*self.parameters(theta, germs), structure)
 
     def simulate_many(self, thetas, structures, groups=None) -> list:
         """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model
@@ -269,136 +217,3 @@ class AugmentedSimulator:
             return None
         return (s.tyre, bool(s.course_exact), s.chassis_switches(), self._substeps(s))
 
-    def _substeps(self, s: ModelStructure) -> int:
-        """RK4 steps per sample of the grid: the step at most ``_RK4_MAX_STEP``, and short enough
-        for the fastest slip lag and the roll mode of the chassis terms."""
-        v_max = self.base.v_c if self.speed is None else max(float(self.base.v_c), float(np.max(self.speed)))
-        return max(1, int(np.ceil(self.dt / s.max_step(v_max, _RK4_MAX_STEP) - 1e-9)))
-
-    def _channels(self, p, wind, coeffs, delta, s: ModelStructure):
-        """The measured channels (C, n, K + 1) with the structure's output map: the states of the
-        exact, RK4 or (along a speed profile) time-varying model, a_y from the same model."""
-        a_y = None
-        if self.speed is not None or s.nonlinear:
-            x, rhs, js = self._rk4(p, wind, coeffs, delta, s, with_rhs=True)
-            a_y = rk4_lateral_acceleration(rhs, x, js) if "a_y" in self.channels else None
-        else:
-            x = self._exact(p, wind, coeffs, delta, s)
-            if "a_y" in self.channels:
-                F_w = wind[:, None] + coeffs @ self.f[:, :: self.stride]
-                a_y = linear_lateral_acceleration(p, x, delta[:: self.stride], F_w, p.v_c, s.compliance_steer)
-        return measured_channels(x, a_y, s, self.channels)
-
-    def _eigenfunctions(self, t_half):  # the KLE eigenfunctions (n_c, J), kept for the next call on the same grid
-        key = (t_half.size, float(t_half[-1]))
-        if getattr(self, "_f_half", (None,))[0] != key:
-            self._f_half = (key, self.kle.eigenfunctions(t_half))
-        return self._f_half[1]
-
-    def _gusts(self, coeffs, f_half, t_half):
-        """Gust forces (J, n) of the realisations' mode coefficients ``coeffs`` (n, n_c) on the
-        half steps: the product ``coeffs @ f_half``, transposed. It depends on the germs and the
-        gust scale, not on theta, so a fit's simulations share it: the most recent
-        :data:`_GUST_PRODUCTS` are kept (with the copies of this simulator on other germs or
-        inputs), each computed as the first call did, so the numbers are those of a fresh product."""
-        key = (t_half.size, float(t_half[-1]), coeffs.shape, coeffs.tobytes())
-        cache = self._gust_products
-        product = cache.pop(key, None)
-        if product is None:
-            product = np.ascontiguousarray((coeffs @ f_half).T)
-        if product.nbytes > _GUST_BYTES:  # a bootstrap's fresh germs: never asked for again
-            return product
-        cache[key] = product
-        while len(cache) > _GUST_PRODUCTS:
-            cache.pop(next(iter(cache)))
-        return product
-
-    def _held_input(self, s: ModelStructure) -> bool:
-        """The actual steering is the held command itself (delayed): piecewise constant."""
-        return self.interpolation == "previous" and s.steering_lag <= 0
-
-    def _exact(self, p, wind, coeffs, delta, s: ModelStructure):
-        A, B, W = lst_matrices(with_compliance_steer(p, s.compliance_steer))  # the compliance: a softer front axle
-        A = A.copy()
-        A[:, 3, 2] = s.course_weight * p.v_c  # y_dot = v (psi + k beta), its linear part
-        W_gust = gust_input_column(W, self.gust_yaw_moment)
-        const = W * wind[:, None]
-        const[:, 2] += s.lateral_acceleration / p.v_c
-        held = self._held_input(s)
-        if held:
-            # x' = A x + B u with u held: z = x - B w, w = int u dt (piecewise linear) obeys
-            # z' = A z + (A B) w, which the first-order hold integrates exactly
-            steer = np.einsum("nij,nj->ni", A, B)
-            delta = held_integral(self.delta, self.dt, s.steering_delay)
-        else:
-            steer = B
-        E = input_matrix(steer, const, W_gust, coeffs)
-        g = np.column_stack([delta, np.ones_like(delta), self.f.T])
-        x = lti_foh_response(A, E, g, self.dt, self.stride, np.zeros((A.shape[0], 4)))
-        if held:
-            x += B.T[:, :, None] * delta[:: self.stride][None, None, :]
-        if s.course_exact:
-            x[3] += p.v_c * cumulative_trapezoid(np.sin(x[0] + s.course_weight * x[2]) - (x[0] + s.course_weight * x[2]), self.dt * self.stride)
-        return x
-
-    def _delta_half(self, delta, s: ModelStructure, t_half):
-        """The actual steering angle (J,) (rad) at the half-step times ``t_half`` (J,), from the
-        actual angle ``delta`` (T,) on the grid (the held command itself where :meth:`_held_input`)."""
-        if self._held_input(s):
-            # the held value at each half step; where it jumps (a step's end, shared with the next
-            # step's start) the mean of both sides: the last stage of the step before and the first
-            # of the step after then err by opposite amounts, and the jump arrives in time
-            value = lambda i: np.where(i >= 0, self.delta[np.clip(i, 0, self.delta.size - 1)], 0.0)  # noqa: E731
-            t_shift = t_half - s.steering_delay
-            return 0.5 * (value(held_index(t_half, self.dt, s.steering_delay)) + value(np.ceil(t_shift / self.dt - 1e-9).astype(int) - 1))
-        return np.interp(t_half, self.time, delta)
-
-    def _rk4(self, p, wind, coeffs, delta, s: ModelStructure, groups=None, with_rhs: bool = False):
-        """RK4 states (4, n, K + 1), a time-major view (as :func:`lti_foh_response`'s).
-
-        ``delta``: the actual steering (T,) of all realisations, or a list of (actual steering,
-        structure) of each consecutive part of ``germs.n`` realisations (``per_pair_input``).
-        ``groups``: sizes (realisations) of consecutive parts whose gusts are computed as one
-        product each (default: one part). BLAS rounds a product differently for other widths,
-        so a realisation's last bits depend on the product it was computed in (and on nothing
-        else: the RK4 is element-wise); see :meth:`simulate_many`. ``with_rhs``: also the
-        right-hand side and the half-step index of every returned time (for a_y); along a
-        speed profile a linear structure is integrated here too (:class:`LinearTrackRHS`).
-        """
-        sub = self._substeps(s)
-        h = self.dt / sub
-        n_steps = (self.time.size - 1) * sub
-        t_half = np.arange(2 * n_steps + 1) * (h / 2)
-        if isinstance(delta, list):  # (actual steering, structure) of each part of n realisations: the angle per realisation
-            n = self.germs.n
-            delta_half = np.empty((t_half.size, wind.size))
-            for i, (delta_i, s_i) in enumerate(delta):
-                delta_half[:, i * n:(i + 1) * n] = self._delta_half(delta_i, s_i, t_half)[:, None]
-        else:
-            delta_half = self._delta_half(delta, s, t_half)
-        f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
-        # wind force per half step with one contiguous row of realisations each, (n_half, n)
-        F_w_half = np.empty((t_half.size, wind.size))
-        start = 0
-        for size in (groups or [wind.size]):
-            np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
-            start += size
-        E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
-        if with_rhs:
-            js = np.arange(self.output_time.size) * (2 * sub * self.stride)
-            speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
-            if s.uses_chassis and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
-                return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
-                                           speed, self._reference_loads), js)
-            heading = bool({"psi", "y"} & set(self.channels))  # else psi_dot and beta alone: the same numbers
-            if not s.nonlinear:
-                rhs = LinearTrackRHS(p, s, delta_half, F_w_half, self.gust_yaw_moment, wind, *speed, heading=heading)
-                return integrate_linear_ltv(rhs, h, n_steps, sub * self.stride), rhs, js
-            rhs = SingleTrackRHS.of_structure(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, heading)
-            return integrate_single_track(rhs, h, n_steps, sub * self.stride).transpose(1, 2, 0), rhs, js
-        if s.uses_chassis:
-            return integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride,
-                                     reference_loads=self._reference_loads)
-        rhs = SingleTrackRHS.of_structure(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind)
-        out = integrate_single_track(rhs, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
-        return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it

@@ -10,11 +10,11 @@ states at one speed. :class:`ChannelChaosModel` wraps it for what a car records:
   the constant term and its variance the sum of squares of the others (4.51);
 * with a speed v(t) that changes, the model is linear time-varying: each output step
   [t_k, t_k+1] is discretised exactly (first-order hold) with the matrices at the step's mean
-  speed (v_k + v_k+1)/2 and slope (v_k+1 - v_k)/dt (:func:`lst_matrices_at_speed`), a
+  speed (v_k + v_k+1)/2 and slope (v_k+1 - v_k)/dt (:func:`~uqdrive.vehicle.single_track.lst_matrices_at_speed`), a
   second-order accurate splitting in dt; the output map uses v(t_k) at each output time.
 
 Gradients are forward sensitivities, exact derivatives of the discretised recursion. The Monte
-Carlo simulator's speed profile (a ramp, the LTV LST and NLST) and the a_y it records are here too.
+Carlo ensembles along a speed profile are :mod:`uqdrive.vehicle.dynamics.ensemble`'s.
 """
 
 from __future__ import annotations
@@ -26,16 +26,12 @@ from typing import Sequence
 import numpy as np
 
 from ..numerics.discretise import foh_discretise, foh_discretise_derivatives_batched
-from ..numerics.integrate import foh_discretise_single, lti_response_single, rk4_fixed_step_into
+from ..numerics.integrate import foh_discretise_single, lti_response_single
 from ..numerics.recursion import decoupled_blocks
 from ..numerics.threads import with_single_blas_thread
-from ..settings import SpeedRamp
-from .dynamics.rhs import GustInputs, HalfStepInputs, SingleTrackRHS
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lateral_acceleration_map,
-                           lst_matrices_at_speed)
+from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, lateral_acceleration_map
 
-__all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel", "speed_ramp",
-           "simulate_lst_ltv", "simulate_nlst_ltv", "lateral_acceleration"]
+__all__ = ["CHANNELS", "CHANNEL_UNITS", "CHANNEL_NAMES", "ChannelMoments", "ChannelChaosModel"]
 
 #: Every channel a measured ensemble may carry: the four states and the lateral acceleration.
 CHANNELS = STATES + ("a_y",)
@@ -297,106 +293,3 @@ class ChannelChaosModel:
                 dvar.append(2.0 * np.einsum("tn,tpn,n->pt", X, S, ind))
         grad = (np.stack(dmean, axis=1), np.stack(dvar, axis=1)) if gradient else (None, None)
         return ChannelMoments(self.time, self.channels, np.stack(mean), np.stack(var), *grad)
-
-
-# -- the speed profile in the Monte Carlo simulator -------------------------------------------------
-def speed_ramp(t, start_kmh: float, end_kmh: float, t_start: float = 0.0, duration: float = 1.0):
-    """Speed (m/s) that changes linearly from ``start_kmh`` to ``end_kmh`` (km/h) over
-    ``duration`` s from ``t_start``, constant before and after (braking or accelerating): v(t)
-    (m/s) at the times ``t`` (s), same shape as ``t``."""
-    return SpeedRamp(start_kmh, end_kmh, duration, t_start).on(t)
-
-
-def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid, speed, gust_yaw_moment: bool = True):
-    """:func:`simulate_lst` along a speed profile: the linear time-varying single-track model.
-
-    Each fine step is discretised exactly (first-order hold) with the matrices at the step's
-    mean speed and slope (:func:`lst_matrices_at_speed`), the splitting of
-    :class:`uqdrive.vehicle.channels.ChannelChaosModel`.
-
-    Parameters
-    ----------
-    speed : ndarray, shape (n_fine,)
-        v (m/s) on the fine grid; other arguments as :func:`simulate_lst`.
-
-    Returns
-    -------
-    ndarray, shape (4, n, n_out + 1)
-    """
-    n = np.shape(wind_mean)[0]
-    g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])  # (n_fine, r)
-    x = np.zeros((n, 4))
-    out = np.empty((4, n, grid.n_out + 1))
-    out[:, :, 0] = 0.0
-    speed = np.asarray(speed, float)
-    for i, (v, v_dot) in enumerate(zip(0.5 * (speed[1:] + speed[:-1]), np.diff(speed) / grid.step)):
-        A, B, W = lst_matrices_at_speed(p, v, v_dot)
-        W_gust = gust_input_column(W, gust_yaw_moment)
-        E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
-        Phi, P, Q = foh_discretise(A, E, grid.step)
-        x = np.einsum("nij,nj->ni", Phi, x) + P @ g[i] + Q @ g[i + 1]
-        if (i + 1) % grid.substeps == 0:
-            out[:, :, (i + 1) // grid.substeps] = x.T
-    return out
-
-
-def simulate_nlst_ltv(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid, speed_half,
-                      gust_yaw_moment: bool = True):
-    """:func:`simulate_nlst` along a speed profile (RK4).
-
-    The speed change acts along the velocity, so the side-slip equation (5.3b) gains the
-    projection of the longitudinal force on the velocity's normal:
-    beta_dot = (F_y cos beta - m v_dot sin beta) / (m v) - psi_dot, whose linearisation is the
-    -v_dot / v beta of :func:`lst_matrices_at_speed`; y_dot = v(t) sin psi.
-
-    Parameters
-    ----------
-    speed_half : ndarray, shape (2 n_fine - 1,)
-        v (m/s) on the half-step grid; other arguments as :func:`simulate_nlst`.
-    """
-    wind_mean = np.asarray(wind_mean, float)
-    v_half = np.asarray(speed_half, float)
-    M_w = None if gust_yaw_moment else p.M_c * wind_mean
-    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w),
-                         speed_half=(v_half, np.gradient(v_half, grid.step / 2.0)), quotient=True)
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
-    return np.ascontiguousarray(out.transpose(1, 2, 0))
-
-
-def lateral_acceleration(model: str, x, p: VehicleParameters, delta, F_w, speed):
-    """Lateral acceleration at the centre of gravity (m/s^2) of simulated states.
-
-    LST: C x + D_delta delta + D_w F_w (:func:`lateral_acceleration_map`); NLST: the lateral
-    forces over the mass, (F_fy cos delta + F_ry + F_w) / m = v (beta_dot + psi_dot) / cos beta
-    with beta_dot of (5.3b) at constant speed (the forces do not depend on v_dot).
-
-    Parameters
-    ----------
-    model : {"lst", "nlst"}
-        Linear (5.4) or non-linear (5.3) single-track model.
-    x : ndarray, shape (4, n, T)
-        States psi (rad), psi_dot (rad/s), beta (rad), y (m) of n realisations.
-    p : VehicleParameters
-        Parameters, scalars or arrays of shape (n,).
-    delta : ndarray, shape (T,)
-        Road-wheel steering angle (rad).
-    F_w : ndarray, shape (n, T)
-        Side wind on the output grid (N).
-    speed : ndarray, shape (T,)
-        v (m/s) on the output grid.
-
-    Returns
-    -------
-    ndarray, shape (n, T)
-        Lateral acceleration at the centre of gravity (m/s^2).
-    """
-    out = np.empty(x.shape[1:])
-    if model != "lst":  # the output grid as the right-hand side's half-step grid
-        rhs = SingleTrackRHS(p, HalfStepInputs(delta, np.asarray(F_w, float).T), speed_half=(speed, None), quotient=True)
-        for k in range(x.shape[2]):
-            out[:, k] = rhs.lateral_acceleration(x[:, :, k], k)
-        return out
-    for k in range(x.shape[2]):
-        C, D_delta, D_w = lateral_acceleration_map(replace(p, v_c=float(speed[k])))
-        out[:, k] = np.einsum("ni,in->n", C, x[:, :, k]) + D_delta * delta[k] + D_w * F_w[:, k]
-    return out

@@ -17,9 +17,9 @@ from ..numerics.batched_lti import foh_discretise_batched, lti_response_batched
 from ..numerics.galerkin import GalerkinProjector
 from ..numerics.integrate import foh_discretise_single, lti_response_single
 from ..settings import Settings
-from .montecarlo import STEERS, gust_input_column
+from .montecarlo import STEERS
 from ..numerics.threads import with_single_blas_thread
-from .single_track import VehicleParameters, lst_matrices, lst_matrices_at_speed, steering_input
+from .single_track import VehicleParameters, gust_input_column, lst_matrices, lst_matrices_at_speed, steering_input
 from .uncertainty import kle_of_wind
 
 __all__ = ["DISTRIBUTIONS", "BatchMoments", "ChaosMoments", "LSTChaosModel"]

@@ -1,5 +1,5 @@
-"""Monte Carlo ensembles of the stochastic single-track vehicle (thesis sec. 5.1): draws,
-vectorised simulation of the LST (exact discretisation) and NLST (RK4), spin detection.
+"""Monte Carlo ensembles of the stochastic single-track vehicle (thesis sec. 5.1): the draws, the
+data set in the uqdrive schema, spin detection and chunked moments over the ensemble simulators.
 """
 
 from __future__ import annotations
@@ -10,23 +10,18 @@ import numpy as np
 import xarray as xr
 
 from .._version import __version__
-from ..settings import Settings, TimeGrid
+from ..settings import Settings
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
-from ..numerics.integrate import lti_foh_response, rk4_fixed_step_into
 from ..rng import rng_stream
-from .channels import lateral_acceleration, simulate_lst_ltv, simulate_nlst_ltv
-from .dynamics.rhs import GustInputs, SingleTrackRHS
-from .single_track import (A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, input_matrix, lst_matrices,
-                           steering_input)
+from .dynamics.engine import EnsembleSimulator
+from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv
+from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, steering_input
 
 __all__ = [
     "MODELS",
     "STEERS",
-    "TimeGrid",
     "wind_kle",
-    "simulate_lst",
-    "simulate_nlst",
     "spin_mask",
     "simulate_ensemble",
     "lst_response",
@@ -46,72 +41,6 @@ def wind_kle(settings: Settings) -> KarhunenLoeve:
 def _wind_modes(kle: KarhunenLoeve, sigma: float, xi_wind):
     """Coefficients c (n, n_c) with F_w(t) = F_w_mean + c @ f(t), from (5.1) and (5.21)."""
     return sigma * np.asarray(xi_wind) * np.sqrt(kle.eigenvalues)
-
-
-def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
-    """Ensemble response of the linear single-track model (5.4), exact for piecewise-linear inputs.
-
-    The inputs are written as shared signals g(t) = [delta(t), 1, f_1(t), ..., f_nc(t)] with a
-    per-realisation input matrix [B, W F_w_mean, W c_1, ..., W c_nc], so one exact
-    discretisation per realisation serves the whole horizon.
-
-    Parameters
-    ----------
-    p : VehicleParameters
-        Per-realisation parameters, arrays of shape (n,).
-    delta : ndarray, shape (n_fine,)
-        Steering angle on the fine grid (rad).
-    wind_mean : ndarray, shape (n,)
-        Mean side wind per realisation (N).
-    wind_coeffs : ndarray, shape (n, n_c)
-        Wind mode coefficients (N), see (5.1), (5.21).
-    eigenfunctions : ndarray, shape (n_c, n_fine)
-        KLE eigenfunctions on the fine grid (-): the gusts are ``wind_coeffs @ eigenfunctions`` (N).
-    grid : TimeGrid
-    gust_yaw_moment : bool
-        Whether the time-variant wind also exerts the yaw moment M_c F_w.
-
-    Returns
-    -------
-    ndarray, shape (4, n, n_out + 1)
-    """
-    A, B, W = lst_matrices(p)
-    W_gust = gust_input_column(W, gust_yaw_moment)
-    n = A.shape[0]
-    E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
-    g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])
-    return lti_foh_response(A, E, g, grid.step, grid.substeps, np.zeros((n, 4)))
-
-
-def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
-    """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4
-    (:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`).
-
-    Parameters
-    ----------
-    p : VehicleParameters
-        Per-realisation parameters, arrays of shape (n,).
-    delta_half : ndarray, shape (2 n_fine - 1,)
-        Steering angle on the half-step grid (rad).
-    wind_mean : ndarray, shape (n,)
-        Mean side wind per realisation (N).
-    wind_coeffs : ndarray, shape (n, n_c)
-        Wind mode coefficients (N), as for :func:`simulate_lst`.
-    eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid (-), as ``eigenfunctions`` of :func:`simulate_lst`.
-    grid : TimeGrid
-    gust_yaw_moment : bool
-        Whether the time-variant wind also exerts the yaw moment M_c F_w.
-
-    Returns
-    -------
-    ndarray, shape (4, n, n_out + 1)
-    """
-    wind_mean = np.asarray(wind_mean, float)
-    M_w = None if gust_yaw_moment else p.M_c * wind_mean
-    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w))
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
-    return np.ascontiguousarray(out.transpose(1, 2, 0))
 
 
 def spin_mask(beta, threshold: float):
@@ -191,18 +120,19 @@ def simulate_ensemble(
     refine = 1 if model == "lst" else 2
     t_fine = grid.fine(refine)
     delta_fine = steering_input(t_fine, delta_max, st.period, STEERS[steer])
-    f_fine = kle.eigenfunctions(t_fine)
     ramp = settings.speed
     on_jax = backend == "jax" and model == "nlst"
-    if on_jax:
+    if model == "lst" and ramp is None:  # the one ensemble simulator, on the fine grid
+        x = EnsembleSimulator(settings, t_fine, delta_fine, p.v_c, stride=grid.substeps, kle=kle).realise(p, draws["F_w_mean"], coeffs)
+    elif on_jax:
         from .accelerated.nlst import simulate_nlst_jax
 
-        x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment,
+        x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment,
                               None if ramp is None else ramp.on(t_fine))
     elif ramp is None:
-        simulate = simulate_lst if model == "lst" else simulate_nlst
-        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, wind_settings.gust_yaw_moment)
+        x = simulate_nlst(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment)
     else:
+        f_fine = kle.eigenfunctions(t_fine)
         simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
         x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, ramp.on(t_fine), wind_settings.gust_yaw_moment)
 

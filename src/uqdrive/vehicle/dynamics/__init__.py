@@ -1,5 +1,5 @@
-"""The non-linear single-track model's right-hand side, written once, and the inputs it reads per
-RK4 half step: what every non-linear simulator of the package integrates.
+"""The single-track model's dynamics written once: the non-linear right-hand side with the inputs
+it reads per RK4 half step, and the ensemble integrators every simulator of the package calls.
 """
 
 from typing import TYPE_CHECKING
@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
+    from .engine import EnsembleSimulator  # noqa: F401
+    from .ensemble import exact_response, lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv  # noqa: F401
     from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS, nlst_rhs  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -14,6 +16,14 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "HalfStepInputs": ".rhs",
     "SingleTrackRHS": ".rhs",
     "nlst_rhs": ".rhs",
+    "EnsembleSimulator": ".engine",
+    "exact_response": ".ensemble",
+    "lateral_acceleration": ".ensemble",
+    "simulate_lst": ".ensemble",
+    "simulate_lst_ltv": ".ensemble",
+    "simulate_nlst": ".ensemble",
+    "simulate_nlst_ltv": ".ensemble",
 })
 
-__all__ = ["GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs"]
+__all__ = ["EnsembleSimulator", "GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs", "exact_response", "lateral_acceleration", "simulate_lst",
+           "simulate_lst_ltv", "simulate_nlst", "simulate_nlst_ltv"]
