@@ -65,16 +65,14 @@ def test_the_command_refuses_a_missing_gpu_before_writing(tmp_path, capsys, no_g
 def test_auto_without_a_gpu_is_the_numpy_path_bit_for_bit(config, monkeypatch, no_gpu):
     settings = Settings.from_config(config)
     called = []
-    monkeypatch.setattr(montecarlo, "simulate_nlst", lambda *a, **k: called.append(1) or simulate_nlst(*a, **k))
+    realise = montecarlo.EnsembleSimulator.realise
+    monkeypatch.setattr(montecarlo.EnsembleSimulator, "realise", lambda *a, **k: called.append(1) or realise(*a, **k))
     auto = simulate_ensemble(settings, "nlst", samples=8, device="auto")
     cpu = simulate_ensemble(settings, "nlst", samples=8, device="cpu")
     assert called == [1, 1]
     for name in (*STATES, "a_y"):
         assert np.array_equal(auto[name].values, cpu[name].values)
     assert auto.attrs == cpu.attrs and auto.attrs["integrator"] == "classical RK4"
-
-
-simulate_nlst = montecarlo.simulate_nlst
 
 
 @pytest.mark.parametrize("profile", [None, {"start_kmh": 70.0, "end_kmh": 45.0, "t_start": 2.0, "duration": 3.0}],

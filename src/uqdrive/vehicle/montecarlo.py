@@ -14,8 +14,9 @@ from ..settings import Settings
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
 from ..rng import rng_stream
-from .dynamics.engine import EnsembleSimulator
-from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv
+from .dynamics.engine import EnsembleSimulator, HalfStepDrive
+from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv
+from .effects import ModelStructure
 from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, steering_input
 
 __all__ = [
@@ -30,6 +31,8 @@ __all__ = [
 
 MODELS = ("lst", "nlst")
 STEERS = {"normal": 1.0, "inverted": -1.0}
+#: The thesis' non-linear single-track model (5.3): the Magic Formula, heading kinematics.
+NLST = ModelStructure(tyre="magic_formula")
 
 
 def wind_kle(settings: Settings) -> KarhunenLoeve:
@@ -129,12 +132,17 @@ def simulate_ensemble(
 
         x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment,
                               None if ramp is None else ramp.on(t_fine))
-    elif ramp is None:
-        x = simulate_nlst(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment)
+    elif model == "nlst":  # the one ensemble simulator, driven by the analytic inputs at every RK4 half step
+        speed_half = None
+        if ramp is not None:
+            v_half = ramp.on(t_fine)
+            speed_half = (v_half, np.gradient(v_half, grid.step / 2.0))
+        drive = HalfStepDrive(grid.step, delta_fine, kle.eigenfunctions(t_fine), speed_half, quotient=ramp is not None)
+        x = EnsembleSimulator(settings, t_fine[::2], delta_fine[::2], p.v_c, stride=grid.substeps, kle=kle, drive=drive).realise(
+            p, draws["F_w_mean"], coeffs, NLST)
     else:
-        f_fine = kle.eigenfunctions(t_fine)
-        simulate = simulate_lst_ltv if model == "lst" else simulate_nlst_ltv
-        x = simulate(p, delta_fine, draws["F_w_mean"], coeffs, f_fine, grid, ramp.on(t_fine), wind_settings.gust_yaw_moment)
+        x = simulate_lst_ltv(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, ramp.on(t_fine),
+                             wind_settings.gust_yaw_moment)
 
     t = grid.output
     speed = np.full(t.size, float(p.v_c)) if ramp is None else ramp.on(t)

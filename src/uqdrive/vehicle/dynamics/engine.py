@@ -11,7 +11,7 @@ distribution parameters; the Monte Carlo LST ensembles at constant speed are sim
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -25,15 +25,49 @@ from ..track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_
                          rk4_lateral_acceleration, speed_on_half_steps)
 from ..uncertainty import KarhunenLoeve, kle_of_wind
 from .ensemble import exact_response
-from .rhs import SingleTrackRHS
+from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS
 
-__all__ = ["RK4_MAX_STEP", "GUST_PRODUCTS", "GUST_BYTES", "EnsembleSimulator"]
+__all__ = ["RK4_MAX_STEP", "GUST_PRODUCTS", "GUST_BYTES", "HalfStepDrive", "EnsembleSimulator"]
 
 #: The longest RK4 step (s): stable (|h lambda| < 0.5) and within 1e-4 of the 5 ms reference.
 RK4_MAX_STEP = 0.01
 #: Gust products kept per simulator (:meth:`EnsembleSimulator._gusts`; 16 MB each at 1000
 #: realisations and 2000 half steps), and the size past which a product is not kept.
 GUST_PRODUCTS, GUST_BYTES = 4, 40_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class HalfStepDrive:
+    """Inputs the caller evaluates at every RK4 half step of the grid's own step, for analytic
+    inputs (the thesis ensembles' sine steering, KLE eigenfunctions and speed ramp): RK4 then
+    steps at ``step`` and reads these values, where a sampled input is reconstructed between
+    its samples and integrated at :data:`RK4_MAX_STEP`.
+
+    Parameters
+    ----------
+    step : float
+        RK4 step (s): the simulator's grid step.
+    steering : ndarray, shape (J,)
+        Actual front wheel angle (rad) at the half steps j ``step`` / 2, J = 2 (T - 1) + 1.
+    eigenfunctions : ndarray, shape (n_c, J)
+        KLE eigenfunctions (-) at the half steps.
+    speed : tuple of two ndarrays, shape (J,), optional
+        Speed v (m/s) and its rate v_dot (m/s^2) at the half steps; None: the constant speed.
+    gusts_per_step : bool
+        Form the gusts F_w_mean + c f(t_j) at each half step as they are needed
+        (:class:`~uqdrive.vehicle.dynamics.rhs.GustInputs`: no (J, n) table in memory, the
+        rounding of the Monte Carlo data sets), else as the table ``c @ f_half`` once.
+    quotient : bool
+        The balances divide by I_z and m v (the rounding of the data sets along a speed
+        profile, :class:`~uqdrive.vehicle.dynamics.rhs.Balance`).
+    """
+
+    step: float
+    steering: np.ndarray
+    eigenfunctions: np.ndarray
+    speed: tuple | None = None
+    gusts_per_step: bool = True
+    quotient: bool = False
 
 
 class EnsembleSimulator:
@@ -62,6 +96,10 @@ class EnsembleSimulator:
         Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
     kle : KarhunenLoeve, optional
         The wind's KLE over the grid's horizon, if already computed (else from the settings).
+    drive : HalfStepDrive, optional
+        Steering, gust modes (and speed) evaluated by the caller at every half step of the
+        grid's step: non-linear structures and ``drive.speed`` are integrated by RK4 on them
+        (no steering lag or delay: the caller's angle is the actual one).
 
     Attributes
     ----------
@@ -70,7 +108,7 @@ class EnsembleSimulator:
     """
 
     def __init__(self, settings: Settings, time, delta, v_c: float, stride: int = 1, interpolation: str = "linear", channels=STATES,
-                 speed=None, kle: KarhunenLoeve | None = None):
+                 speed=None, kle: KarhunenLoeve | None = None, drive: HalfStepDrive | None = None):
         time = np.asarray(time, float)
         self.channels = tuple(channels)
         self.spin_row = self.channels.index("beta") if "beta" in self.channels else None
@@ -91,6 +129,9 @@ class EnsembleSimulator:
         self.gust_yaw_moment = bool(w.gust_yaw_moment)
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
+        self.drive = drive
+        if drive is not None and drive.speed is not None and self.speed is None:
+            self.speed = drive.speed[0][: 2 * usable - 1: 2]  # on the grid: for the speed's checks, the half steps' values drive
         self._gust_products: dict = {}  # shared by the copies (with_input, and the germs' copies of a subclass): see _gusts
         self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
 
@@ -111,7 +152,12 @@ class EnsembleSimulator:
         ``coeffs`` (n, n_c) (N), with the effects of ``structure``."""
         p = with_tyre_shape(p, structure)
         coeffs = coeffs * structure.gust_scale
-        delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
+        if self.drive is not None:
+            if structure.steering_lag or structure.steering_delay:
+                raise ValueError("a half-step drive's steering is the actual angle: no steering lag or delay")
+            delta = self.delta
+        else:
+            delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
         if self.speed is not None or self.channels != STATES:
             return self._channels(p, wind, coeffs, delta, structure)
         if structure.nonlinear:
@@ -215,6 +261,8 @@ class EnsembleSimulator:
         right-hand side and the half-step index of every returned time (for a_y); along a
         speed profile a linear structure is integrated here too (:class:`LinearTrackRHS`).
         """
+        if self.drive is not None:
+            return self._driven(p, wind, coeffs, s, with_rhs)
         sub = self._substeps(s)
         h = self.dt / sub
         n_steps = (self.time.size - 1) * sub
@@ -252,3 +300,22 @@ class EnsembleSimulator:
         rhs = SingleTrackRHS.of_structure(p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind)
         out = integrate_single_track(rhs, h, n_steps, sub * self.stride)  # (K + 1, 4, n)
         return out.transpose(1, 2, 0)  # no copy: the statistics take their times from it
+
+    def _driven(self, p, wind, coeffs, s: ModelStructure, with_rhs: bool):
+        """:meth:`_rk4` on the :class:`HalfStepDrive`'s inputs at its step (states, and with
+        ``with_rhs`` the right-hand side and the half-step index of every returned time)."""
+        d = self.drive
+        n_steps = self.time.size - 1
+        E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
+        heading = not with_rhs or bool({"psi", "y"} & set(self.channels))
+        M_w = None if self.gust_yaw_moment else p.M_c * np.asarray(wind, float)
+        if d.gusts_per_step:
+            inputs = GustInputs(d.steering, wind, coeffs, d.eigenfunctions, M_w)
+        else:
+            inputs = HalfStepInputs(d.steering, np.ascontiguousarray((coeffs @ d.eigenfunctions).T) + wind, M_w)
+        if s.uses_chassis or not s.nonlinear and d.speed is not None:
+            raise ValueError("a half-step drive integrates the single-track right-hand side: no chassis terms, no linear model along a speed profile")
+        rhs = SingleTrackRHS(p, inputs, tyre=s.tyre, E=E, course_weight=s.course_weight, lateral_acceleration=s.lateral_acceleration,
+                             speed_half=d.speed, heading=heading, quotient=d.quotient)
+        x = integrate_single_track(rhs, d.step, n_steps, self.stride).transpose(1, 2, 0)
+        return (x, rhs, np.arange(self.output_time.size) * (2 * self.stride)) if with_rhs else x
