@@ -124,7 +124,8 @@ class EnsembleSimulator:
         self.car = settings.vehicle
         w = settings.wind
         self.kle = kle_of_wind(w, horizon) if kle is None else kle
-        self.f = self.kle.eigenfunctions(self.time)  # (n_c, T)
+        # (n_c, T); a drive holds them at the grid's times already (its even half steps)
+        self.f = self.kle.eigenfunctions(self.time) if drive is None else drive.eigenfunctions[:, : 2 * usable - 1: 2]
         self.sigma = float(w.sigma)
         self.gust_yaw_moment = bool(w.gust_yaw_moment)
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
