@@ -28,8 +28,9 @@ from uqdrive.studies.manoeuvres import (
     step_steer,
 )
 from uqdrive.settings import TimeGrid
-from uqdrive.vehicle.dynamics.ensemble import simulate_lst, simulate_nlst
-from uqdrive.vehicle.montecarlo import simulate_ensemble
+from uqdrive.vehicle.dynamics.engine import EnsembleSimulator
+from uqdrive.vehicle.dynamics.ensemble import simulate_lst
+from uqdrive.vehicle.montecarlo import NLST, simulate_ensemble
 from uqdrive.vehicle.single_track import (
     STATES,
     VehicleParameters,
@@ -133,8 +134,11 @@ def test_same_draws_reproduce_uqdrive_models(config, effect, magnitude, model):
     grid = Settings.from_config(config).time
     t_fine = grid.fine(1 if model == "lst" else 2)
     coeffs = config["wind"]["sigma"] * d["xi_wind"] * np.sqrt(kle.eigenvalues)
-    simulate = simulate_lst if model == "lst" else simulate_nlst
-    ref = simulate(p, steering_input(t_fine, np.deg2rad(5.0), 4.0), d["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid)
+    delta, f = steering_input(t_fine, np.deg2rad(5.0), 4.0), kle.eigenfunctions(t_fine)
+    if model == "lst":
+        ref = simulate_lst(p, delta, d["F_w_mean"], coeffs, f, grid)
+    else:
+        ref = EnsembleSimulator.driven(Settings.from_config(config), grid, delta, f, p.v_c, kle=kle).realise(p, d["F_w_mean"], coeffs, NLST)
     scale = np.abs(ref).max(axis=(1, 2), keepdims=True)
     assert np.all(np.abs(x - ref) <= (1e-4 if model == "lst" else 1e-12) * scale)
 

@@ -10,7 +10,9 @@ import pytest
 
 from uqdrive.settings import Settings, TimeGrid
 from uqdrive.numerics.integrate import rk4_fixed_step
-from uqdrive.vehicle.dynamics.ensemble import lateral_acceleration, simulate_nlst, simulate_nlst_ltv
+from uqdrive.vehicle.dynamics.ensemble import lateral_acceleration
+from uqdrive.vehicle.dynamics.engine import EnsembleSimulator
+from uqdrive.vehicle.montecarlo import NLST
 from uqdrive.vehicle.dynamics import SingleTrackRHS, nlst_rhs
 from uqdrive.vehicle.single_track import VehicleParameters
 
@@ -56,6 +58,13 @@ def case(config):
     return p, delta, wind, coeffs, f_half, grid
 
 
+def _ensemble(config, p, delta, wind, coeffs, f_half, grid, gust_yaw=True, v_half=None):
+    """States (4, n, K + 1) of the Monte Carlo data sets' simulator on these half-step inputs."""
+    settings = Settings.from_config(config)
+    settings = replace(settings, wind=replace(settings.wind, gust_yaw_moment=gust_yaw))
+    return EnsembleSimulator.driven(settings, grid, delta, f_half, p.v_c, v_half).realise(p, wind, coeffs, NLST)
+
+
 def _gusts(f_half):
     """The eigenfunctions per half step as contiguous rows, as the ensembles take them (a
     product with a strided column may round differently)."""
@@ -63,7 +72,7 @@ def _gusts(f_half):
 
 
 @pytest.mark.parametrize("gust_yaw", [True, False])
-def test_the_ensemble_at_constant_speed_is_5_3_written_out_bit_for_bit(case, gust_yaw):
+def test_the_ensemble_at_constant_speed_is_5_3_written_out_bit_for_bit(config, case, gust_yaw):
     p, delta, wind, coeffs, f_half, grid = case
     rhs, rows = _written_out(p, quotient=False), _gusts(f_half)
 
@@ -72,10 +81,10 @@ def test_the_ensemble_at_constant_speed_is_5_3_written_out_bit_for_bit(case, gus
         return rhs(x, delta[j], F_w, p.M_c * (F_w if gust_yaw else wind), float(p.v_c))
 
     want = rk4_fixed_step(f, np.zeros((4, N)), grid.step, grid.n_out * grid.substeps, grid.substeps).transpose(1, 2, 0)
-    assert np.array_equal(simulate_nlst(p, delta, wind, coeffs, f_half, grid, gust_yaw), want)
+    assert np.array_equal(_ensemble(config, *case, gust_yaw), want)
 
 
-def test_the_ensemble_along_a_speed_profile_divides_bit_for_bit(case):
+def test_the_ensemble_along_a_speed_profile_divides_bit_for_bit(config, case):
     """Along a speed profile the balances divide by I_z and m v (the rounding of the ensembles
     along a profile); multiplying by the inverses would differ in the last bits, so this fails."""
     p, delta, wind, coeffs, f_half, grid = case
@@ -88,7 +97,7 @@ def test_the_ensemble_along_a_speed_profile_divides_bit_for_bit(case):
         return rhs(x, delta[j], F_w, p.M_c * F_w, v_half[j], v_dot[j])
 
     want = rk4_fixed_step(f, np.zeros((4, N)), grid.step, grid.n_out * grid.substeps, grid.substeps).transpose(1, 2, 0)
-    x = simulate_nlst_ltv(p, delta, wind, coeffs, f_half, grid, v_half)
+    x = _ensemble(config, *case, v_half=v_half)
     assert np.array_equal(x, want)
     inverse = _written_out(p, quotient=False)
     other = rk4_fixed_step(lambda x, j: inverse(x, delta[j], wind + coeffs @ rows[j], p.M_c * (wind + coeffs @ rows[j]), v_half[j], v_dot[j]),

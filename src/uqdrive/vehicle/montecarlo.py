@@ -14,7 +14,7 @@ from ..settings import Settings
 from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
 from ..rng import rng_stream
-from .dynamics.engine import EnsembleSimulator, HalfStepDrive
+from .dynamics.engine import EnsembleSimulator
 from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv
 from .effects import ModelStructure
 from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, steering_input
@@ -133,13 +133,9 @@ def simulate_ensemble(
         x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment,
                               None if ramp is None else ramp.on(t_fine))
     elif model == "nlst":  # the one ensemble simulator, driven by the analytic inputs at every RK4 half step
-        speed_half = None
-        if ramp is not None:
-            v_half = ramp.on(t_fine)
-            speed_half = (v_half, np.gradient(v_half, grid.step / 2.0))
-        drive = HalfStepDrive(grid.step, delta_fine, kle.eigenfunctions(t_fine), speed_half, quotient=ramp is not None)
-        x = EnsembleSimulator(settings, t_fine[::2], delta_fine[::2], p.v_c, stride=grid.substeps, kle=kle, drive=drive).realise(
-            p, draws["F_w_mean"], coeffs, NLST)
+        simulator = EnsembleSimulator.driven(settings, grid, delta_fine, kle.eigenfunctions(t_fine), p.v_c,
+                                             None if ramp is None else ramp.on(t_fine), kle)
+        x = simulator.realise(p, draws["F_w_mean"], coeffs, NLST)
     else:
         x = simulate_lst_ltv(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, ramp.on(t_fine),
                              wind_settings.gust_yaw_moment)

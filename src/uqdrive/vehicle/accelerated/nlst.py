@@ -3,7 +3,7 @@ realisations as the vector axis, the operations of the NumPy path in the same or
 
 The right-hand sides repeat :class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` (constant speed: its
 balances multiplied by the inverses; a speed profile: divided, ``quotient``, with the speed term of
-:func:`uqdrive.vehicle.dynamics.ensemble.simulate_nlst_ltv`) operation for operation, and
+:meth:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator.driven`) operation for operation, and
 the stepper repeats :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`: the two paths differ
 by the last bits of the transcendental functions, of the gusts' sums and of the multiply-adds a
 compiler fuses, nothing else.
@@ -54,7 +54,7 @@ def _rhs_constant_speed(q, x, delta, F_w, M_w):
 def _rhs_speed_profile(q, x, delta, F_w, M_w, v, v_dot):
     """dx/dt of (5.3) at the speed v (m/s) changing at v_dot (m/s^2): the operations of
     :class:`~uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` with ``quotient`` and the speed term, as
-    :func:`~uqdrive.vehicle.dynamics.ensemble.simulate_nlst_ltv` integrates it."""
+    :meth:`~uqdrive.vehicle.dynamics.engine.EnsembleSimulator.driven` integrates it."""
     import jax.numpy as jnp
 
     psi, psi_dot, beta, _ = x
@@ -192,12 +192,12 @@ def nlst_program(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigen
 
 def simulate_nlst_jax(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid,
                       gust_yaw_moment: bool = True, speed_half=None):
-    """:func:`uqdrive.vehicle.dynamics.ensemble.simulate_nlst` (``speed_half`` None) or
-    :func:`uqdrive.vehicle.dynamics.ensemble.simulate_nlst_ltv` computed by JAX on its default device.
+    """The Monte Carlo NLST ensemble of :meth:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator.driven`
+    (at constant speed, ``speed_half`` None, or along a speed profile) computed by JAX on its default device.
 
-    The arguments, their shapes and units are those of the NumPy functions; ``speed_half``
+    The arguments, their shapes and units are those of the NumPy path; ``speed_half``
     (shape (2 n_fine - 1,), m/s) is the speed on the half-step grid, None for ``p.v_c``.
-    Returns the states on the output grid, shape (4, n, n_out + 1), float64, as they do.
+    Returns the states on the output grid, shape (4, n, n_out + 1), float64, as it does.
     """
     with float64():
         function, args = nlst_program(p, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid, gust_yaw_moment, speed_half)

@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING
 from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
-    from .engine import EnsembleSimulator  # noqa: F401
-    from .ensemble import exact_response, lateral_acceleration, simulate_lst, simulate_lst_ltv, simulate_nlst, simulate_nlst_ltv  # noqa: F401
+    from .engine import EnsembleSimulator, HalfStepDrive  # noqa: F401
+    from .ensemble import exact_response, lateral_acceleration, simulate_lst, simulate_lst_ltv  # noqa: F401
     from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS, nlst_rhs  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -17,13 +17,12 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "SingleTrackRHS": ".rhs",
     "nlst_rhs": ".rhs",
     "EnsembleSimulator": ".engine",
+    "HalfStepDrive": ".engine",
     "exact_response": ".ensemble",
     "lateral_acceleration": ".ensemble",
     "simulate_lst": ".ensemble",
     "simulate_lst_ltv": ".ensemble",
-    "simulate_nlst": ".ensemble",
-    "simulate_nlst_ltv": ".ensemble",
 })
 
-__all__ = ["EnsembleSimulator", "GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs", "exact_response", "lateral_acceleration", "simulate_lst",
-           "simulate_lst_ltv", "simulate_nlst", "simulate_nlst_ltv"]
+__all__ = ["EnsembleSimulator", "HalfStepDrive", "GustInputs", "HalfStepInputs", "SingleTrackRHS", "nlst_rhs", "exact_response", "lateral_acceleration", "simulate_lst",
+           "simulate_lst_ltv"]

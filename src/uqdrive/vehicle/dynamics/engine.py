@@ -17,7 +17,7 @@ import numpy as np
 
 from ...numerics.integrate import cumulative_trapezoid
 from ...numerics.sampled_input import actual_steering, checked_interpolation, held_index, held_integral
-from ...settings import Settings
+from ...settings import Settings, TimeGrid
 from ..effects import ModelStructure, with_tyre_shape
 from ..single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
 from ..track_extended import integrate_chassis
@@ -135,6 +135,38 @@ class EnsembleSimulator:
             self.speed = drive.speed[0][: 2 * usable - 1: 2]  # on the grid: for the speed's checks, the half steps' values drive
         self._gust_products: dict = {}  # shared by the copies (with_input, and the germs' copies of a subclass): see _gusts
         self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
+
+    @classmethod
+    def driven(cls, settings: Settings, grid: TimeGrid, delta_half, eigenfunctions_half, v_c: float, speed_half=None,
+               kle: KarhunenLoeve | None = None) -> "EnsembleSimulator":
+        """The simulator of the Monte Carlo data sets: RK4 at ``grid.step`` on inputs evaluated at
+        its half steps (:class:`HalfStepDrive`), states every ``grid.substeps`` steps, the gusts
+        formed per half step; along a speed profile the rate is the central difference of the
+        half-step speeds (``np.gradient``) and the balances divide (``quotient``).
+
+        Parameters
+        ----------
+        settings : Settings
+        grid : TimeGrid
+            The output grid and the RK4 step.
+        delta_half : ndarray, shape (J,)
+            Front wheel angle (rad) on ``grid.fine(2)``.
+        eigenfunctions_half : ndarray, shape (n_c, J)
+            KLE eigenfunctions (-) on ``grid.fine(2)``.
+        v_c : float
+            Speed (m/s) at constant speed.
+        speed_half : ndarray, shape (J,), optional
+            Speed v (m/s) on ``grid.fine(2)``; None: ``v_c``.
+        kle : KarhunenLoeve, optional
+            The wind's KLE, if already computed.
+        """
+        speed = None
+        if speed_half is not None:
+            speed_half = np.asarray(speed_half, float)
+            speed = (speed_half, np.gradient(speed_half, grid.step / 2.0))
+        drive = HalfStepDrive(grid.step, np.asarray(delta_half, float), np.asarray(eigenfunctions_half, float), speed, quotient=speed is not None)
+        t_half = grid.fine(2)
+        return cls(settings, t_half[::2], drive.steering[::2], v_c, stride=grid.substeps, kle=kle, drive=drive)
 
     def with_input(self, delta) -> "EnsembleSimulator":
         """The same model (and realisations) steered by another command ``delta`` (rad) on the same grid

@@ -1,9 +1,9 @@
-"""Ensemble integrators of the single-track model on analytic inputs (steering, wind modes and
-speed known at every time): the exact LST response, the NLST by RK4, a speed profile, their a_y.
+"""Linear ensemble responses of the single-track model, exact for piecewise-linear inputs (at
+constant speed and along a speed profile), and the lateral acceleration of simulated states.
 
 The exact response (:func:`exact_response`) is the one ensemble simulator's
-(:class:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator`) for linear structures; the NLST and
-speed-profile loops are the Monte Carlo data sets' (:func:`uqdrive.vehicle.montecarlo.simulate_ensemble`).
+(:class:`uqdrive.vehicle.dynamics.engine.EnsembleSimulator`) for linear structures; the LST along
+a speed profile (:func:`simulate_lst_ltv`) is the Monte Carlo data sets' (:func:`uqdrive.vehicle.montecarlo.simulate_ensemble`).
 """
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ from dataclasses import replace
 import numpy as np
 
 from ...numerics.discretise import foh_discretise
-from ...numerics.integrate import lti_foh_response, rk4_fixed_step_into
+from ...numerics.integrate import lti_foh_response
 from ...settings import TimeGrid
 from ..single_track import VehicleParameters, gust_input_column, input_matrix, lateral_acceleration_map, lst_matrices, lst_matrices_at_speed
-from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS
+from .rhs import HalfStepInputs, SingleTrackRHS
 
-__all__ = ["simulate_lst", "exact_response", "simulate_nlst", "simulate_lst_ltv", "simulate_nlst_ltv", "lateral_acceleration"]
+__all__ = ["simulate_lst", "exact_response", "simulate_lst_ltv", "lateral_acceleration"]
 
 
 def simulate_lst(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid: TimeGrid, gust_yaw_moment: bool = True):
@@ -100,37 +100,6 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     return lti_foh_response(A, E, g, step, stride, np.zeros((A.shape[0], 4)))
 
 
-def simulate_nlst(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid, gust_yaw_moment: bool = True):
-    """Ensemble response of the non-linear single-track model (5.3) by vectorised RK4
-    (:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`).
-
-    Parameters
-    ----------
-    p : VehicleParameters
-        Per-realisation parameters, arrays of shape (n,).
-    delta_half : ndarray, shape (2 n_fine - 1,)
-        Steering angle on the half-step grid (rad).
-    wind_mean : ndarray, shape (n,)
-        Mean side wind per realisation (N).
-    wind_coeffs : ndarray, shape (n, n_c)
-        Wind mode coefficients (N), as for :func:`simulate_lst`.
-    eigenfunctions_half : ndarray, shape (n_c, 2 n_fine - 1)
-        KLE eigenfunctions on the half-step grid (-), as ``eigenfunctions`` of :func:`simulate_lst`.
-    grid : TimeGrid
-    gust_yaw_moment : bool
-        Whether the time-variant wind also exerts the yaw moment M_c F_w.
-
-    Returns
-    -------
-    ndarray, shape (4, n, n_out + 1)
-    """
-    wind_mean = np.asarray(wind_mean, float)
-    M_w = None if gust_yaw_moment else p.M_c * wind_mean
-    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w))
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
-    return np.ascontiguousarray(out.transpose(1, 2, 0))
-
-
 def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid, speed, gust_yaw_moment: bool = True):
     """:func:`simulate_lst` along a speed profile: the linear time-varying single-track model.
 
@@ -162,29 +131,6 @@ def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenf
         if (i + 1) % grid.substeps == 0:
             out[:, :, (i + 1) // grid.substeps] = x.T
     return out
-
-
-def simulate_nlst_ltv(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid, speed_half,
-                      gust_yaw_moment: bool = True):
-    """:func:`simulate_nlst` along a speed profile (RK4).
-
-    The speed change acts along the velocity, so the side-slip equation (5.3b) gains the
-    projection of the longitudinal force on the velocity's normal:
-    beta_dot = (F_y cos beta - m v_dot sin beta) / (m v) - psi_dot, whose linearisation is the
-    -v_dot / v beta of :func:`lst_matrices_at_speed`; y_dot = v(t) sin psi.
-
-    Parameters
-    ----------
-    speed_half : ndarray, shape (2 n_fine - 1,)
-        v (m/s) on the half-step grid; other arguments as :func:`simulate_nlst`.
-    """
-    wind_mean = np.asarray(wind_mean, float)
-    v_half = np.asarray(speed_half, float)
-    M_w = None if gust_yaw_moment else p.M_c * wind_mean
-    rhs = SingleTrackRHS(p, GustInputs(delta_half, wind_mean, wind_coeffs, eigenfunctions_half, M_w),
-                         speed_half=(v_half, np.gradient(v_half, grid.step / 2.0)), quotient=True)
-    out = rk4_fixed_step_into(rhs, np.zeros((4, rhs.n)), grid.step, grid.n_out * grid.substeps, grid.substeps)
-    return np.ascontiguousarray(out.transpose(1, 2, 0))
 
 
 def lateral_acceleration(model: str, x, p: VehicleParameters, delta, F_w, speed):
