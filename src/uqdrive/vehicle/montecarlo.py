@@ -15,7 +15,7 @@ from .uncertainty import KarhunenLoeve, ParameterDistribution, kle_of_wind
 from ..numerics.backend import resolve_device
 from ..rng import rng_stream
 from .dynamics.engine import EnsembleSimulator
-from .dynamics.ensemble import lateral_acceleration, simulate_lst, simulate_lst_ltv
+from .dynamics.ensemble import lateral_acceleration, simulate_lst
 from .effects import ModelStructure
 from .single_track import A_Y_UNIT, STATE_NAMES, STATE_UNITS, STATES, VehicleParameters, gust_input_column, steering_input
 
@@ -125,20 +125,18 @@ def simulate_ensemble(
     delta_fine = steering_input(t_fine, delta_max, st.period, STEERS[steer])
     ramp = settings.speed
     on_jax = backend == "jax" and model == "nlst"
-    if model == "lst" and ramp is None:  # the one ensemble simulator, on the fine grid
-        x = EnsembleSimulator(settings, t_fine, delta_fine, p.v_c, stride=grid.substeps, kle=kle).realise(p, draws["F_w_mean"], coeffs)
+    if model == "lst":  # the one ensemble simulator, on the fine grid (along a profile exact per step, as the PCE channel model)
+        x = EnsembleSimulator(settings, t_fine, delta_fine, p.v_c, stride=grid.substeps, speed=None if ramp is None else ramp.on(t_fine), kle=kle,
+                              linear_profile="exact").realise(p, draws["F_w_mean"], coeffs)
     elif on_jax:
         from .accelerated.nlst import simulate_nlst_jax
 
         x = simulate_nlst_jax(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, wind_settings.gust_yaw_moment,
                               None if ramp is None else ramp.on(t_fine))
-    elif model == "nlst":  # the one ensemble simulator, driven by the analytic inputs at every RK4 half step
+    else:  # the one ensemble simulator, driven by the analytic inputs at every RK4 half step
         simulator = EnsembleSimulator.driven(settings, grid, delta_fine, kle.eigenfunctions(t_fine), p.v_c,
                                              None if ramp is None else ramp.on(t_fine), kle)
         x = simulator.realise(p, draws["F_w_mean"], coeffs, NLST)
-    else:
-        x = simulate_lst_ltv(p, delta_fine, draws["F_w_mean"], coeffs, kle.eigenfunctions(t_fine), grid, ramp.on(t_fine),
-                             wind_settings.gust_yaw_moment)
 
     t = grid.output
     speed = np.full(t.size, float(p.v_c)) if ramp is None else ramp.on(t)

@@ -24,7 +24,7 @@ from ..track_extended import integrate_chassis
 from ..track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                          rk4_lateral_acceleration, speed_on_half_steps)
 from ..uncertainty import KarhunenLoeve, kle_of_wind
-from .ensemble import exact_response
+from .ensemble import exact_response, simulate_lst_ltv
 from .rhs import GustInputs, HalfStepInputs, SingleTrackRHS
 
 __all__ = ["RK4_MAX_STEP", "GUST_PRODUCTS", "GUST_BYTES", "HalfStepDrive", "EnsembleSimulator"]
@@ -96,6 +96,11 @@ class EnsembleSimulator:
         Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
     kle : KarhunenLoeve, optional
         The wind's KLE over the grid's horizon, if already computed (else from the settings).
+    linear_profile : {"rk4", "exact"}
+        How the linear model (the thesis' LST, no effects) is integrated along ``speed``: by RK4
+        (:class:`~uqdrive.vehicle.track_rk4.LinearTrackRHS`), or discretised exactly per grid
+        step at the step's mean speed and slope (:func:`~uqdrive.vehicle.dynamics.ensemble.simulate_lst_ltv`,
+        the PCE channel model's splitting and the Monte Carlo data sets').
     drive : HalfStepDrive, optional
         Steering, gust modes (and speed) evaluated by the caller at every half step of the
         grid's step: non-linear structures and ``drive.speed`` are integrated by RK4 on them
@@ -108,7 +113,7 @@ class EnsembleSimulator:
     """
 
     def __init__(self, settings: Settings, time, delta, v_c: float, stride: int = 1, interpolation: str = "linear", channels=STATES,
-                 speed=None, kle: KarhunenLoeve | None = None, drive: HalfStepDrive | None = None):
+                 speed=None, kle: KarhunenLoeve | None = None, linear_profile: str = "rk4", drive: HalfStepDrive | None = None):
         time = np.asarray(time, float)
         self.channels = tuple(channels)
         self.spin_row = self.channels.index("beta") if "beta" in self.channels else None
@@ -131,6 +136,9 @@ class EnsembleSimulator:
         self.base = replace(VehicleParameters.from_settings(settings), v_c=float(v_c))
         self.speed = None if speed is None else np.asarray(speed, float)[:usable]
         self.drive = drive
+        if linear_profile not in ("rk4", "exact"):
+            raise ValueError(f"linear_profile is 'rk4' or 'exact', not {linear_profile!r}")
+        self.linear_profile = linear_profile
         if drive is not None and drive.speed is not None and self.speed is None:
             self.speed = drive.speed[0][: 2 * usable - 1: 2]  # on the grid: for the speed's checks, the half steps' values drive
         self._gust_products: dict = {}  # shared by the copies (with_input, and the germs' copies of a subclass): see _gusts
@@ -191,6 +199,10 @@ class EnsembleSimulator:
             delta = self.delta
         else:
             delta = actual_steering(self.delta, self.dt, structure.steering_lag, structure.steering_delay, self.interpolation)
+        if self.speed is not None and self.linear_profile == "exact" and not structure.nonlinear:
+            if structure != ModelStructure() or self.channels != STATES:
+                raise ValueError("the exact discretisation along a speed profile is the thesis' LST's: no effects, the four states")
+            return simulate_lst_ltv(p, delta, wind, coeffs, self.f, self.dt, self.stride, self.speed, self.gust_yaw_moment)
         if self.speed is not None or self.channels != STATES:
             return self._channels(p, wind, coeffs, delta, structure)
         if structure.nonlinear:

@@ -100,7 +100,7 @@ def exact_response(matrices, delta, wind_mean, wind_coeffs, eigenfunctions, step
     return lti_foh_response(A, E, g, step, stride, np.zeros((A.shape[0], 4)))
 
 
-def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, grid, speed, gust_yaw_moment: bool = True):
+def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenfunctions, step: float, stride: int, speed, gust_yaw_moment: bool = True):
     """:func:`simulate_lst` along a speed profile: the linear time-varying single-track model.
 
     Each fine step is discretised exactly (first-order hold) with the matrices at the step's
@@ -109,27 +109,31 @@ def simulate_lst_ltv(p: VehicleParameters, delta, wind_mean, wind_coeffs, eigenf
 
     Parameters
     ----------
+    step : float
+        Fine grid step (s).
+    stride : int
+        States returned every ``stride`` fine steps.
     speed : ndarray, shape (n_fine,)
         v (m/s) on the fine grid; other arguments as :func:`simulate_lst`.
 
     Returns
     -------
-    ndarray, shape (4, n, n_out + 1)
+    ndarray, shape (4, n, (n_fine - 1) // stride + 1)
     """
     n = np.shape(wind_mean)[0]
     g = np.column_stack([delta, np.ones_like(delta), np.asarray(eigenfunctions).T])  # (n_fine, r)
     x = np.zeros((n, 4))
-    out = np.empty((4, n, grid.n_out + 1))
+    out = np.empty((4, n, (g.shape[0] - 1) // stride + 1))
     out[:, :, 0] = 0.0
     speed = np.asarray(speed, float)
-    for i, (v, v_dot) in enumerate(zip(0.5 * (speed[1:] + speed[:-1]), np.diff(speed) / grid.step)):
+    for i, (v, v_dot) in enumerate(zip(0.5 * (speed[1:] + speed[:-1]), np.diff(speed) / step)):
         A, B, W = lst_matrices_at_speed(p, v, v_dot)
         W_gust = gust_input_column(W, gust_yaw_moment)
         E = input_matrix(B, W * np.asarray(wind_mean)[:, None], W_gust, np.asarray(wind_coeffs))
-        Phi, P, Q = foh_discretise(A, E, grid.step)
+        Phi, P, Q = foh_discretise(A, E, step)
         x = np.einsum("nij,nj->ni", Phi, x) + P @ g[i] + Q @ g[i + 1]
-        if (i + 1) % grid.substeps == 0:
-            out[:, :, (i + 1) // grid.substeps] = x.T
+        if (i + 1) % stride == 0:
+            out[:, :, (i + 1) // stride] = x.T
     return out
 
 
