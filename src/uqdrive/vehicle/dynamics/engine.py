@@ -6,7 +6,8 @@ Linear structures at constant speed are discretised exactly (first-order hold,
 and a speed profile are integrated by vectorised RK4 (:class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS`,
 :func:`uqdrive.vehicle.track_extended.integrate_chassis`, :class:`uqdrive.vehicle.track_rk4.LinearTrackRHS`).
 :class:`uqdrive.vehicle.augmented.AugmentedSimulator` draws the realisations from fixed germs and
-distribution parameters; the Monte Carlo LST ensembles at constant speed are simulated here too.
+distribution parameters; the Monte Carlo data sets are simulated here too, the NLST on inputs
+evaluated at the RK4 half steps (:class:`HalfStepDrive`, :meth:`EnsembleSimulator.driven`).
 """
 
 from __future__ import annotations

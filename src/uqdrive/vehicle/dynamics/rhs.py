@@ -1,9 +1,9 @@
 """The right-hand side of the non-linear single-track model (5.3), written once: slip angles,
 tyre forces, the yaw and lateral balances and the course kinematics, for n realisations at once.
 
-Every non-linear simulator integrates :class:`SingleTrackRHS`: the Monte Carlo ensembles
-(:mod:`uqdrive.vehicle.dynamics.ensemble`), the ensemble simulator's structures without chassis
-terms (:mod:`uqdrive.vehicle.dynamics.engine`, for :mod:`uqdrive.vehicle.augmented`), the
+Every non-linear simulator integrates :class:`SingleTrackRHS`: the ensemble simulator's
+structures without chassis terms (:mod:`uqdrive.vehicle.dynamics.engine`: the Monte Carlo data
+sets and :mod:`uqdrive.vehicle.augmented`), the
 closed-loop study and the reference solutions (:func:`nlst_rhs`); the chassis right-hand side
 (:mod:`uqdrive.vehicle.track_extended`) shares its slip angles (:func:`slip_angles`) and balances
 (:class:`Balance`). What differs between the simulators is where the inputs come from per RK4 half
