@@ -27,7 +27,8 @@ from uqdrive.numerics.backend import float64, gpu_visible
 from uqdrive.rng import rng_stream
 from uqdrive.settings import Settings
 from uqdrive.vehicle.accelerated.nlst import nlst_program
-from uqdrive.vehicle.montecarlo import _wind_modes, simulate_ensemble, simulate_nlst, wind_kle
+from uqdrive.vehicle.dynamics import EnsembleSimulator
+from uqdrive.vehicle.montecarlo import NLST, _wind_modes, simulate_ensemble, wind_kle
 from uqdrive.vehicle.single_track import VehicleParameters, steering_input
 from uqdrive.vehicle.uncertainty import ParameterDistribution
 
@@ -79,7 +80,9 @@ def bench_size(settings: Settings, n: int, run_numpy: bool, whole: bool, repeats
         del states
     few = min(repeats, 3) if n <= 2000 else 1  # a 20000-run NumPy ensemble takes tens of seconds
     if run_numpy:
-        row["numpy_kernel_s"], reference = best_of(lambda: simulate_nlst(*args), few)
+        p, delta, wind, coeffs, f_half, grid, _ = args
+        simulator = EnsembleSimulator.driven(settings, grid, delta, f_half, p.v_c)
+        row["numpy_kernel_s"], reference = best_of(lambda: simulator.realise(p, wind, coeffs, NLST), few)
         row["max_relative_difference"] = _relative_difference(on_host, reference)
         row["speedup_kernel"] = row["numpy_kernel_s"] / row["jax_kernel_s"]
     if whole:  # the KLE computed once, as a workflow job or a study passes it
