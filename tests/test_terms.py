@@ -60,3 +60,28 @@ def test_structures_share_a_chassis_pass_only_with_the_same_switches():
     assert a.chassis_switches() == b.chassis_switches() != c.chassis_switches()
     assert len(ModelStructure().chassis_switches()) == sum(len(t.switches) for t in TERMS if t.chassis)
     assert set(CHASSIS_FIELDS) == {f for t in TERMS if t.chassis for f in t.fields}
+
+
+def test_each_effect_says_where_it_vanishes_and_its_term_is_off_there():
+    """The registry holds where each effect vanishes (``Effect.vanishes``): the parameter is the
+    effect's own, and there the effect's term is off (the baseline's
+    model), other parameters at their start values. Two keep a term on through another parameter,
+    by their physics: the course angle's exact sine at k = 0 (y' = v sin psi), and the load-sensitive
+    tyre's peak p_Dz beside its stiffness q. VANISHES and PHYSICAL are read from the registry."""
+    import numpy as np
+
+    from uqdrive.vehicle.effects import EFFECTS, PHYSICAL, VANISHES, ModelStructure
+
+    through_another = {"lateral_kinematics": "kinematics", "load_sensitive_tyre": "load_sensitive_tyre"}
+    assert VANISHES == {n: e.vanishes for n, e in EFFECTS.items() if e.vanishes is not None}
+    assert PHYSICAL == {"lateral_kinematics": ("k", 1.0)}
+    assert {"tyre_saturation", "tyre_shape"}.isdisjoint(VANISHES)  # the curvature E differs from the linear tyre at every E
+    for name, (parameter, value) in VANISHES.items():
+        e = EFFECTS[name]
+        i = e.parameters.index(parameter)
+        values = np.array(e.start, float)
+        values[i] = value
+        on = e.apply(ModelStructure(), values).active_terms
+        assert on == ((through_another[name],) if name in through_another else ()), (name, on)
+        values[i] = e.start[i] if e.start[i] != value else e.bounds[i][0] + 0.75 * (e.bounds[i][1] - e.bounds[i][0])
+        assert e.apply(ModelStructure(), values).active_terms, f"{name}: no term on away from where it vanishes"

@@ -28,12 +28,16 @@ class TyreSaturation(Effect):
 class ActuatorLag(Effect):
     """First-order lag with time constant T (s) between commanded and actual steering angle."""
 
+    vanishes = ("T", 0.0)
+
     def apply(self, s, v):
         return replace(s, steering_lag=float(v[0]))
 
 
 class ActuatorDelay(Effect):
     """Dead time tau (s) between commanded and actual steering angle."""
+
+    vanishes = ("tau", 0.0)
 
     def apply(self, s, v):
         return replace(s, steering_delay=float(v[0]))
@@ -42,12 +46,16 @@ class ActuatorDelay(Effect):
 class RoadBank(Effect):
     """Road bank angle phi (deg): a constant lateral acceleration g sin(phi) without yaw moment."""
 
+    vanishes = ("phi", 0.0)
+
     def apply(self, s, v):
         return replace(s, lateral_acceleration=9.81 * float(np.sin(np.deg2rad(v[0]))))
 
 
 class WindGust(Effect):
     """Time-variant side wind scaled by gust_scale (-) against the configured F_w,sigma."""
+
+    vanishes = ("gust_scale", 1.0)
 
     def apply(self, s, v):
         return replace(s, gust_scale=float(v[0]))
@@ -56,6 +64,9 @@ class WindGust(Effect):
 class LateralKinematics(Effect):
     """Lateral velocity along the course angle: weight k (-) of beta in y_dot = v (psi + k beta)."""
 
+    vanishes = ("k", 0.0)
+    physical = ("k", 1.0)
+
     def apply(self, s, v):
         return replace(s, course_weight=float(v[0]), course_exact=True)
 
@@ -63,6 +74,8 @@ class LateralKinematics(Effect):
 class LongitudinalLoadTransfer(Effect):
     """Axle loads shifted by the longitudinal acceleration at centre-of-gravity height h (m):
     F_zf = m (g l_r - a_x h) / L, the tyre peaks following the loads."""
+
+    vanishes = ("h", 0.0)
 
     def apply(self, s, v):
         return replace(s, pitch_height=float(v[0]))
@@ -76,6 +89,8 @@ class LateralLoadTransfer(Effect):
     """Lateral load transfer split by the front roll-stiffness share chi_f (-), with the tyre
     load sensitivity p_Dz (-) lowering the peak of the more loaded wheel."""
 
+    vanishes = ("p_Dz", 0.0)
+
     def apply(self, s, v):
         return replace(s, roll_share_front=float(v[0]), load_sensitivity=float(v[1]))
 
@@ -83,6 +98,8 @@ class LateralLoadTransfer(Effect):
 class ComplianceSteer(Effect):
     """Road-wheel angle change per g of the front axle's force over its static load, K (deg/g):
     the steering's compliance (at steady cornering K per g of lateral acceleration, as roll steer)."""
+
+    vanishes = ("K", 0.0)
 
     def apply(self, s, v):
         return replace(s, compliance_steer=float(v[0]))
@@ -92,6 +109,8 @@ class RollSteer(Effect):
     """Roll steer: the front wheels turn by -K (deg/g) per g of the tyres' lateral force over the
     base mass, through the body's roll, a second-order mode of frequency f (Hz) and damping ratio zeta."""
 
+    vanishes = ("K", 0.0)
+
     def apply(self, s, v):
         return replace(s, roll_steer=float(v[0]), roll_frequency=float(v[1]), roll_damping=float(v[2]))
 
@@ -100,12 +119,16 @@ class TyreRelaxation(Effect):
     """Tyre relaxation: the slip angles follow their steady values with the lag sigma / v of the
     relaxation length sigma (m)."""
 
+    vanishes = ("sigma", 0.0)
+
     def apply(self, s, v):
         return replace(s, relaxation_length=float(v[0]))
 
 
 class CombinedSlip(Effect):
     """Friction ellipse per axle, F_y = F_y0 sqrt(1 - (kappa F_x,i / (mu F_z,i))^2), F_x = m a_x split by drive layout chi_d."""
+
+    vanishes = ("kappa", 0.0)
 
     def apply(self, s, v):
         return replace(s, combined_slip=float(v[0]), drive_share_front=float(v[1]))
@@ -191,22 +214,15 @@ EFFECTS: dict[str, Effect] = {
         "peaks of psi_dot and beta flattened where the lateral acceleration is high, the spread over mu changed with them"),
 }
 
-#: The value of an effect's magnitude parameter at which the effect vanishes (the baseline's model):
+#: Where each effect vanishes, (parameter, value), read from the registry (:attr:`Effect.vanishes`):
 #: a named effect must have a size the data tell from it. Effects without one (the Magic Formula's
-#: curvature E: the saturating tyre differs from the linear one at every E) and shape parameters
-#: (chi_f) are not listed.
-VANISHES: dict[str, tuple[str, float]] = {
-    "actuator_lag": ("T", 0.0), "actuator_delay": ("tau", 0.0), "road_bank": ("phi", 0.0), "wind_gust": ("gust_scale", 1.0),
-    "lateral_kinematics": ("k", 0.0), "longitudinal_load_transfer": ("h", 0.0), "lateral_load_transfer": ("p_Dz", 0.0),
-    "compliance_steer": ("K", 0.0), "tyre_relaxation": ("sigma", 0.0), "roll_steer": ("K", 0.0), "combined_slip": ("kappa", 0.0),
-    "load_sensitive_tyre": ("q", 0.0),
-    **{f"sensor_bias_{c}": (f"offset_{c}", 0.0) for c in SENSOR_CHANNELS},
-    **{f"sensor_scale_{c}": (f"gain_{c}", 1.0) for c in SENSOR_CHANNELS},
-}
+#: curvature E) are not listed.
+VANISHES: dict[str, tuple[str, float]] = {n: e.vanishes for n, e in EFFECTS.items() if e.vanishes is not None}
 
-#: The one value a parameter has by its physics (the exact course angle: k = 1); discovery judges the
-#: effect there and reports a free fit's departure beside it (the rest of the gap acting through it).
-PHYSICAL: dict[str, tuple[str, float]] = {"lateral_kinematics": ("k", 1.0)}
+#: The one value a parameter has by its physics, (parameter, value), from the registry
+#: (:attr:`Effect.physical`): discovery judges the effect there and reports a free fit's departure
+#: beside it (the rest of the gap acting through it).
+PHYSICAL: dict[str, tuple[str, float]] = {n: e.physical for n, e in EFFECTS.items() if e.physical is not None}
 
 #: Families that name several registry entries at once.
 FAMILIES = {"sensor_bias": tuple(f"sensor_bias_{c}" for c in SENSOR_CHANNELS), "sensor_scale": tuple(f"sensor_scale_{c}" for c in SENSOR_CHANNELS)}

@@ -18,6 +18,10 @@ class SensorBias(Effect):
 
     channel: str = "psi"
 
+    @property
+    def vanishes(self) -> tuple:
+        return (f"offset_{self.channel}", 0.0)
+
     def apply(self, s, v):
         """``s`` with the channel's offset ``v[0]`` (its unit)."""
         if self.channel == "a_y":
@@ -32,6 +36,10 @@ class SensorScale(Effect):
     """Gain error (-) of one measured channel's sensor."""
 
     channel: str = "psi"
+
+    @property
+    def vanishes(self) -> tuple:
+        return (f"gain_{self.channel}", 1.0)
 
     def apply(self, s, v):
         """``s`` with the channel's gain ``v[0]`` (-)."""

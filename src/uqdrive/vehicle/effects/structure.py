@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -156,7 +157,16 @@ class Effect:
     ``signature`` says in words which statistics the effect moves first; it is what a reader of
     the verdict needs to judge a candidate, not an input to the ranking (the fits rank them).
     ``requires``: the car's optional constants (``cg_height``, ...) it needs; without them it is untestable.
+
+    Two facts of the effect's physics, set by each subclass: ``vanishes``, (parameter, value) at
+    which the effect vanishes (the baseline's model; a named effect must have a size the data tell
+    from it; None where no value does: the Magic Formula's curvature E differs from the linear
+    tyre at every E), and ``physical``, (parameter, value) where a parameter has one value by its
+    physics (the exact course angle's k = 1; discovery judges the effect there).
     """
+
+    vanishes: ClassVar[tuple | None] = None
+    physical: ClassVar[tuple | None] = None
 
     name: str
     parameters: tuple

@@ -18,6 +18,8 @@ class LoadSensitiveTyre(Effect):
     centre-of-gravity height (Pacejka, *Tyre and Vehicle Dynamics*, (4.E13) and the linear part of
     (4.E25)); q = p_Dz = 0: the baseline's tyre."""
 
+    vanishes = ("q", 0.0)
+
     def apply(self, s, v):
         """``s`` with q = ``v[0]`` and p_Dz = ``v[1]`` (both -)."""
         return replace(s, stiffness_load_sensitivity=float(v[0]), peak_load_sensitivity=float(v[1]))
