@@ -4,6 +4,7 @@ discover (the registry) and the workflow's rules, so that no page types what the
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -12,6 +13,10 @@ import yaml
 
 def _cell(text: str) -> str:
     return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _percent(x: float, digits: int = 0) -> str:
+    return f"{100 * x:.{digits}f} %"
 
 
 def _bound(lo: float, hi: float) -> str:
@@ -90,6 +95,24 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "real_tyres_cases.md", real_tyres(root, "cases"))
     _write(outdir / "real_tyres_results.md", real_tyres(root, "results"))
     _write(outdir / "real_tyres_cars.md", real_tyres(root, "cars"))
+    _write(outdir / "model_realisations.md", model_realisations_table(root))
+
+
+def model_realisations_table(root: Path) -> str:
+    """Markdown table of discover's linear-model realisations at the workflow's run counts (the
+    detection table's and the benchmark's), at ``model_ratio`` 0 and at the workflow's ratio, with
+    the model's share n / M of the compared statistics' variance and the part (1 + n/M_0) / (1 + n/M)
+    of a gap's chi2 excess kept."""
+    from uqdrive.settings.run import model_realisations
+
+    d = yaml.safe_load((root / "config" / "config.yaml").read_text())["discrepancy"]
+    cap, floor, ratio = d["model_samples"], d["nonlinear_samples"], d["model_ratio"]
+    runs = sorted({*d["channel_sets"]["runs"], d["benchmark"]["samples"]})
+    lines = [f"| runs n | M at ratio 0 | n / M | M at ratio {ratio:g} | n / M | gap's chi2 excess kept |", "|---|---|---|---|---|---|"]
+    for n in runs:
+        m0, m = model_realisations(n, cap, floor, 0), model_realisations(n, cap, floor, ratio)
+        lines.append(f"| {n} | {m0} | {_percent(n / m0)} | {m} | {_percent(n / m)} | {_percent((1 + n / m0) / (1 + n / m))} |")
+    return "\n".join(lines) + "\n"
 
 
 def substitutions() -> dict[str, str]:
@@ -105,8 +128,19 @@ def substitutions() -> dict[str, str]:
             "max_effects": str(config["discrepancy"]["max_effects"]),
             "n_effects": str(len(fx.EFFECTS)),
             "mu_prior": "N({mean:g}, {std:g})".format(**config["uncertainty"]["mu"]),
+            **_model_ratio_substitutions(Path(io.__file__).resolve().parents[2] / "config" / "config.yaml"),
             "locked_packages": str(sum(1 for line in (Path(io.__file__).resolve().parents[2] / "requirements.lock").read_text().splitlines()
                                        if "==" in line))}
+
+
+def _model_ratio_substitutions(workflow_config: Path) -> dict[str, str]:
+    """The workflow's ``discrepancy.model_ratio`` r, the model's largest share 1/r of the variance,
+    the scale's widening sqrt(1 + 1/r) - 1 and the run count model_samples / r from which r
+    changes nothing."""
+    d = yaml.safe_load(workflow_config.read_text())["discrepancy"]
+    r = d["model_ratio"]
+    return {"workflow_model_ratio": f"{r:g}", "model_ratio_share": _percent(1 / r), "model_ratio_widening": _percent((1 + 1 / r) ** 0.5 - 1, 1),
+            "model_ratio_full_runs": str(math.ceil(d["model_samples"] / r))}
 
 
 def four_wheel_car() -> str:

@@ -68,8 +68,9 @@ def test_config_hash_is_stable_and_sensitive(cfg):
 
 def test_packaged_default_config_is_the_repository_config_searching_every_candidate():
     """The CLI's default (package data, so that it works from any folder and from a wheel) is the
-    workflow's config/config.yaml with one line apart: discover searches every registered
-    candidate (``all``), the reproduction its own list."""
+    workflow's config/config.yaml with two lines apart: discover searches every registered
+    candidate (``all``), the reproduction its own list; discover simulates ``model_samples``
+    realisations on any file (ratio 0), the reproduction sizes them to its files' runs."""
     import importlib.util
     from importlib.resources import files
 
@@ -83,6 +84,7 @@ def test_packaged_default_config_is_the_repository_config_searching_every_candid
     assert default_config_text().encode() == packaged
     default, repository = load_config(), load_config(REPO / "config" / "config.yaml")
     assert default["discrepancy"].pop("candidates") == "all" and repository["discrepancy"].pop("candidates") != "all"
+    assert default["discrepancy"].pop("model_ratio") == 0 and repository["discrepancy"].pop("model_ratio") > 0
     assert default == repository
 
 
@@ -106,6 +108,8 @@ def test_packaged_default_config_is_the_repository_config_searching_every_candid
         (lambda c: c["vehicle"].update({1: 2}), "is not a name"),
         (lambda c: c["time"].pop("dt"), "'time.dt' is missing; add it"),
         (lambda c: c["montecarlo"].update(spin_policy="drop"), "choose one of keep, exclude"),
+        (lambda c: c["discrepancy"].update(model_ratio=-1), "'discrepancy.model_ratio'"),
+        (lambda c: c["discrepancy"].update(model_ratio="ten"), "'discrepancy.model_ratio'"),
     ],
 )
 def test_physical_ranges_and_finite_numbers(cfg, mutate, message):

@@ -1,6 +1,7 @@
 """Write config/README.md from config/config.yaml (defaults and the comments that give units and
 seed tables), the JSON schema (types and ranges) and the rules (which rule reads which key), and the
-packaged default src/uqdrive/default_config.yaml: config/config.yaml searching every candidate.
+packaged default src/uqdrive/default_config.yaml: config/config.yaml searching every candidate at
+every file's model_samples.
 
 Run `python tools/config_docs.py` after changing the config, the schema or a rule's params;
 tests/test_config_docs.py fails while a committed file differs from what this writes.
@@ -21,9 +22,11 @@ SCHEMA = ROOT / "src" / "uqdrive" / "config_schema.yaml"
 RULES = ROOT / "workflow" / "rules"
 TARGET = ROOT / "config" / "README.md"
 PACKAGED = ROOT / "src" / "uqdrive" / "default_config.yaml"
-#: The packaged default's one line apart from config/config.yaml: the command line searches every
-#: registered candidate, the workflow's reproduction its own list.
+#: The packaged default's two lines apart from config/config.yaml: the command line searches every
+#: registered candidate, the workflow's reproduction its own list; the command line simulates
+#: ``model_samples`` realisations whatever the file's runs, the reproduction sizes them to the runs.
 PACKAGED_CANDIDATES = "  candidates: all             # every registered effect; one whose constants the car lacks (cg_height, ...) is reported untestable"
+PACKAGED_MODEL_RATIO = "  model_ratio: 0             # linear-model realisations per measured run (at most model_samples, at least nonlinear_samples); 0: model_samples always"
 
 _KEY = re.compile(r"^(?P<indent> *)(?P<key>[A-Za-z_][\w ]*?):(?P<value>[^#]*?)\s*(?:#\s*(?P<comment>.*))?$")
 
@@ -264,10 +267,12 @@ def optional_keys(schema: dict, node: dict | None = None, prefix: str = "") -> l
 
 def packaged_default() -> str:
     """The text of the packaged default config: config/config.yaml with ``discrepancy.candidates``
-    set to ``all``."""
-    text, n = re.subn(r"^  candidates: .*$", PACKAGED_CANDIDATES, CONFIG.read_text(), count=1, flags=re.M)
-    if n != 1:
-        raise SystemExit(f"{CONFIG}: no line '  candidates: ...' (discrepancy.candidates) to replace")
+    set to ``all`` and ``discrepancy.model_ratio`` to 0."""
+    text = CONFIG.read_text()
+    for key, line in (("candidates", PACKAGED_CANDIDATES), ("model_ratio", PACKAGED_MODEL_RATIO)):
+        text, n = re.subn(rf"^  {key}: .*$", line, text, count=1, flags=re.M)
+        if n != 1:
+            raise SystemExit(f"{CONFIG}: no line '  {key}: ...' (discrepancy.{key}) to replace")
     return text
 
 

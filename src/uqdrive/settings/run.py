@@ -3,6 +3,7 @@ steering, the spin policy, and the settings of identify, discover, the controlle
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -12,7 +13,7 @@ import numpy as np
 from ..config import ConfigError
 from .car import metres_per_second
 
-__all__ = ["TimeGrid", "SpeedRamp", "Wind", "Steering", "Spin", "Identify", "Discover", "Control", "WheelSlipCar"]
+__all__ = ["TimeGrid", "SpeedRamp", "Wind", "Steering", "Spin", "Identify", "Discover", "model_realisations", "Control", "WheelSlipCar"]
 
 
 @dataclass(frozen=True)
@@ -116,12 +117,14 @@ class Identify:
 
 @dataclass(frozen=True)
 class Discover:
-    """The discrepancy search's settings (``discrepancy`` section): candidates, ensemble sizes,
+    """The discrepancy search's settings (``discrepancy`` section): candidates, ensemble sizes
+    (``model_ratio``: linear-model realisations per measured run, 0 for ``model_samples`` always),
     bootstrap, level, compared times, screened and added effects, and the posterior's settings."""
 
     candidates: tuple | None = None
     model_samples: int = 1000
     nonlinear_samples: int = 300
+    model_ratio: float = 0.0
     bootstrap: int = 200
     level: float = 0.01
     max_times: int = 150
@@ -135,7 +138,7 @@ class Discover:
     def from_section(cls, d: Mapping[str, Any]) -> "Discover":
         """The settings of a config's ``discrepancy`` section (missing keys take the defaults)."""
         p = dict(d.get("posterior", {}))
-        fields = {k: d[k] for k in ("model_samples", "nonlinear_samples", "bootstrap", "level", "max_times", "top", "max_effects") if k in d}
+        fields = {k: d[k] for k in ("model_samples", "nonlinear_samples", "model_ratio", "bootstrap", "level", "max_times", "top", "max_effects") if k in d}
         c = d.get("candidates")
         return cls(candidates=None if c is None else (c,) if isinstance(c, str) else tuple(c), **fields,
                    posterior_enabled=bool(p.get("enabled", False)), posterior_effects=tuple(p.get("effects") or ()),
@@ -144,6 +147,35 @@ class Discover:
     def wants_posterior(self, effect: str) -> bool:
         """Whether the posterior of a verdict naming ``effect`` is sampled."""
         return self.posterior_enabled and (not self.posterior_effects or effect in self.posterior_effects)
+
+
+def model_realisations(runs: int, model_samples: int, nonlinear_samples: int, model_ratio: float) -> int:
+    """Common-random-number realisations of the linear models for ``runs`` measured runs.
+
+    M = min(model_samples, max(nonlinear_samples, ceil(model_ratio * runs))), or ``model_samples``
+    when ``model_ratio`` is 0. The comparison's scale carries the model's sampling as the factor
+    sqrt(1 + runs / M), so M >= model_ratio * runs keeps the model's share of the variance at most
+    1 / model_ratio of the data's; the floor keeps the raw germs the non-linear models take
+    (``nonlinear_samples`` of the same draw).
+
+    Parameters
+    ----------
+    runs : int
+        Measured runs compared (those the spin policy leaves out not counted).
+    model_samples, nonlinear_samples : int
+        The cap, and the floor when ``model_ratio`` > 0.
+    model_ratio : float
+        Realisations per measured run; 0 for ``model_samples`` whatever ``runs``.
+
+    Returns
+    -------
+    int
+        M.
+    """
+    if model_ratio <= 0:
+        return int(model_samples)
+    wanted = math.ceil(round(model_ratio * runs, 9))  # 0.7 * 10 is 7.000000000000001, not 8 realisations' worth
+    return int(min(model_samples, max(nonlinear_samples, wanted)))
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ import numpy as np
 from ...numerics.threads import single_blas_thread
 from ...rng import rng_stream
 from ...settings import Settings
+from ...settings.run import model_realisations
 from ...vehicle.augmented import AugmentedSimulator
 from ...vehicle.effects import EFFECTS, expand_names
 from .acceptance import acceptance, departures
@@ -43,7 +44,8 @@ class DiscrepancyFinder:
     candidates : sequence of str, optional
         Registry names or families (``sensor_bias``) of the candidate effects.
     model_samples : int
-        Realisations of the linear models (common random numbers).
+        Realisations of the linear models (common random numbers); their cap when the settings'
+        ``model_ratio`` sizes them to the file's runs (:func:`uqdrive.settings.run.model_realisations`).
     nonlinear_samples : int
         Realisations of models that need numerical integration (tyre saturation).
     bootstrap : int
@@ -102,6 +104,8 @@ class DiscrepancyFinder:
     candidates_, untestable_ : list
         The candidates the data can test; {"effect", "reason"} of those they cannot.
     time_ : ndarray, shape (K,)
+    model_samples_ : int
+        The linear models' realisations used.
     fits_ : dict
         Joint fit per re-identified candidate of the first step.
     acceptance_, departures_ : dict
@@ -122,6 +126,7 @@ class DiscrepancyFinder:
         self.candidates = expand_names(candidates if candidates is not None else default)
         self.model_samples = int(model_samples or d.model_samples)
         self.nonlinear_samples = int(nonlinear_samples or d.nonlinear_samples)
+        self.model_ratio = float(d.model_ratio)
         self.bootstrap = int(bootstrap or d.bootstrap)
         self.level = float(level or d.level)
         self.max_times = int(max_times or d.max_times)
@@ -166,16 +171,17 @@ class DiscrepancyFinder:
         v_c = float(ds.attrs["v_c"]) if speed is None else float(np.mean(speed))
         self.speed_profile_ = None if speed is None else {"min": float(speed.min()), "max": float(speed.max()), "mean": v_c}
         self.candidates_, self.untestable_ = testable(self.candidates, self.channels_)
-        raw = AugmentedSimulator.drawn(self.settings, t, delta, v_c, self.model_samples, rng_stream(self.seed, "discrepancy_model"),
+        m = self.model_samples_ = model_realisations(n, self.model_samples, self.nonlinear_samples, self.model_ratio)
+        raw = AugmentedSimulator.drawn(self.settings, t, delta, v_c, m, rng_stream(self.seed, "discrepancy_model"),
                                        stride=self.stride_, interpolation=self.interpolation_,
                                        channels=self.channels_, speed=speed)
         sim = raw.with_germs(raw.germs.matched())  # linear models: moment-matched germs (Germs.matched)
         self.time_ = sim.output_time[index]
         self.noise_variance_ = noise
         self.measured_ = moment_statistics(x, index)
-        self.scale_ = statistic_scale(x, index, model_ratio=n / self.model_samples)
+        self.scale_ = statistic_scale(x, index, model_ratio=n / m)
         data = Compared(sim, raw.germs, index, noise, spin, n, delta, float(t[1] - t[0]), self.measured_, self.scale_,
-                        self.model_samples, self.nonlinear_samples)
+                        m, self.nonlinear_samples)
         theta0, start_effects = self._start()
         stages = {}
 
@@ -187,7 +193,7 @@ class DiscrepancyFinder:
         # the linear simulations the fits of this dataset share
         fitter = self.fitter_ = CandidateFitter(data, self.settings.layout.known, theta0, self.settings.vehicle.E, self.top, SimulationMemo())
         base = fitter.joint(theta0, list(start_effects), start_effects) if start_effects else fitter.baseline(theta0)
-        lap("baseline", f" ({n} realisations, {index.size} times, {self.model_samples} model realisations)")
+        lap("baseline", f" ({n} realisations, {index.size} times, {m} model realisations)")
         self.baseline_ = base
         bands = NullBands(data, self.seed, self.bootstrap, self.level)
         self.band_ = band = bands.null(base, key=0)
@@ -216,6 +222,7 @@ class DiscrepancyFinder:
             self.departures_ = departures(comparison, fitter, final, band) if self.steps_ else {}
         self.augmented_, self.augmented_band_ = final, final_band
         self.verdict_ = assemble_verdict(self, base, band, stat0, significant, data)
+        self.verdict_["evidence"].update(model_samples=m, model_ratio=self.model_ratio)
         self.verdict_["separating_input"] = separating_inputs(self.fits_, self.verdict_["evidence"]["registry_name"], self.verdict_["ambiguous_with"],
                                                              self.inputs, delta, n)
         if self.log is not None:
