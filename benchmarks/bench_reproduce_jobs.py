@@ -2,9 +2,10 @@
 benchmark discover (rule discrepancy_discover) and a detection-table cell (rule
 discrepancy_channel_cell) whose baseline cannot explain the data.
 
-"old": the fits search theta as it is (``StructureFit.spread_as_variance = False``); "new": the
-spreads as their squares (:class:`uqdrive.inference.discrepancy.fit.SpreadCoordinates`), where
-the search reaches the optimum instead of creeping towards a spread of zero for its budget. The
+"old": the fits search theta alone for their whole budget (``StructureFit.spread_as_variance =
+False``); "new": a fit not converged within ``StructureFit.THETA_EVALUATIONS`` evaluations goes
+on with the spreads squared (:class:`uqdrive.inference.discrepancy.fit.SpreadCoordinates`), where
+trf reaches the optimum instead of creeping towards a spread of zero for its budget. The
 jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
 `studies.hidden_effects.generate`, the cell by `studies.discrepancy.channel_detection_cell`);
 the two variants alternate in one process, the old one first, after an untimed warm-up discover
@@ -65,7 +66,7 @@ def says(output) -> dict:
 
 
 class ThetaAsItIs:
-    """Within the block, the fits search theta as it is (the spreads not squared)."""
+    """Within the block, the fits search theta alone (the spreads never squared)."""
 
     def __enter__(self):
         StructureFit.spread_as_variance = False

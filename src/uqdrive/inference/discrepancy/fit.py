@@ -133,9 +133,11 @@ class StructureFit:
     message_ : str
     """
 
-    #: A fit not converged within THETA_EVALUATIONS evaluations of theta goes on in the spreads'
-    #: squares (:class:`SpreadCoordinates`); False: theta as it is for the whole budget.
+    #: Whether a fit not converged within THETA_EVALUATIONS goes on in the spreads' squares
+    #: (:class:`SpreadCoordinates`); False: theta alone for the whole budget.
     spread_as_variance = True
+    #: Evaluations searched in theta itself: a fit that converges within them (as the converging
+    #: fits of the benchmark jobs do) keeps the numbers of a search in theta alone.
     THETA_EVALUATIONS = 40
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
