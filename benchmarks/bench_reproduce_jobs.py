@@ -1,6 +1,6 @@
-"""Representative jobs of the reproduction's two discrepancy rules, old against new in one run: a
-benchmark discover (rule discrepancy_discover) and a detection-table cell (rule
-discrepancy_channel_cell) whose baseline cannot explain the data.
+"""Representative jobs of the reproduction's two discrepancy rules, old against new in one run:
+benchmark discovers (rule discrepancy_discover: combined, saturation, delay and null cases) and
+detection-table cells (rule discrepancy_channel_cell), one whose baseline cannot explain the data.
 
 "old": the fits search theta alone for their whole budget (``StructureFit.spread_as_variance =
 False``); "new": a fit not converged within ``StructureFit.THETA_EVALUATIONS`` evaluations goes
@@ -13,7 +13,7 @@ the two variants alternate in one process, the old one first, after an untimed w
 ambiguity, the untestable candidates, the decision); the record lists every number that moved
 by more than 1e-6 relative, with the old and new value.
 
-Usage: python benchmarks/bench_reproduce_jobs.py [--jobs discover:combined_saturation_lag cell:actuator_lag_200ms:imu_speed:20]
+Usage: python benchmarks/bench_reproduce_jobs.py [--jobs discover:combined_saturation_lag cell:actuator_lag_200ms:imu_speed:20 ...]
        [--json docs/measurements/benchmarks_reproduce_jobs.json]
 """
 
@@ -28,7 +28,8 @@ from uqdrive.config import load_config
 from uqdrive.inference.discrepancy.fit import StructureFit
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
-DEFAULT_JOBS = ("discover:combined_saturation_lag", "cell:actuator_lag_200ms:imu_speed:20")
+DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:tyre_saturation_5deg:all:40", "discover:combined_saturation_lag",
+                "discover:tyre_saturation_5deg", "discover:actuator_delay_150ms", "discover:none_step")
 #: What a verdict says, as opposed to how well it fits: these must be equal between the variants.
 VERDICT_KEYS = ("effect", "verdict", "correct", "untestable", "ambiguous_with", "decision", "named", "significant", "rejected", "removed")
 
@@ -116,7 +117,7 @@ def main(argv=None):
         for p, a, b in changes:
             print(f"    {p}: {a} -> {b}", flush=True)
     record = {"command": "python benchmarks/bench_reproduce_jobs.py", "machine": f"{platform.machine()}, {os.cpu_count()} cores, load "
-              f"{os.getloadavg()[0]:.1f} at the end", "rows": rows}
+              f"{os.getloadavg()[0]:.1f} at the end", "rows": rows, "date": time.strftime("%Y-%m-%d")}
     if args.json:
         args.json.write_text(json.dumps(record, indent=1) + "\n")
     if not all(r["same_verdict"] for r in rows):
