@@ -118,12 +118,13 @@ def chassis_table() -> str:
 
 def reproduce_jobs_table() -> str:
     r = _rec("reproduce_jobs")
-    lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | outputs equal |", "|---|---|---|---:|---|"]
+    lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | same verdict | numbers moved |", "|---|---|---|---:|---|---:|"]
     rule = {"discover": "discrepancy_discover", "cell": "discrepancy_channel_cell"}
     for x in r["rows"]:
         kind, name = x["job"].split(":", 1)
-        lines.append(f"| {rule[kind]}: {name.replace(':', ': ')} | {x['verdict']} | {x['old_cpu_s']:.1f} / {x['new_cpu_s']:.1f} | "
-                     f"{x['old_cpu_s'] / x['new_cpu_s']:.2f} | {'yes' if x['equal'] else 'no'} |")
+        named = "; ".join(", ".join(v.get("effects") or [str(v.get("effect", v.get("verdict")))]) for v in x["verdict"])
+        lines.append(f"| {rule[kind]}: {name.replace(':', ': ')} | {named} | {x['old_cpu_s']:.1f} / {x['new_cpu_s']:.1f} | "
+                     f"{x['old_cpu_s'] / x['new_cpu_s']:.2f} | {'yes' if x['same_verdict'] else 'no'} | {len(x['moved'])} |")
     return "\n".join(lines) + "\n"
 
 

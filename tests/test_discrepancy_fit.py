@@ -13,7 +13,7 @@ from uqdrive.inference.discrepancy import selection
 from uqdrive.inference.discrepancy.band import NullBand, scan_windows, statistic_scale
 from uqdrive.inference.discrepancy.comparison import Compared, ModelComparison
 from uqdrive.inference.discrepancy.effectset import testable as _testable
-from uqdrive.inference.discrepancy.fit import StructureFit
+from uqdrive.inference.discrepancy.fit import THETA_BOUNDS, THETA_SCALE, SpreadCoordinates, StructureFit
 from uqdrive.inference.discrepancy.fitter import CandidateFitter
 from uqdrive.inference.discrepancy.ranking import gauss_newton_chi2
 from uqdrive.vehicle.augmented import THETA_NAMES, AugmentedSimulator
@@ -353,8 +353,9 @@ def test_statistics_equal_the_simulators_own_measured_channels(config):
 
 def test_a_budget_of_one_evaluation_returns_the_start():
     """trf with max_nfev = 1 stops after the residuals at its start: the estimate is theta0 itself
-    (an interior start unchanged), a start outside the bounds clipped into them (mu mean 5 -> 3, a
-    negative std -> 0, both within 1e-8 of the range), the wind bounds sorted. So is an effect's
+    (an interior start unchanged), a start outside the bounds clipped into them (mu mean 5 -> 3
+    within 1e-8 of the range; a negative std -> 0, searched as its square, which trf moves 1e-10
+    into its range: a std of 1e-5 at most), the wind bounds sorted. So is an effect's
     start outside its bounds (a road bank bounded to [-12, 3] deg: lo + hi < 0, so a clip at
     lo + 1e-9 (hi + lo) or hi - 1e-9 (hi + lo) would leave it outside and trf would refuse it)."""
     sim = _Analytic()
@@ -364,7 +365,7 @@ def test_a_budget_of_one_evaluation_returns_the_start():
     np.testing.assert_allclose(f.theta_, start, rtol=1e-12)
     assert f.nfev_ == 1 and not f.success_
     f.fit(measured, np.full_like(measured, 1e-2), [5.0, -0.5, 1.3, 0.25, 200.0, -100.0])
-    assert 3.0 - 1e-8 < f.theta_[0] < 3.0 and 0.0 < f.theta_[1] < 1e-8
+    assert 3.0 - 1e-8 < f.theta_[0] < 3.0 and 0.0 < f.theta_[1] <= 1e-5 * (1 + 1e-12)
     np.testing.assert_allclose(f.theta_[2:], start[2:], rtol=1e-12)
     bank = dataclasses.replace(EFFECTS["road_bank"], bounds=((-12.0, 3.0),))
     g = StructureFit(sim, np.arange(12), np.zeros(4), effect=bank, max_nfev=1)
@@ -447,7 +448,7 @@ def test_fits_sharing_a_memo_simulate_a_linear_model_once_with_the_same_numbers(
     points are the first's); held screening fits of output-only effects at one estimate simulate
     the model there once between them, with the numbers of a fit without the memo. The memo
     keeps its newest ``size`` entries, per simulator."""
-    from uqdrive.inference.discrepancy.fit import SimulationMemo
+    from uqdrive.inference.discrepancy.fitter import SimulationMemo
 
     index = np.arange(1, sim.output_time.size)
     structure = EFFECTS["road_bank"].augment(ModelStructure(), [1.5])
@@ -485,7 +486,7 @@ def test_linear_fit_along_a_speed_profile_simulates_ahead_with_the_same_numbers(
     """Along a speed profile a linear model is integrated by RK4, so a point's difference
     neighbours are simulated in the pass of the point (with the memo of a discover): every
     attribute equals the one-pass-per-call fit's bit for bit, in about half its passes."""
-    from uqdrive.inference.discrepancy.fit import SimulationMemo
+    from uqdrive.inference.discrepancy.fitter import SimulationMemo
 
     t = np.arange(201) * 0.01
     speed = np.interp(t, [0.0, 0.5, 1.5, 2.0], [25.0, 25.0, 18.0, 18.0])
@@ -524,3 +525,63 @@ def test_a_jacobians_chassis_pairs_on_two_steering_inputs_are_integrated_one_pas
     got = sim.simulate_many(thetas, lagged, groups=[3, 1])
     assert all(np.array_equal(a, b) for a, b in zip(got, alone))
     assert passes == [3]  # the lone pair on the second input: a call of its own
+
+
+def test_spread_coordinates_are_the_squares_and_map_back_with_their_derivative():
+    """A std's coordinate is its square, the wind's bounds their centre and squared width; back
+    to theta to rounding (the bounds in order whatever their order), the held ones untouched,
+    and d u / d theta equal to central differences (the forward map is a polynomial of degree 2:
+    central differences are exact to rounding, 1e-7 relative at steps of 1e-4)."""
+    x = np.array([0.9, 0.15, 1.5, 0.1, -300.0, 500.0, 2.0])
+    c = SpreadCoordinates()
+    u = c.forward(x)
+    np.testing.assert_allclose(u, [0.9, 0.0225, 1.5, 0.01, 100.0, 640000.0, 2.0], rtol=1e-15)
+    np.testing.assert_allclose(c.inverse(u), x, rtol=1e-14)
+    np.testing.assert_allclose(c.inverse(c.forward(x[[0, 1, 2, 3, 5, 4, 6]])), x, rtol=1e-14)  # swapped bounds come back sorted
+    steps = 1e-4 * np.maximum(np.abs(x), 1.0)
+    numeric = np.column_stack([(c.forward(x + h * e) - c.forward(x - h * e)) / (2 * h) for h, e in zip(steps, np.eye(x.size))])
+    np.testing.assert_allclose(c.derivative(u), numeric, rtol=1e-7, atol=1e-9)
+    held = SpreadCoordinates({3: 0.0, 4: 50.0, 5: 50.0})  # a known l_f and mean wind: only mu's std squared
+    np.testing.assert_array_equal(held.forward(x), [0.9, 0.0225, 1.5, 0.1, -300.0, 500.0, 2.0])
+    lo, hi = (np.array(b, float) for b in zip(*THETA_BOUNDS))
+    box = c.box(lo, hi, np.array(THETA_SCALE))
+    np.testing.assert_array_equal(box[0], [0.1, 0.0, 0.3, 0.0, -3000.0, 0.0])
+    np.testing.assert_array_equal(box[1], [3.0, 1.0, 2.5, 1.0, 3000.0, 6000.0**2])
+    np.testing.assert_allclose(box[2], [1.0, 0.04, 1.5, 0.04, 400.0, 160000.0], rtol=1e-15)
+    np.testing.assert_array_equal(held.box(lo, hi, np.array(THETA_SCALE))[1], [3.0, 1.0, 2.5, 1.0, 3000.0, 3000.0])
+
+
+def test_a_spread_the_data_do_not_want_is_fitted_to_the_optimum_not_crept_towards_zero():
+    """The data's std 3 % below what the model gives at zero l_f std and zero wind width (noise
+    variance 0.01 on every channel): those spreads want to shrink, and their Jacobian columns
+    vanish with them in theta. A fit not converged within THETA_EVALUATIONS goes on in the
+    squares and converges, from three starts, to one optimum (chi2 equal to 1e-8: trf's ftol
+    and xtol are 1e-8) within 80 of its 200 evaluations, the means at the truth; theta alone
+    spends the 200 far from it (at least 100 times its chi2). A fit that converges within
+    THETA_EVALUATIONS (from the fourth start) keeps its numbers bit for bit."""
+    sim = _Analytic()
+    theta = TRUTH.copy()
+    theta[3], theta[4:6] = 0.0, 100.0
+    noise = np.full(4, 0.01)
+    measured = _measured(sim, theta, noise=noise)
+    measured[1] *= 0.97
+    scale = np.full_like(measured, 1e-2)
+    starts = ([1.2, 0.3, 1.3, 0.3, -100.0, 200.0], [1.2, 0.3, 1.3, 0.3, 95.0, 105.0], [0.8, 0.2, 1.6, 0.2, 105.0, 95.0],
+              [0.95, 0.1, 1.45, 0.05, 98.0, 102.0])
+
+    def fits(squares):
+        StructureFit.spread_as_variance = squares
+        try:
+            return [StructureFit(sim, np.arange(12), noise, max_nfev=200).fit(measured, scale, start) for start in starts]
+        finally:
+            StructureFit.spread_as_variance = True
+
+    new, old = fits(True), fits(False)
+    assert all(f.success_ and StructureFit.THETA_EVALUATIONS < f.nfev_ <= 80 for f in new[:3])
+    np.testing.assert_allclose([f.chi2_ for f in new[:3]], new[0].chi2_, rtol=1e-8)
+    np.testing.assert_allclose(new[0].theta_[[0, 2, 4, 5]], theta[[0, 2, 4, 5]], rtol=1e-6)
+    assert new[0].theta_[3] < 1e-3
+    assert all(not f.success_ and f.chi2_ > 100.0 * new[0].chi2_ for f in old[:3])
+    assert old[3].success_ and old[3].nfev_ <= StructureFit.THETA_EVALUATIONS
+    np.testing.assert_array_equal(new[3].theta_, old[3].theta_)
+    np.testing.assert_array_equal(new[3].jacobian_, old[3].jacobian_)

@@ -20,8 +20,7 @@ from .acceptance import acceptance, departures
 from .band import moment_statistics, statistic_scale
 from .comparison import Compared, ModelComparison, NullBands, prepare_measured, speed_profile
 from .effectset import family_of, testable
-from .fit import SimulationMemo
-from .fitter import CandidateFitter, nonlinear
+from .fitter import CandidateFitter, SimulationMemo, nonlinear
 from .posterior import AugmentedPosterior
 from .selection import backward_check, forward_selection, size_check
 from .separate import separating_inputs

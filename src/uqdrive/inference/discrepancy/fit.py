@@ -15,7 +15,7 @@ from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
 
-__all__ = ["THETA_BOUNDS", "THETA_SCALE", "SimulationMemo", "StructureFit"]
+__all__ = ["THETA_BOUNDS", "THETA_SCALE", "SpreadCoordinates", "StructureFit"]
 
 #: Bounds of the distribution parameters (mu mean/std, l_f mean/std in m, wind bounds in N).
 THETA_BOUNDS = ParameterLayout.bounds
@@ -23,35 +23,62 @@ THETA_BOUNDS = ParameterLayout.bounds
 THETA_SCALE = ParameterLayout.scales
 
 
-class SimulationMemo:
-    """Simulations of linear models shared by the fits of one dataset, the most recent ``size``.
+class SpreadCoordinates:
+    """Search coordinates of theta with its spreads squared: each std's square (a variance), the
+    mean wind's bounds as their centre and squared width; the held (known) ones as they are.
 
-    A linear model gets the numbers of a call of its own (:meth:`AugmentedSimulator.simulate_many`
-    gives every linear pair those of :meth:`~AugmentedSimulator.simulate`), so its realisations are a function of the
-    simulator, theta and the structure's dynamic part alone: a fit that asks for one another fit
-    already simulated (a screening held at the same distributions, an effect on the outputs only,
-    a refit from the point a short fit stopped at) gets the same array, bit for bit. Entries hold
-    their simulator, so a key's ``id`` cannot be reused by another simulator while it is stored.
+    The moments depend on a spread through its square, so in theta the Jacobian column of a
+    spread the data do not want vanishes as it shrinks and trf creeps towards zero for its
+    whole budget; in the squares the column stays finite and trf reaches the optimum.
     """
 
-    def __init__(self, size: int = 32):
-        self.size = int(size)
-        self._entries: dict = {}
+    def __init__(self, fixed=()):
+        self.stds = [i for i in (1, 3) if i not in fixed]
+        self.wind = 4 not in fixed and 5 not in fixed
 
-    def get(self, simulator, key):
-        """The stored simulation of ``key`` on ``simulator`` (moved to the most recent), or None."""
-        entry = self._entries.pop((id(simulator), key), None)
-        if entry is None or entry[0] is not simulator:
-            return None
-        self._entries[(id(simulator), key)] = entry
-        return entry[1]
+    def forward(self, x):
+        """Search coordinates of parameters ``x`` (theta first, then any effect's)."""
+        u = np.array(x, float)
+        u[self.stds] = u[self.stds] ** 2
+        if self.wind:
+            u[4], u[5] = 0.5 * (x[4] + x[5]), (x[5] - x[4]) ** 2
+        return u
 
-    def put(self, simulator, key, x) -> None:
-        """Store ``x``, the simulation of ``key`` on ``simulator``, dropping the oldest beyond ``size``."""
-        self._entries.pop((id(simulator), key), None)
-        self._entries[(id(simulator), key)] = (simulator, x)
-        while len(self._entries) > self.size:
-            self._entries.pop(next(iter(self._entries)))
+    def inverse(self, u):
+        """Parameters (theta first, the wind's bounds in order) of search coordinates ``u``."""
+        x = np.array(u, float)
+        x[self.stds] = np.sqrt(np.maximum(u[self.stds], 0.0))
+        if self.wind:
+            half = 0.5 * np.sqrt(max(u[5], 0.0))
+            x[4], x[5] = u[4] - half, u[4] + half
+        return x
+
+    def box(self, lo, hi, typical):
+        """Bounds and typical magnitudes of the coordinates from theta's: a std's squared; the
+        wind's centre within the bounds' range, its squared width up to the range's square."""
+        lo, hi, typical = self.forward(lo), np.array(hi, float), np.array(typical, float)
+        hi[self.stds], typical[self.stds] = hi[self.stds] ** 2, typical[self.stds] ** 2
+        if self.wind:
+            hi[4], hi[5], typical[5] = hi[5], (hi[5] - THETA_BOUNDS[4][0]) ** 2, typical[5] ** 2
+        return lo, hi, typical
+
+    def steps(self, u, h, scale):
+        """Forward-difference steps of coordinates ``u`` (``h``: the others'): a squared spread s
+        steps by (s + d)^2 - s^2, d = 1e-4 max(s, its ``scale``), the step theta takes; 1e-4 of
+        a squared scale would be a spread of 1 % of the scale at s = 0, past the map's curvature."""
+        x, h = self.inverse(u), np.array(h, float)
+        for i, s in [(i, x[i]) for i in self.stds] + ([(5, x[5] - x[4])] if self.wind else []):
+            d = 1e-4 * max(abs(s), scale[i])
+            h[i] = d * (2.0 * abs(s) + d)
+        return h
+
+    def derivative(self, u):
+        """d u / d theta (p, p) at coordinates ``u``, for the chain rule of a Jacobian."""
+        x, d = self.inverse(u), np.eye(len(u))
+        d[self.stds, self.stds] = 2.0 * x[self.stds]
+        if self.wind:
+            d[4, 4:6], d[5, 4:6] = 0.5, (-2.0 * (x[5] - x[4]), 2.0 * (x[5] - x[4]))
+        return d
 
 
 class StructureFit:
@@ -80,7 +107,8 @@ class StructureFit:
         Known distribution parameters (index into :data:`THETA_NAMES` -> value): held at their
         value, not fitted (their columns of ``jacobian_`` are zero).
     memo : SimulationMemo, optional
-        Linear models' simulations shared with other fits on the same simulator.
+        Linear models' simulations shared with other fits on the same simulator
+        (:class:`.fitter.SimulationMemo`).
 
     Attributes
     ----------
@@ -105,9 +133,16 @@ class StructureFit:
     message_ : str
     """
 
+    #: Whether a fit not converged within THETA_EVALUATIONS goes on in the spreads' squares
+    #: (:class:`SpreadCoordinates`); False: theta alone for the whole budget.
+    spread_as_variance = True
+    #: Evaluations searched in theta itself: a fit that converges within them (as the converging
+    #: fits of the benchmark jobs do) keeps the numbers of a search in theta alone.
+    THETA_EVALUATIONS = 40
+
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
                  base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None,
-                 memo: SimulationMemo | None = None):
+                 memo=None):
         self.simulator = simulator
         self.memo = memo
         self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
@@ -244,6 +279,81 @@ class StructureFit:
             return params[:6], params[6:]
         return np.asarray(theta0, float), params
 
+    def _misfit(self, params, theta0, measured, scale):
+        """The standardised gaps z (flattened) of parameters ``params`` (theta first)."""
+        theta, ev = self._split(params, theta0)
+        return ((self.statistics(theta, self.structure(ev)) - measured) / scale).ravel()
+
+    def _search(self, x0, free, lo, hi, typical, spread, budget, theta0, measured, scale):
+        """trf from parameters ``x0`` (theta first) over the ``free`` ones within [lo, hi], in
+        theta itself (``spread`` None) or in :class:`SpreadCoordinates`, for at most ``budget``
+        evaluations. Returns the parameters, d z / d parameters (zero columns for the held
+        ones), the evaluations, trf's status and message."""
+        theta_typical = typical
+        unit = np.ones(x0.size)  # trf's variables are the coordinates in these units
+        if spread is not None:  # the search in the spreads' squares (a point inside theta's box is inside theirs)
+            x0, (lo, hi, typical) = spread.forward(x0), spread.box(lo, hi, typical)
+            # in units of their typical magnitudes: trf's xtol compares a step with the norm of
+            # its variables, which a squared wind width (~1e5 N^2) would otherwise dominate
+            unit = typical
+
+        def whole(params):
+            """The whole search vector from the free coordinates (the known ones at their values)."""
+            if free.all():
+                return np.asarray(params, float) * unit
+            out = x0.copy()
+            out[free] = params * unit[free]
+            return out
+
+        def full(params):
+            """The model's parameter vector (theta first) of the free search coordinates."""
+            u = whole(params)
+            return u if spread is None else spread.inverse(u)
+
+        def difference_points(u):
+            """The point and its forward-difference neighbours in the free search coordinates
+            ``u`` (whole vector), with the steps; the points as model parameters."""
+            h = 1e-4 * np.maximum(np.abs(u), typical)
+            if spread is not None:  # a squared spread: the square of the spread's own step (not 1e-4 of a squared scale)
+                h = spread.steps(u, h, theta_typical)
+            h = np.where(u + h > hi, -h, h)
+            h[~free] = 0.0
+            points = [u] + [u + h[i] * np.eye(u.size)[i] for i in np.flatnonzero(free)]
+            return h, points if spread is None else [spread.inverse(pt) for pt in points]
+
+        def pairs(points):
+            return [(th, self.structure(ev)) for th, ev in (self._split(pt, theta0) for pt in points)]
+
+        # A numerically integrated model simulates a point's difference neighbours in the pass
+        # of the point itself: trf asks for the Jacobian at every point whose residuals it
+        # accepts (it rejected none in the benchmark's fits), and one RK4 pass over 8 x 300
+        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone. Along a speed
+        # profile a linear model is integrated by RK4 as well, its pairs batched alike.
+        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
+
+        def residuals(params):
+            u = whole(params)
+            if ahead:
+                points = difference_points(u)[1]
+                self._simulate(pairs(points[:1]), then=pairs(points[1:]))
+            return self._misfit(full(params), theta0, measured, scale)
+
+        def jacobian(params):
+            """Forward differences in the free coordinates, all perturbed models simulated in one batch."""
+            h, points = difference_points(whole(params))
+            self._simulate(pairs(points))
+            f = [self._misfit(pt, theta0, measured, scale) for pt in points]
+            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
+
+        u = unit[free]
+        res = least_squares(residuals, x0[free] / u, jac=jacobian, bounds=(lo[free] / u, hi[free] / u), x_scale=typical[free] / u,
+                            method="trf", max_nfev=budget, xtol=1e-8, ftol=1e-8)
+        jac = np.zeros((res.jac.shape[0], x0.size))
+        jac[:, free] = res.jac / u
+        if spread is not None:  # d z / d theta by the chain rule through the squares
+            jac = jac @ spread.derivative(whole(res.x))
+        return full(res.x), jac, int(res.nfev), int(res.status), str(res.message)
+
     def fit(self, measured, scale, theta0, effect_start=None) -> "StructureFit":
         """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, C, K)."""
         measured, scale = np.asarray(measured, float), np.asarray(scale, float)
@@ -261,57 +371,18 @@ class StructureFit:
         free = np.array([i not in self.fixed for i in range(x0.size)], bool)
 
         typical = np.array(typical, float)
-
-        def full(params):
-            """The whole parameter vector from the free ones (the known ones at their values)."""
-            if free.all():
-                return np.asarray(params, float)
-            out = x0.copy()
-            out[free] = params
-            return out
-
-        def difference_points(params):
-            """The point and its forward-difference neighbours in the free parameters, with the steps."""
-            h = 1e-4 * np.maximum(np.abs(params), typical)
-            h = np.where(params + h > hi, -h, h)
-            h[~free] = 0.0
-            return h, [params] + [params + h[i] * np.eye(params.size)[i] for i in np.flatnonzero(free)]
-
-        def pairs(points):
-            return [(th, self.structure(ev)) for th, ev in (self._split(pt, theta0) for pt in points)]
-
-        def misfit(params):
-            theta, ev = self._split(params, theta0)
-            return ((self.statistics(theta, self.structure(ev)) - measured) / scale).ravel()
-
-        # A numerically integrated model simulates a point's difference neighbours in the pass
-        # of the point itself: trf asks for the Jacobian at every point whose residuals it
-        # accepts (it rejected none in the benchmark's fits), and one RK4 pass over 8 x 300
-        # realisations costs a tenth more than the 7 x 300 of the Jacobian alone. Along a speed
-        # profile a linear model is integrated by RK4 as well, its pairs batched alike.
-        ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
-
-        def residuals(params):
-            params = full(params)
-            if ahead:
-                self._simulate(pairs([params]), then=pairs(difference_points(params)[1]))
-            return misfit(params)
-
-        def jacobian(params):
-            """Forward differences in the free parameters, all perturbed models simulated in one batch."""
-            h, points = difference_points(full(params))
-            self._simulate(pairs(points))
-            f = [misfit(pt) for pt in points]
-            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])])
-
-        if free.any():
-            res = least_squares(residuals, x0[free], jac=jacobian, bounds=(lo[free], hi[free]), x_scale=typical[free], method="trf",
-                                max_nfev=self.max_nfev, xtol=1e-8, ftol=1e-8)
-            x, nfev, success, message = full(res.x), res.nfev, bool(res.status > 0), str(res.message)
-            jac = np.zeros((res.jac.shape[0], x0.size))
-            jac[:, free] = res.jac
+        if not free.any():
+            x, jac, nfev, success, message = x0, np.zeros((self._misfit(x0, theta0, measured, scale).size, x0.size)), 1, True, "nothing to fit"
         else:
-            x, jac, nfev, success, message = x0, np.zeros((misfit(x0).size, x0.size)), 1, True, "nothing to fit"
+            # theta as it is first, within THETA_EVALUATIONS (a fit that converges there keeps
+            # its numbers); a fit still searching then goes on in the spreads' squares
+            first = self.max_nfev if not (self.fit_theta and self.spread_as_variance) else min(self.max_nfev, self.THETA_EVALUATIONS)
+            x, jac, nfev, status, message = self._search(x0, free, lo, hi, typical, None, first, theta0, measured, scale)
+            if status == 0 and nfev < self.max_nfev and first < self.max_nfev:
+                spread = SpreadCoordinates(self.fixed)
+                x, jac, more, status, message = self._search(x, free, lo, hi, typical, spread, self.max_nfev - nfev, theta0, measured, scale)
+                nfev += more
+            success = status > 0
         theta, ev = self._split(x, theta0)
         theta = theta.copy()
         theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)

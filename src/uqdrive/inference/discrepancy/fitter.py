@@ -1,5 +1,6 @@
 """The candidate fits of one dataset: the baseline, joint fits of the distributions with a set of
-effects, short probes of non-linear candidates, the screening and one forward step's pool.
+effects, short probes of non-linear candidates, the screening and one forward step's pool, and
+the linear simulations they share.
 """
 
 from __future__ import annotations
@@ -13,14 +14,45 @@ from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, ModelStructure
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
-from .fit import SimulationMemo, StructureFit
+from .fit import StructureFit
 from .ranking import screen
 
-__all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "in_reach", "nonlinear"]
+__all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear"]
 
 #: A non-linear candidate is first fitted with this budget of model evaluations (:meth:`CandidateFitter.probe`), then finished only
 #: when it closed PROBE_SHARE of what the best linear candidate closed (its chi2 can only fall further).
 PROBE_NFEV, PROBE_SHARE = 6, 0.25
+
+
+class SimulationMemo:
+    """Simulations of linear models shared by the fits of one dataset, the most recent ``size``.
+
+    A linear model gets the numbers of a call of its own (:meth:`~uqdrive.vehicle.augmented.AugmentedSimulator.simulate_many`
+    gives every linear pair those of :meth:`~uqdrive.vehicle.augmented.AugmentedSimulator.simulate`), so its realisations are a function of the
+    simulator, theta and the structure's dynamic part alone: a fit that asks for one another fit
+    already simulated (a screening held at the same distributions, an effect on the outputs only,
+    a refit from the point a short fit stopped at) gets the same array, bit for bit. Entries hold
+    their simulator, so a key's ``id`` cannot be reused by another simulator while it is stored.
+    """
+
+    def __init__(self, size: int = 32):
+        self.size = int(size)
+        self._entries: dict = {}
+
+    def get(self, simulator, key):
+        """The stored simulation of ``key`` on ``simulator`` (moved to the most recent), or None."""
+        entry = self._entries.pop((id(simulator), key), None)
+        if entry is None or entry[0] is not simulator:
+            return None
+        self._entries[(id(simulator), key)] = entry
+        return entry[1]
+
+    def put(self, simulator, key, x) -> None:
+        """Store ``x``, the simulation of ``key`` on ``simulator``, dropping the oldest beyond ``size``."""
+        self._entries.pop((id(simulator), key), None)
+        self._entries[(id(simulator), key)] = (simulator, x)
+        while len(self._entries) > self.size:
+            self._entries.pop(next(iter(self._entries)))
 
 
 def nonlinear(name: str) -> bool:
