@@ -38,25 +38,11 @@ class AugmentedSimulator(EnsembleSimulator):
     settings : Settings
         The car's constants, the load distribution (fixed, not identified: the LST depends on
         the mass only through F_w / m), the wind and its KLE settings.
-    time : ndarray, shape (T,)
-        Uniform output grid from 0 (s).
-    delta : ndarray, shape (T,)
-        Commanded steering angle (rad).
-    v_c : float
-        Speed (m/s).
     germs : Germs
         Fixed germs of the realisations (common random numbers).
-    stride : int
-        States are returned every ``stride`` grid steps (``output_time``); the inputs still act
-        on the whole grid (the first-order-hold maps of the skipped steps are folded, exactly),
-        so a coarser output costs a fraction of the recursion. The grid is cut to a multiple.
-    interpolation : {"linear", "previous"}
-        How ``delta`` is reconstructed between its samples (the data file's ``delta`` attribute
-        ``interpolation``): piecewise linear, or each sample held (zero-order hold).
-    channels : sequence of str
-        Measured channels returned, in order: of psi, psi_dot, beta, y, a_y (:mod:`uqdrive.vehicle.track_rk4`).
-    speed : ndarray, shape (T,), optional
-        Speed v(t) (m/s) on ``time`` when it changes (time-varying model, by RK4); None: ``v_c``.
+    time, delta, v_c, stride, interpolation, channels, speed
+        The grid, the commanded steering, the speed and the output, as
+        :class:`~uqdrive.vehicle.dynamics.engine.EnsembleSimulator` takes them.
 
     Attributes
     ----------

@@ -20,6 +20,7 @@ class SensorBias(Effect):
 
     @property
     def vanishes(self) -> tuple:
+        """(parameter, value) where the bias vanishes: the channel's offset 0."""
         return (f"offset_{self.channel}", 0.0)
 
     def apply(self, s, v):
@@ -39,6 +40,7 @@ class SensorScale(Effect):
 
     @property
     def vanishes(self) -> tuple:
+        """(parameter, value) where the gain error vanishes: the channel's gain 1."""
         return (f"gain_{self.channel}", 1.0)
 
     def apply(self, s, v):
