@@ -155,3 +155,36 @@ def test_foh_maps_equal_van_loans_exponential_with_and_without_doublings(scale):
         Qr = F[:4, 7:] / h
         for got, ref in ((Phi[j], F[:4, :4]), (P[j], F[:4, 4:7] - Qr), (Q[j], Qr)):
             assert np.abs(got - ref).max() <= 5e-14 * np.abs(ref).max()
+
+
+def test_foh_step_maps_cache_hits_bit_for_bit_and_misses_on_a_change():
+    """The kept step maps of a stack of A give the very bits of a fresh computation, with any E;
+    a changed entry of A (or another h) is computed anew; the cache stays bounded and a caller
+    writing into the returned Phi leaves the kept maps alone."""
+    from uqdrive.numerics import discretise
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(5, 4, 4)) * 40.0 - 30.0 * np.eye(4)  # norms that need doublings at h
+    E1, E2 = rng.normal(size=(5, 4, 3)), rng.normal(size=(5, 4, 3))
+    h = 0.01
+    discretise._STEP_MAPS.clear()
+    fresh = [foh_discretise(A, E, h) for E in (E1, E2)]
+    for E, want in zip((E1, E2), fresh):
+        discretise._STEP_MAPS.clear()
+        got = foh_discretise(A, E, h)
+        assert all(np.array_equal(g, w) for g, w in zip(got, want))
+    hit = foh_discretise(A, E1, h)  # A kept from the loop: a hit
+    assert len(discretise._STEP_MAPS) == 1
+    assert all(np.array_equal(g, w) for g, w in zip(hit, fresh[0]))
+    hit[0][:] = 0.0  # the caller's copy only
+    assert np.array_equal(foh_discretise(A, E1, h)[0], fresh[0][0])
+    B = A.copy()
+    B[2, 1, 0] += 1.0
+    changed = foh_discretise(B, E1, h)
+    assert len(discretise._STEP_MAPS) == 2
+    assert not np.array_equal(changed[0][2], fresh[0][0][2]) and np.array_equal(changed[0][0], fresh[0][0][0])
+    foh_discretise(A, E1, 2 * h)
+    assert len(discretise._STEP_MAPS) == 3
+    for k in range(2 * discretise._STEP_MAPS_ENTRIES):
+        foh_discretise(A + k, E1, h)
+    assert len(discretise._STEP_MAPS) == discretise._STEP_MAPS_ENTRIES

@@ -4,6 +4,9 @@ batched over systems, and for one system with the exact derivatives of its maps.
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
+
 import numpy as np
 
 __all__ = ["foh_discretise", "foh_discretise_derivatives", "foh_discretise_derivatives_batched"]
@@ -33,6 +36,32 @@ def foh_discretise(A, E, h: float):
     """
     A = np.asarray(A, float)
     E = np.asarray(E, float)
+    Phi, J0, J1_h = _step_maps(A, h)
+    Q = J1_h @ E
+    return Phi.copy(), J0 @ E - Q, Q
+
+
+#: Largest A (bytes) whose step maps :data:`_STEP_MAPS` keeps, and how many it keeps.
+_STEP_MAPS_BYTES, _STEP_MAPS_ENTRIES = 1 << 21, 8
+_STEP_MAPS: OrderedDict = OrderedDict()
+_STEP_MAPS_LOCK = threading.Lock()
+
+
+def _step_maps(A, h: float):
+    """Phi = e^{Ah}, J_0 and J_1 / h of :func:`foh_discretise` (shape of A each), read-only.
+
+    They depend on A and h alone: the fits of a discover evaluate the same realisations' A with
+    other inputs E again and again (a lag, a delay, a bank move E, not A), so the last few are
+    kept, keyed on A's bytes (a hit returns the very arrays computed before: the same bits; the
+    halvings are chosen from the whole stack's largest norm, so only the same stack may hit).
+    """
+    key = (A.shape, float(h), A.tobytes()) if A.nbytes <= _STEP_MAPS_BYTES else None
+    if key is not None:
+        with _STEP_MAPS_LOCK:
+            maps = _STEP_MAPS.get(key)
+            if maps is not None:
+                _STEP_MAPS.move_to_end(key)
+                return maps
     # Scaling and squaring of e^{Ah}, J_0 = int_0^h e^{As} ds and J_1 = int_0^h e^{As} (h - s) ds
     # on d x d matrices (Van Loan's 3d x 3d block costs 27 times the arithmetic per product):
     # Taylor series at h / 2^s, then per doubling of the step
@@ -46,8 +75,15 @@ def foh_discretise(A, E, h: float):
         J0 = J0 + Phi @ J0
         Phi = Phi @ Phi
         hs *= 2.0
-    Q = (J1 / h) @ E
-    return Phi, J0 @ E - Q, Q
+    maps = (Phi, J0, J1 / h)
+    for a in maps:
+        a.setflags(write=False)
+    if key is not None:
+        with _STEP_MAPS_LOCK:
+            _STEP_MAPS[key] = maps
+            while len(_STEP_MAPS) > _STEP_MAPS_ENTRIES:
+                _STEP_MAPS.popitem(last=False)
+    return maps
 
 
 #: Largest 1-norm of A h / 2^s at which :func:`foh_discretise` sums the Taylor series.

@@ -303,12 +303,17 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
     """
     per_call = max(1, 4000 // max(n, 1))
     z = []
+    noise_buffer = None  # the draws of every call land in one array: fresh pages cost a third of the draws
     for start in range(0, bootstrap, per_call):
         reps = min(per_call, bootstrap - start)
         germs = type(sim.germs).draw(rng, reps * n, sim.germs.kle.shape[1])
         x = sim.simulate(base.theta_, base.structure_, germs=germs)
         # x[:, :, index] + noise, computed in the noise's array (no copies of x; the same sums)
-        xb = rng.standard_normal((x.shape[0], x.shape[1], index.size))
+        shape = (x.shape[0], x.shape[1], index.size)
+        size = x.shape[0] * x.shape[1] * index.size
+        if noise_buffer is None or noise_buffer.size < size:
+            noise_buffer = np.empty(size)
+        xb = rng.standard_normal(out=noise_buffer[:size].reshape(shape))
         xb *= np.sqrt(noise)[:, None, None]
         xb += compared_times(x, index)
         xb = xb.reshape(x.shape[0], reps, n, -1)
