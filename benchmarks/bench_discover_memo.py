@@ -17,6 +17,7 @@ import json
 import time
 from pathlib import Path
 
+from timing import without
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
 from uqdrive.inference.discrepancy import finder as finder_module
@@ -25,13 +26,6 @@ from uqdrive.studies.hidden_effects import benchmark_cases, generate
 from uqdrive.vehicle.augmented import AugmentedSimulator
 
 CELLS = "none_step:imu:20,road_bank_3deg:all:40,tyre_saturation_5deg:imu_speed:100,actuator_delay_50ms:all:1000"
-
-
-def _strip(v):
-    """The verdict without its clock readings."""
-    if isinstance(v, dict):
-        return {k: _strip(x) for k, x in v.items() if k not in ("seconds", "stage_seconds")}
-    return [_strip(x) for x in v] if isinstance(v, list) else v
 
 
 def run(config, data, memo: bool):
@@ -48,7 +42,7 @@ def run(config, data, memo: bool):
     try:
         clock = time.process_time()
         verdict = DiscrepancyFinder(config, posterior=False).fit(data).verdict_
-        return time.process_time() - clock, calls[0], _strip(verdict)
+        return time.process_time() - clock, calls[0], without(verdict)
     finally:
         AugmentedSimulator.simulate = simulate
         finder_module.SimulationMemo = original

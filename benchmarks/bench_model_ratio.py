@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import uqdrive.inference.discrepancy as discrepancy
+from timing import without
 from uqdrive.config import load_config
 from uqdrive.studies.discrepancy import channel_detection_cell
 from uqdrive.studies.hidden_effects import benchmark_cases
@@ -30,9 +31,7 @@ PROVENANCE = ("seconds", "stage_seconds", "model_samples", "model_ratio")
 
 def _strip(v):
     """An output without its clock readings and the realisations' provenance."""
-    if isinstance(v, dict):
-        return {k: _strip(x) for k, x in v.items() if k not in PROVENANCE}
-    return [_strip(x) for x in v] if isinstance(v, list) else v
+    return without(v, PROVENANCE)
 
 
 class _Keeping(discrepancy.DiscrepancyFinder):

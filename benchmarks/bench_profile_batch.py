@@ -20,9 +20,10 @@ import time
 
 import numpy as np
 
+from timing import without
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
-from uqdrive.inference.discrepancy.data import prepare_measured, speed_profile
+from uqdrive.inference.discrepancy.comparison import prepare_measured, speed_profile
 from uqdrive.rng import rng_stream
 from uqdrive.settings import Settings
 from uqdrive.studies.discrepancy import BRAKING, CHANNEL_SETS
@@ -46,13 +47,6 @@ def cpu(fn):
     return time.process_time() - clock, result
 
 
-def _strip(v):
-    """The verdict without its clock readings."""
-    if isinstance(v, dict):
-        return {k: _strip(x) for k, x in v.items() if k not in ("seconds", "stage_seconds")}
-    return [_strip(x) for x in v] if isinstance(v, list) else v
-
-
 def discover(settings, data, batched: bool):
     """CPU seconds and verdict of one discover; ``batched`` False patches the batching and the kept gust products away."""
     profile_many, gusts = AugmentedSimulator._profile_many, AugmentedSimulator._gusts
@@ -61,7 +55,7 @@ def discover(settings, data, batched: bool):
         AugmentedSimulator._gusts = lambda self, coeffs, f_half, t_half: np.ascontiguousarray((coeffs @ f_half).T)
     try:
         seconds, finder = cpu(lambda: DiscrepancyFinder(settings, posterior=False).fit(data))
-        return seconds, _strip(finder.verdict_)
+        return seconds, without(finder.verdict_)
     finally:
         AugmentedSimulator._profile_many, AugmentedSimulator._gusts = profile_many, gusts
 

@@ -24,6 +24,7 @@ import platform
 import time
 from pathlib import Path
 
+from timing import without
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy.fit import StructureFit
 
@@ -32,13 +33,6 @@ DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:tyre_saturation_5d
                 "discover:tyre_saturation_5deg", "discover:actuator_delay_150ms", "discover:none_step")
 #: What a verdict says, as opposed to how well it fits: these must be equal between the variants.
 VERDICT_KEYS = ("effect", "verdict", "correct", "untestable", "ambiguous_with", "decision", "named", "significant", "rejected", "removed")
-
-
-def _strip(v):
-    """An output without its clock readings."""
-    if isinstance(v, dict):
-        return {k: _strip(x) for k, x in v.items() if k not in ("seconds", "stage_seconds")}
-    return [_strip(x) for x in v] if isinstance(v, list) else v
 
 
 def moved(old, new, path="", rtol=1e-6):
@@ -89,11 +83,11 @@ def run_job(config, job: str):
         data = generate(config, case)
         clock = time.process_time()
         _, verdict = discover_dataset(config, data, name)
-        return time.process_time() - clock, _strip(verdict)
+        return time.process_time() - clock, without(verdict)
     case = {c.name: c for c in benchmark_cases(config)}[name]
     clock = time.process_time()
     rows = channel_detection_cell(config, [case], cell[0], int(cell[1]))
-    return time.process_time() - clock, _strip(rows)
+    return time.process_time() - clock, without(rows)
 
 
 def main(argv=None):
