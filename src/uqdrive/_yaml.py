@@ -8,7 +8,7 @@ import re
 
 import yaml
 
-__all__ = ["load_yaml", "DuplicateKeyError"]
+__all__ = ["load_yaml", "DuplicateKeyError", "YAMLSyntaxError"]
 
 _Base = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml parses 20x faster; the resolver stays Python's
 
@@ -28,6 +28,10 @@ class DuplicateKeyError(yaml.YAMLError):
     """A mapping gives the same key twice (YAML requires unique keys; PyYAML keeps the last silently)."""
 
 
+class YAMLSyntaxError(yaml.YAMLError):
+    """Text that is not YAML: the problem, where it is, and what to check there, on one line."""
+
+
 class _Loader(_Base):
     """Safe loader with the YAML 1.2 float pattern and unique mapping keys."""
 
@@ -38,13 +42,15 @@ class _Loader(_Base):
                 if key_node.tag == "tag:yaml.org,2002:merge":
                     continue
                 key = self.construct_object(key_node, deep=True)
+                mark = key_node.start_mark
                 try:
-                    first = seen.setdefault(key, key_node.start_mark.line + 1)
+                    first = seen.setdefault(key, mark)
                 except TypeError:
                     continue  # an unhashable key: the base class says what is wrong with it
-                if first != key_node.start_mark.line + 1:
-                    raise DuplicateKeyError(f"key '{key}' is given twice (lines {first} and {key_node.start_mark.line + 1}); "
-                                            "keep one of them")
+                if first is not mark:  # a flow mapping ({a: 1, a: 2}) gives both on one line
+                    where = (f"lines {first.line + 1} and {mark.line + 1}" if first.line != mark.line else
+                             f"line {mark.line + 1}, columns {first.column + 1} and {mark.column + 1}")
+                    raise DuplicateKeyError(f"key '{key}' is given twice ({where}); keep one of them")
         return super().construct_mapping(node, deep=deep)
 
 
@@ -61,6 +67,14 @@ def load_yaml(text: str):
     Raises
     ------
     yaml.YAMLError
-        For text that is not YAML, or a mapping that gives a key twice (:class:`DuplicateKeyError`).
+        For text that is not YAML (:class:`YAMLSyntaxError`, one line naming the line and column),
+        or a mapping that gives a key twice (:class:`DuplicateKeyError`).
     """
-    return yaml.load(text, Loader=_Loader)
+    try:
+        return yaml.load(text, Loader=_Loader)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = " ".join(str(exc.problem or exc.context or exc).split())
+        raise YAMLSyntaxError(f"{problem}{where}; fix the YAML there (closing brackets and quotes, indentation by spaces, "
+                              "not tabs)") from None

@@ -23,7 +23,7 @@ import yaml
 
 from ._errors import ConfigError
 from ._yaml import load_yaml
-from .vehicle_spec import ENGINEERING_KEYS, FILE_KEY_HINTS, apply_vehicle_file, derived_from, normalise_vehicle, vehicle_names  # noqa: F401
+from .vehicle_spec import ENGINEERING_KEYS, FILE_KEY_HINTS, apply_vehicle_file, check_plausible, derived_from, normalise_vehicle, vehicle_names  # noqa: F401
 from .vehicle_spec import read_vehicle_file as _read_vehicle_file
 
 __all__ = ["ConfigError", "load_config", "validate_config", "read_vehicle_file", "vehicle_names", "config_hash", "load_schema", "default_config_text",
@@ -195,8 +195,9 @@ def _get(cfg: Mapping, key: str):
 
 
 def _check_ranges(cfg: dict, origin: Mapping[str, str] = {}) -> None:  # noqa: B006 - read only
-    """Every value in :data:`PHYSICAL_RANGES`; a value derived from the car's engineering keys
-    (``origin``: config key -> the user's keys in words) is named by the keys the user wrote."""
+    """Every value in :data:`PHYSICAL_RANGES`, the car's sizes a car's (:func:`check_plausible`); a
+    value derived from the car's engineering keys (``origin``: config key -> the user's keys in
+    words) is named by the keys the user wrote."""
     for key, (lo, hi, lo_in, hi_in, unit) in PHYSICAL_RANGES.items():
         value = _get(cfg, key)
         ok = (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
@@ -207,6 +208,9 @@ def _check_ranges(cfg: dict, origin: Mapping[str, str] = {}) -> None:  # noqa: B
                                   f"outside its range {span}; check those values and their units")
             raise ConfigError(f"config key '{key}' = {value:g} is outside the physical range {span}{' ' + unit if unit else ''}; "
                               "give a value in that range")
+    for key, quantity in {"m_base": "mass", "wheelbase": "wheelbase", "cg_height": "cg_height", "track_width": "track_width"}.items():
+        if f"vehicle.{key}" not in origin and cfg["vehicle"].get(key) is not None:  # a vehicle file's: by its own key
+            check_plausible(quantity, cfg["vehicle"][key], f"config key 'vehicle.{key}'")
 
 
 def _check_semantics(cfg: dict) -> None:
@@ -276,7 +280,7 @@ def read_config_mapping(path: str | Path | None) -> dict:
         try:
             raw = path.read_bytes()
         except OSError as exc:
-            raise ConfigError(f"cannot read config file '{path}': {exc.strerror or exc}") from exc
+            raise ConfigError(f"cannot read config file '{path}': {exc.strerror or exc}; give a config's path (uqdrive config --dump FILE writes one)") from exc
         try:
             text = raw.decode("utf-8-sig")
         except UnicodeDecodeError as exc:

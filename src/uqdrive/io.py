@@ -148,7 +148,7 @@ def speed_profile(ds: xr.Dataset) -> np.ndarray | None:
 def data_speed(ds: xr.Dataset) -> tuple[float | None, str | None]:
     """The car's speed of an ensemble by the one rule every command follows: a variable ``v``
     (the speed as recorded) is the speed and a global attribute ``v_c`` beside it is ignored;
-    without ``v``, ``v_c`` is the speed.
+    without ``v``, ``v_c`` is the speed. Runs each at its own constant speed run at their mean.
 
     Returns
     -------
@@ -156,24 +156,29 @@ def data_speed(ds: xr.Dataset) -> tuple[float | None, str | None]:
         The constant speed (m/s): ``v_c``, or the value of a ``v`` that never changes; None for a
         ``v`` that changes over time (a profile, see :func:`speed_profile`).
     ignored : str or None
-        A note naming the ``v_c`` that was ignored because it differs from ``v``, else None.
+        A note naming the ``v_c`` that was ignored because it differs from ``v``, and the mean
+        taken of runs held at different constant speeds, else None.
     """
     if "v" not in ds:
         return float(ds.attrs["v_c"]), None
     v = np.asarray(ds["v"].values, float)
     profile = speed_profile(ds)
     speed = None if profile is not None else float(np.ravel(v)[0])
+    said = []
+    if speed is not None and not np.all(v == speed):  # runs at different constant speeds: the model runs at their mean
+        speed = float(np.mean(v))
+        said.append(f"the runs' constant speeds v differ ({float(v.min()):.4g}-{float(v.max()):.4g} m/s): the model runs at "
+                    f"their mean {speed:.6g} m/s")
     v_c = ds.attrs.get("v_c")
     try:
         differs = v_c is not None and (speed is None or float(v_c) != speed)
     except (TypeError, ValueError):
         differs = True
-    if not differs:
-        return speed, None
-    said = f"{float(v_c):.6g} m/s" if isinstance(v_c, numbers.Real) else repr(v_c)
-    what = f"constant {speed:.6g} m/s" if speed is not None else f"a profile {float(v.min()):.4g}-{float(v.max()):.4g} m/s"
-    ignored = f"the file's attribute v_c = {said} is ignored: its variable v ({what}) is the car's speed, for every command"
-    return speed, ignored
+    if differs:
+        given = f"{float(v_c):.6g} m/s" if isinstance(v_c, numbers.Real) else repr(v_c)
+        what = f"constant {speed:.6g} m/s" if speed is not None else f"a profile {float(v.min()):.4g}-{float(v.max()):.4g} m/s"
+        said.append(f"the file's attribute v_c = {given} is ignored: its variable v ({what}) is the car's speed, for every command")
+    return speed, "; ".join(said) or None
 
 
 def _check_v_c(ds: xr.Dataset, source: str) -> None:
@@ -223,7 +228,7 @@ def validate_ensemble(ds: xr.Dataset, source: str = "dataset") -> xr.Dataset:
     required["delta"] = "rad"
     for name, unit in required.items():
         if name not in ds:
-            raise DataError(f"{source}: missing variable '{name}' ({unit})")
+            raise DataError(f"{source}: missing variable '{name}' ({unit}); add it over {('time',) if name == 'delta' else ('sample', 'time')}")
         want = ("time",) if name == "delta" else ("sample", "time")
         if ds[name].dims != want:
             raise DataError(f"{source}: variable '{name}' has dims {ds[name].dims}; expected {want}")

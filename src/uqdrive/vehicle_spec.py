@@ -49,7 +49,7 @@ import yaml
 from ._errors import ConfigError
 from ._yaml import load_yaml
 
-__all__ = ["OPTIONAL_QUANTITIES", "require", "ENGINEERING_KEYS", "PLAUSIBLE", "FILE_KEY_HINTS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "derived_from", "apply_vehicle_file",
+__all__ = ["OPTIONAL_QUANTITIES", "require", "ENGINEERING_KEYS", "PLAUSIBLE", "FILE_KEY_HINTS", "FILE_ONLY_KEYS", "vehicle_names", "read_vehicle_file", "internal_constants", "engineering_terms", "check_car", "check_plausible", "derived_from", "apply_vehicle_file",
            "normalise_vehicle"]
 
 #: Engineering keys of the vehicle section: key -> (unit, meaning).
@@ -198,13 +198,9 @@ def check_car(vehicle: Mapping[str, Any], name=lambda key: f"config key 'vehicle
         if not lo < value <= hi:
             raise ConfigError(f"{name(key)} = {value:g} {unit} is outside the physical range ({lo:g}, {hi:g}] {unit}; "
                               f"give {ENGINEERING_KEYS[key.split('.')[0]][1]} in {unit}")
-    for key, (lo, hi, unit, below, above) in PLAUSIBLE.items():
-        value = _get(vehicle, key) if _has(vehicle, key) else None
-        if value is None or lo <= value <= hi:
-            continue
-        slip = below if value < lo else above
-        guess = f"; {slip[0]}? give it in {unit} ({value * slip[1]:g} {unit})" if slip and lo <= value * slip[1] <= hi else ""
-        raise ConfigError(f"{name(key)} = {value:g} {unit} is not a car's (cars: {lo:g} to {hi:g} {unit}){guess or f'; give it in {unit}'}")
+    for key in PLAUSIBLE:
+        if _has(vehicle, key):
+            check_plausible(key, _get(vehicle, key), name(key))
     L, l_f, share = vehicle.get("wheelbase"), vehicle.get("cg_to_front_axle"), vehicle.get("front_axle_load_share")
     if l_f is not None and L is not None and not 0.0 < l_f < L:
         raise ConfigError(f"{name('cg_to_front_axle')} = {l_f:g} m lies outside the wheelbase: give the distance from the centre of "
@@ -218,6 +214,17 @@ def check_car(vehicle: Mapping[str, Any], name=lambda key: f"config key 'vehicle
             raise ConfigError(f"{name(f'magic_formula.front.{factor}')} = {mf['front'][factor]:g} differs from "
                               f"{name(f'magic_formula.rear.{factor}')} = {mf['rear'][factor]:g}; the single-track model has one "
                               f"{factor} for both axles: give equal values (or the cornering stiffness in N/rad)")
+
+
+def check_plausible(key: str, value: float, label: str) -> None:
+    """A :class:`ConfigError` naming ``label`` when ``value`` of the quantity ``key`` of
+    :data:`PLAUSIBLE` is not a car's, with the unit slip that would explain it (tonnes for kg)."""
+    lo, hi, unit, below, above = PLAUSIBLE[key]
+    if lo <= value <= hi:
+        return
+    slip = below if value < lo else above
+    guess = f"; {slip[0]}? give it in {unit} ({value * slip[1]:g} {unit})" if slip and lo <= value * slip[1] <= hi else ""
+    raise ConfigError(f"{label} = {value:g} {unit} is not a car's (cars: {lo:g} to {hi:g} {unit}){guess or f'; give it in {unit}'}")
 
 
 def derived_from(vehicle: Mapping[str, Any]) -> dict:

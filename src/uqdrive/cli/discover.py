@@ -47,10 +47,13 @@ def separating_inputs(time) -> dict:
 def _checked_candidates(candidates: Sequence[str] | None):
     if candidates is None:
         return None
+    if not list(candidates):
+        raise DataError("--candidates names no candidate; give effect names or families separated by commas (e.g. "
+                        "tyre_saturation,actuator_lag), or 'all'")
     try:
         return expand_names(candidates)
     except KeyError as err:
-        raise DataError(str(err).strip("'\"")) from None
+        raise DataError(str(err).strip("'\"") + "; give --candidates from those, separated by commas") from None
 
 
 def candidates_for_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str], list[dict]]:

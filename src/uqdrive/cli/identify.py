@@ -44,7 +44,7 @@ def _model_settings(config: Mapping[str, Any], ds, source: str) -> Settings:
         raise DataError(f"{source}: 'time' starts at {t[0]:g} s; the model starts from straight driving at t = 0: "
                         "subtract the start time from the time coordinate")
     dt = float(t[1] - t[0])
-    v = float(ds.attrs["v_c"]) if "v" not in ds else float(np.ravel(ds["v"].values)[0])
+    v = float(ds.attrs["v_c"]) if "v_c" in ds.attrs else float(np.ravel(ds["v"].values)[0])  # v_c: io.data_speed's
     return Settings.from_config(config, time=TimeGrid(float(t[-1]), dt, dt), speed=v)
 
 

@@ -234,10 +234,11 @@ def _config(args) -> None:
 def _model_choice(value: str) -> str:
     if value in ("lst", "nlst") or value.endswith((".yaml", ".yml")):
         return value
-    raise ValueError(value)
+    raise argparse.ArgumentTypeError(f"--model '{value}' is neither lst, nlst nor a model file; give lst, nlst or the model.yaml "
+                                     "that uqdrive discover wrote (ending in .yaml)")
 
 
-_model_choice.__name__ = "model (lst, nlst or a model.yaml)"
+_model_choice.__name__ = "--model"
 
 
 def _add_discover(sub) -> None:
