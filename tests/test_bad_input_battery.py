@@ -260,6 +260,11 @@ for _name, _text, _pattern in [
 ]:
     refuse("vehicle file", _name, with_car(car(text=_text)), _pattern)
 
+refuse("vehicle file", "yaw_moment_arm_too_long", with_car(car({"M_c": 120.0})), r"vehicle file '.*car\.yaml': M_c gives the model's M_c = 120 m, outside its range \[-100, 100\]")
+refuse("vehicle file", "magic_formula_E_above_one", with_car(car({"magic_formula": {a: {"B": 10.6, "C": 1.9, "E": 1.5} for a in ("front", "rear")}},
+                                                                  base=THESIS)), r"vehicle file '.*car\.yaml': key 'magic_formula\.(front|rear)\.E': 1\.5 is greater than the maximum of 1; give a value <= 1")
+refuse("vehicle file", "stiffness_of_a_light_car", with_car(car({"mass": 100.0, "yaw_inertia": 100.0, "cornering_stiffness": {"front": 5e6, "rear": 5e6}})),
+       r"vehicle file '.*car\.yaml': cornering_stiffness\.front .* gives the model's c_Sf = .* outside its range.*check those values")
 refuse("vehicle file", "inertia_for_its_mass", with_car(car({"mass": 300.0, "yaw_inertia": 9e5})), r"yaw_inertia / mass.*J0 = 3000 m\^2.*check")
 refuse("vehicle file", "missing_file", lambda tmp, w: identify(tmp, w, None, "--vehicle", tmp / "nosuch.yaml"),
        r"cannot read vehicle file '.*nosuch\.yaml': No such file.*give a packaged name")
@@ -344,6 +349,10 @@ refuse("vehicle file", "config_section_mass_twice", with_config(config_file(lamb
        r"config keys 'vehicle\.mass' and 'vehicle\.m_base' both give the mass.*keep one")
 refuse("vehicle file", "config_m_base_in_tonnes", with_config(config_file(lambda c: c["vehicle"].update(m_base=1.784))),
        r"config key 'vehicle\.m_base' = 1\.784 kg is not a car's.*tonnes\?")
+refuse("vehicle file", "config_cg_height_in_mm", with_config(config_file(lambda c: c["vehicle"].update(cg_height=550.0))),
+       r"config key 'vehicle\.cg_height' = 550 m is not a car's.*mm\? give it in m \(0\.55 m\)")
+refuse("vehicle file", "config_track_width_tiny", with_config(config_file(lambda c: c["vehicle"].update(track_width=0.01))),
+       r"config key 'vehicle\.track_width' = 0\.01 m is not a car's")
 refuse("vehicle file", "config_J0_as_inertia", with_config(config_file(lambda c: c["vehicle"].update(J0=1498.56))),
        r"config key 'vehicle\.J0' = 1498\.56 is outside the physical range.*m\^2")
 
@@ -625,6 +634,7 @@ for _name, _edit, _value in [
         read("speed", f"{_name}[{_command[0]}]", with_data(dataset(_edit), _command[1]), _speed_is(_value))
 read("speed", "v_and_v_c_differ[identify --model]", lambda tmp, w: identify(tmp, w, dataset(speed(19.0, v_c=25.0))(tmp, w), "--model",
                                                                                model_file()(tmp, w)), _speed_is(19.0))
+read("speed", "v_beside_a_v_c_word", with_data(dataset(speed(19.0, v_c="fast"))), _speed_is(19.0))
 read("speed", "runs_at_different_constant_speeds", with_data(dataset(speed(lambda d: (18.0 + 0.2 * np.arange(d.sizes["sample"]))[:, None],
                                                                             dims=("sample", "time"), drop_v_c=True))),
      _speed_is(18.0 + 0.2 * 5.5))
@@ -714,6 +724,8 @@ OUTPUTS = [
 for _name, _build, _pattern in OUTPUTS:
     refuse("output path", _name, _build, _pattern)
 
+refuse("output path", "discover_forced_over_the_users_files", lambda tmp, w: out(discover(tmp, w), _existing(tmp, "d", True, ["verdict.json", "notes.txt"]),
+                                                                                 "--force"), r"output folder '.*d' holds 'notes\.txt', which is no output")
 read("output path", "identify_nested_missing_folders", lambda tmp, w: out(identify(tmp, w), tmp / "a" / "b" / "est"), lambda seen: True)
 read("output path", "identify_over_an_estimate_forced", lambda tmp, w: out(identify(tmp, w), _existing(tmp, "est", True, ["estimate.json"]), "--force"),
      lambda seen: True)

@@ -178,7 +178,7 @@ def validate_config(config: Mapping[str, Any]) -> dict:
         name, spec = read_vehicle_file(reference)
         cfg = apply_vehicle_file(cfg, spec, name)
         origin = {k: f"vehicle file '{reference}': {v}" for k, v in derived_from(spec).items()}
-        origin["vehicle.wheelbase"] = f"vehicle file '{reference}': wheelbase"
+        origin.update({f"vehicle.{k}": f"vehicle file '{reference}': {k}" for k in ("wheelbase", "M_c", "cg_height", "track_width") if k in spec})
     else:
         origin = {k: f"the config's vehicle section ({v})" for k, v in derived_from(cfg["vehicle"]).items()}
     cfg = normalise_vehicle(cfg)

@@ -68,17 +68,22 @@ def check_output_folder(folder: str | Path, names: Sequence[str] = (), overwrite
     return folder
 
 
-def check_replaced_folder(folder: str | Path, overwrite: bool = False) -> Path:
+def check_replaced_folder(folder: str | Path, overwrite: bool = False, names: Sequence[str] | None = None) -> Path:
     """Check, before any work and without creating anything, that the folder ``folder`` can be
     written whole beside itself and renamed into place: its nearest existing parent is a
     writable folder; an existing ``folder`` is refused unless ``overwrite`` and never replaced
-    when it is not a folder (a regular file stays a file)."""
+    when it is not a folder (a regular file stays a file), nor, with ``names`` given, when it
+    holds anything else than those outputs (replacing it would delete the user's files)."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"output folder '{folder}' is an existing regular file, which is not replaced by a folder; "
                           "choose another --out (or remove the file)")
     if folder.is_dir() and not overwrite:
         raise OutputError(f"output folder '{folder}' exists; pass --force to replace it or choose another --out")
+    others = sorted(p.name for p in folder.iterdir() if p.name not in names) if names is not None and folder.is_dir() else []
+    if others:
+        raise OutputError(f"output folder '{folder}' holds '{others[0]}'{f' and {len(others) - 1} more' if len(others) > 1 else ''}, "
+                          "which is no output of this command: --force replaces only a folder of its outputs; choose another --out")
     base = _existing_ancestor(folder)
     if not base.is_dir():
         raise OutputError(f"output folder '{folder}' lies under '{base}', which is not a folder; choose another --out")

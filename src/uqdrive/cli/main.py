@@ -33,6 +33,7 @@ FORCE_HELP = "replace an existing output (atomically); without it an existing ou
 VEHICLE_HELP = ("the car: a packaged vehicle name ('uqdrive vehicles' lists them) or a vehicle file NAME.yaml; replaces the "
                 "config's car (vehicle section but speed_kmh, g; l_f mean; tyre C, E when the file gives them)")
 IDENTIFY_OUTPUTS = ("estimate.json", "fit.png")
+DISCOVER_OUTPUTS = ("verdict.json", "model.yaml", "bands.png", "localisation.png")
 #: Exit status of ``--strict`` when the model does not fit the data (identify: the misfit test
 #: fails; discover: a gap no candidate explains remains), and when the optimiser did not converge.
 EXIT_MODEL_DOES_NOT_FIT = 3
@@ -276,7 +277,7 @@ def _discover(args) -> int:
 
     progress = Progress(quiet=args.quiet)
     config = resolve_config(args.config, args.vehicle)
-    out = check_replaced_folder(args.out, overwrite=args.force)
+    out = check_replaced_folder(args.out, overwrite=args.force, names=DISCOVER_OUTPUTS)
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     verdict = discover(args.measured, config=config, candidates=candidates, model=args.model, progress=progress,
                        posterior=args.posterior)
