@@ -452,6 +452,14 @@ refuse("model.yaml", "l_f_beyond_the_vehicle_files_wheelbase[identify]",
        r"distributions\.l_f\.mean = 2\.6 m lies beyond the wheelbase 2\.5789 m")
 
 
+LLT = _eff(lateral_load_transfer={"chi_f": 0.5, "p_Dz": -0.2})
+refuse("model.yaml", "effect_the_car_cannot_carry[simulate]", with_model(model_file(LLT), "simulate"),
+       r"effect 'lateral_load_transfer' needs the car's cg_height .* add it to the vehicle file")
+refuse("model.yaml", "effect_the_car_cannot_carry[identify]", with_model(model_file(LLT), "identify"), r"needs the car's cg_height")
+read("model.yaml", "effect_the_vehicle_file_carries[simulate]", lambda tmp, w: with_model(model_file(LLT), "simulate")(tmp, w) + ["--vehicle", "bmw_320i"],
+     lambda seen: seen["settings"].vehicle.cg_height == pytest.approx(0.5749))
+
+
 def _load(expected_effects, **distributions):
     def check(value):
         structure, dist = value
@@ -770,6 +778,18 @@ for _name, _text, _pattern in [
      r"uncertainty\.l_f\.mean' = 3\.55 must lie inside \(0, vehicle\.wheelbase"),
 ]:
     refuse("config", _name, with_config(config_file(text=_text), simulate if "seed" in _name else identify), _pattern)
+def _ramp(**ramp):
+    return with_config(config_file(lambda c: c["montecarlo"].update(speed_profile=ramp)), simulate)
+
+
+refuse("config", "ramp_to_standstill", _ramp(start_kmh=70.0, end_kmh=0.5, duration=0.5),
+       r"config key 'montecarlo\.speed_profile\.end_kmh' = 0\.5 km/h is outside \[1\.8, 360\] km/h; give a forward speed")
+refuse("config", "ramp_in_m_s_too_fast", _ramp(start_kmh=500.0, end_kmh=300.0, duration=0.5), r"speed_profile\.start_kmh' = 500 km/h is outside")
+refuse("config", "ramp_after_the_run", _ramp(start_kmh=70.0, end_kmh=50.0, duration=0.5, t_start=5.0),
+       r"speed_profile\.t_start' = 5 s is not before time\.t_end = 0\.8 s.*give an earlier start")
+refuse("config", "ramp_without_duration", _ramp(start_kmh=70.0, end_kmh=50.0), r"speed_profile\.duration' is missing")
+read("config", "ramp_braking", _ramp(start_kmh=70.0, end_kmh=50.0, duration=0.5),
+     lambda seen: (seen["settings"].speed.start_kmh, seen["settings"].speed.end_kmh, seen["settings"].speed.duration) == (70.0, 50.0, 0.5))
 refuse("config", "missing_config_file", lambda tmp, w: out(identify(tmp, w), tmp / "o") + ["--config", str(tmp / "nosuch.yaml")],
        r"cannot read config file '.*nosuch\.yaml': No such file")
 refuse("config", "config_is_a_folder", lambda tmp, w: identify(tmp, w) + ["--config", str(_existing(tmp, "cfg", True))], r"cannot read config file '.*cfg'")

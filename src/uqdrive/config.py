@@ -70,10 +70,6 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, bool, bool, str]] = {
 _MAX_TIME_POINTS = 10**6  # t_end / step: beyond it one trajectory does not fit in memory
 
 
-def _yaml(text: str):
-    return load_yaml(text)
-
-
 def load_schema() -> dict:
     """Return the JSON schema shipped with the package (``config_schema.yaml``)."""
     return copy.deepcopy(_schema())
@@ -81,7 +77,7 @@ def load_schema() -> dict:
 
 @functools.lru_cache(maxsize=1)
 def _schema() -> dict:
-    return _yaml(files("uqdrive").joinpath("config_schema.yaml").read_text())
+    return load_yaml(files("uqdrive").joinpath("config_schema.yaml").read_text())
 
 
 @functools.lru_cache(maxsize=1)
@@ -195,9 +191,8 @@ def _get(cfg: Mapping, key: str):
 
 
 def _check_ranges(cfg: dict, origin: Mapping[str, str] = {}) -> None:  # noqa: B006 - read only
-    """Every value in :data:`PHYSICAL_RANGES`, the car's sizes a car's (:func:`check_plausible`); a
-    value derived from the car's engineering keys (``origin``: config key -> the user's keys in
-    words) is named by the keys the user wrote."""
+    """Every value in :data:`PHYSICAL_RANGES`, the car's sizes a car's (:func:`check_plausible`); a value derived
+    from the car's engineering keys (``origin``: config key -> the user's words) is named by the keys the user wrote."""
     for key, (lo, hi, lo_in, hi_in, unit) in PHYSICAL_RANGES.items():
         value = _get(cfg, key)
         ok = (lo <= value if lo_in else lo < value) and (value <= hi if hi_in else value < hi)
@@ -234,6 +229,11 @@ def _check_semantics(cfg: dict) -> None:
     if tim["t_end"] / tim["step"] > _MAX_TIME_POINTS:
         raise ConfigError(f"config key 'time.step' = {tim['step']:g} s makes {tim['t_end'] / tim['step']:.3g} steps "
                           f"(more than {_MAX_TIME_POINTS:.0e}); raise time.step or lower time.t_end")
+    ramp, (lo, hi) = cfg["montecarlo"].get("speed_profile") or {}, PHYSICAL_RANGES["vehicle.speed_kmh"][:2]
+    for key in [k for k in ("start_kmh", "end_kmh") if ramp and not lo <= ramp[k] <= hi][:1]:  # a forward speed, as speed_kmh
+        raise ConfigError(f"config key 'montecarlo.speed_profile.{key}' = {ramp[key]:g} km/h is outside [{lo:g}, {hi:g}] km/h; give a forward speed in that range")
+    if ramp and ramp.get("t_start", 0.0) >= tim["t_end"]:
+        raise ConfigError(f"config key 'montecarlo.speed_profile.t_start' = {ramp['t_start']:g} s is not before time.t_end = {tim['t_end']:g} s, so the speed never changes; give an earlier start")
     if math.isclose(cfg["wind"]["kle_truncation"], 0.0):
         raise ConfigError("config key 'wind.kle_truncation' must be positive")
 
@@ -286,7 +286,7 @@ def read_config_mapping(path: str | Path | None) -> dict:
         except UnicodeDecodeError as exc:
             raise ConfigError(f"config file '{path}' is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); save it as UTF-8") from None
     try:
-        data = _yaml(text)
+        data = load_yaml(text)
     except (yaml.YAMLError, RecursionError) as exc:
         raise ConfigError(f"config file '{name}' is not valid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict):

@@ -29,7 +29,8 @@ from ..vehicle.effects import EFFECTS, ModelStructure, structure_from_effects
 from ..vehicle.montecarlo import STEERS, spin_mask
 from ..vehicle.noise import estimate_noise_variance
 from ..vehicle.single_track import STATE_NAMES, STATE_UNITS, STATES, steering_input
-from ..settings import Normal, Settings
+from ..settings import Normal, Settings, Vehicle
+from ..vehicle_spec import OPTIONAL_QUANTITIES
 
 __all__ = ["is_model_file", "load_model", "check_effects", "check_distributions", "MODEL_DISTRIBUTIONS", "model_settings", "simulate_model", "identify_with_model"]
 
@@ -133,7 +134,8 @@ def check_distributions(dist, where: str, wheelbase: float | None = None) -> dic
 def load_model(path: str | Path, config: Mapping[str, Any] | None = None) -> tuple[ModelStructure, dict]:
     """The structure and the distributions of a ``model.yaml``, checked against the effect
     registry and the distributions' ranges (:func:`check_effects`, :func:`check_distributions`;
-    the l_f mean inside the wheelbase of ``config`` where given); a one-line DataError otherwise.
+    with ``config``, the l_f mean inside its wheelbase and the constants each effect needs given
+    by its car); a one-line DataError otherwise.
     ``simulate``, ``identify`` and ``discover`` read every model file through it."""
     path = Path(path)
     try:
@@ -149,6 +151,12 @@ def load_model(path: str | Path, config: Mapping[str, Any] | None = None) -> tup
                         "this version's `uqdrive discover`")
     effects = check_effects(doc.get("effects"), where)
     dist = check_distributions(doc["distributions"], where, None if config is None else float(config["vehicle"]["wheelbase"]))
+    car = None if config is None else Vehicle.from_sections(config["vehicle"], config.get("tyre", {}), dist["l_f"]["mean"])
+    for name in effects if car is not None else ():  # discover names no effect the car lacks constants for: nor may a model
+        for key in EFFECTS[name].missing(car):
+            unit, meaning = OPTIONAL_QUANTITIES[key]
+            raise DataError(f"{where}: effect '{name}' needs the car's {key} ({meaning}, {unit}), which this car does not give; "
+                            "add it to the vehicle file (or the config's vehicle section), or pass the car the model was made for")
     return structure_from_effects(effects), dist
 
 
