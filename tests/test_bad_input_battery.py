@@ -778,6 +778,15 @@ for _name, _text, _pattern in [
      r"uncertainty\.l_f\.mean' = 3\.55 must lie inside \(0, vehicle\.wheelbase"),
 ]:
     refuse("config", _name, with_config(config_file(text=_text), simulate if "seed" in _name else identify), _pattern)
+refuse("config", "candidates_unknown", with_config(config_file(lambda c: c["discrepancy"].update(candidates=["turbo"])), discover), r"turbo")
+refuse("config", "candidates_word", with_config(config_file(lambda c: c["discrepancy"].update(candidates="every")), discover),
+       r"config key 'discrepancy\.candidates': 'every' .*; give 'all' or a list of all, tyre_saturation")
+refuse("config", "posterior_effect_unknown", with_config(config_file(lambda c: c["discrepancy"]["posterior"].update(effects=["turbo"])), discover),
+       r"turbo")
+refuse("config", "optimiser_unknown", with_config(config_file(lambda c: c["identification"].update(optimiser="adam"))), r"identification\.optimiser")
+refuse("config", "state_scale_unknown", with_config(config_file(lambda c: c["identification"].update(state_scale="si"))), r"identification\.state_scale")
+
+
 def _ramp(**ramp):
     return with_config(config_file(lambda c: c["montecarlo"].update(speed_profile=ramp)), simulate)
 

@@ -123,6 +123,7 @@ _FIXES = {
     "maxItems": lambda e: f"give at most {e.validator_value} item(s)",
     "uniqueItems": lambda e: "remove the repeated items",
     "minLength": lambda e: "give a non-empty value",
+    "oneOf": lambda e: "give " + " or ".join(f"'{s['const']}'" if "const" in s else f"a list of {', '.join(map(str, s['items']['enum']))}" if "enum" in s.get("items", {}) else str(s.get("type")) for s in e.validator_value),
 }
 
 
@@ -260,9 +261,8 @@ def _vehicle_validator():
 
 
 def load_config(path: str | Path | None = None, vehicle: str | Path | None = None) -> dict:
-    """Read a YAML configuration file (None: the packaged default) and validate it; ``vehicle``
-    (a packaged vehicle name or a vehicle file) replaces the car as the ``vehicle_file`` key does.
-    Raises ConfigError if the file is missing, is not UTF-8 YAML, or fails validation."""
+    """Read a YAML configuration file (None: the packaged default) and validate it; ``vehicle`` (a
+    packaged vehicle name or a vehicle file) replaces the car as the ``vehicle_file`` key does (ConfigError otherwise)."""
     data = read_config_mapping(path)
     if vehicle is not None:
         data["vehicle_file"] = str(vehicle)
