@@ -646,6 +646,16 @@ read("speed", "v_beside_a_v_c_word", with_data(dataset(speed(19.0, v_c="fast")))
 read("speed", "runs_at_different_constant_speeds", with_data(dataset(speed(lambda d: (18.0 + 0.2 * np.arange(d.sizes["sample"]))[:, None],
                                                                             dims=("sample", "time"), drop_v_c=True))),
      _speed_is(18.0 + 0.2 * 5.5))
+def _speed_note(tmp, w):
+    from uqdrive.io import data_speed
+
+    ds = speed(lambda d: (18.0 + 0.2 * np.arange(d.sizes["sample"]))[:, None], dims=("sample", "time"))(w.dataset())
+    return lambda: data_speed(ds)
+
+
+read("speed", "runs_at_different_constant_speeds_are_said", _speed_note,
+     lambda got: got[0] == pytest.approx(19.1, rel=1e-12) and "differ (18-20.2 m/s): the model runs at their mean 19.1 m/s" in got[1]
+     and "v_c = 19.4444 m/s is ignored" in got[1])
 read("speed", "a_speed_profile", with_data(dataset(speed(lambda d: np.linspace(19.0, 17.0, d.sizes["time"]), drop_v_c=True))),
      lambda seen: seen["settings"].vehicle.v_c == pytest.approx(19.0))
 
