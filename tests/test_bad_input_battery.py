@@ -239,6 +239,23 @@ BAD_CARS = [
 for _name, _changes, _pattern in BAD_CARS:
     refuse("vehicle file", _name, with_car(car(_changes)), _pattern)
 
+def _slips():
+    """Every plausibility range of a car's number (vehicle_spec.PLAUSIBLE), missed by the unit slip it names."""
+    from uqdrive.vehicle_spec import PLAUSIBLE
+
+    for key, (lo, hi, unit, below, above) in PLAUSIBLE.items():
+        value = {"mass": 1573.0, "yaw_inertia": 2873.0, "wheelbase": 2.68, "cg_to_front_axle": 1.1, "cg_height": 0.55, "track_width": 1.5,
+                 "cornering_stiffness.front": 160000.0, "cornering_stiffness.rear": 160000.0}[key]
+        for slip in filter(None, (below, above)):
+            wrong = value / slip[1]
+            head, _, axle = key.partition(".")
+            changes = {head: {**SEDAN["cornering_stiffness"], axle: wrong}} if axle else {key: wrong}
+            if key == "mass":
+                changes["yaw_inertia"] = 2873.0 / slip[1]
+            refuse("vehicle file", f"slip_{key}_in_{slip[0]}", with_car(car(changes)), rf"key '{re.escape(key)}' = {re.escape(format(wrong, 'g'))} .*({re.escape(slip[0])}\?|physical range .*give)")
+
+
+_slips()
 MF = lambda **front: {"front": {**THESIS["magic_formula"]["front"], **front}, "rear": dict(THESIS["magic_formula"]["rear"])}  # noqa: E731
 for _name, _mf, _pattern in [
     ("mf_C_differs", MF(C=1.5), r"magic_formula\.front\.C' = 1\.5 differs from .*magic_formula\.rear\.C' = 1\.9.*give equal values"),
@@ -458,6 +475,26 @@ refuse("model.yaml", "effect_the_car_cannot_carry[simulate]", with_model(model_f
 refuse("model.yaml", "effect_the_car_cannot_carry[identify]", with_model(model_file(LLT), "identify"), r"needs the car's cg_height")
 read("model.yaml", "effect_the_vehicle_file_carries[simulate]", lambda tmp, w: with_model(model_file(LLT), "simulate")(tmp, w) + ["--vehicle", "bmw_320i"],
      lambda seen: seen["settings"].vehicle.cg_height == pytest.approx(0.5749))
+
+
+def _outside(lo, hi):
+    """A value just below ``lo`` and one just above ``hi`` (a tenth of the span beyond)."""
+    return (("below", lo - 0.1 * (hi - lo)), ("above", hi + 0.1 * (hi - lo)))
+
+
+def _registry_cases():
+    from uqdrive.vehicle.effects import EFFECTS
+
+    for i, (name, effect) in enumerate(EFFECTS.items()):
+        inside = {p: 0.5 * (lo + hi) for p, (lo, hi) in zip(effect.parameters, effect.bounds)}
+        for p, (lo, hi) in zip(effect.parameters, effect.bounds):
+            for side, value in _outside(lo, hi):
+                command = _commands[i % 3]
+                refuse("model.yaml", f"registry_{name}_{p}_{side}[{command}]", with_model(model_file(_eff(**{name: {**inside, p: value}})), command),
+                       rf"effect '{name}' parameter {p} = {value:g}.* is outside \[{lo:g}, {hi:g}\]")
+
+
+_registry_cases()
 
 
 def _load(expected_effects, **distributions):
@@ -795,6 +832,28 @@ refuse("config", "posterior_effect_unknown", with_config(config_file(lambda c: c
        r"turbo")
 refuse("config", "optimiser_unknown", with_config(config_file(lambda c: c["identification"].update(optimiser="adam"))), r"identification\.optimiser")
 refuse("config", "state_scale_unknown", with_config(config_file(lambda c: c["identification"].update(state_scale="si"))), r"identification\.state_scale")
+
+
+def _ranges():
+    """Every physical range of the config (config.PHYSICAL_RANGES), missed on each side."""
+    from uqdrive.config import PHYSICAL_RANGES
+
+    for key, (lo, hi, lo_in, hi_in, unit) in PHYSICAL_RANGES.items():
+        for side, value in (("below", lo - (1 if lo_in else 0)), ("above", hi * 2 + 1)):
+            if key == "uncertainty.l_f.std" and side == "above":
+                continue  # a 41 m std of l_f is refused too, by the l_f mean's range first
+            value = int(value) if isinstance(lo, int) and isinstance(hi, int) else float(value)
+
+            def edit(c, key=key, value=value):
+                *parents, leaf = key.split(".")
+                node = c
+                for part in parents:
+                    node = node[part]
+                node[leaf] = value
+            refuse("config", f"range_{key}_{side}", with_config(config_file(edit), simulate), rf"config key '{re.escape(key)}'")
+
+
+_ranges()
 
 
 def _ramp(**ramp):
