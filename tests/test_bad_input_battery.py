@@ -774,6 +774,8 @@ OUTPUTS = [
     ("config_dump_into_missing_folder", lambda tmp, w: ["config", "--dump", str(tmp / "a" / "c.yaml")], r"output folder '.*a' does not exist"),
     ("config_dump_onto_a_folder", lambda tmp, w: ["config", "--dump", str(_existing(tmp, "c", True)), "--force"], r"is a directory; give a file name"),
     ("import_onto_existing", lambda tmp, w: out(import_argv(tmp, w), _existing(tmp, "e.nc")), r"output '.*e\.nc' exists; pass --force"),
+    ("import_read_only", lambda tmp, w: out(import_argv(tmp, w), read_only(tmp) / "e.nc"), r"output folder '.*ro' is not writable"),
+    ("config_dump_read_only", lambda tmp, w: ["config", "--dump", str(read_only(tmp) / "c.yaml")], r"output folder '.*ro' is not writable"),
     ("import_into_missing_folder", lambda tmp, w: out(import_argv(tmp, w), tmp / "a" / "e.nc"), r"output folder '.*a' does not exist"),
 ]
 for _name, _build, _pattern in OUTPUTS:
