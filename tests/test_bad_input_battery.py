@@ -24,6 +24,7 @@ import yaml
 from uqdrive.cli.main import main
 from uqdrive.config import ConfigError, load_config
 from uqdrive.io import DataError
+from uqdrive.studies.sweep import SweepError
 
 from conftest import REPO, tiny_config
 
@@ -1052,7 +1053,7 @@ def run(case: Case, tmp: Path, w: World, capsys, monkeypatch):
     if callable(built):
         try:
             value = built()
-        except (ConfigError, DataError, ValueError) as exc:
+        except (ConfigError, DataError, SweepError) as exc:
             return "refused", str(exc) + "\n", files_under(tmp) - before
         return "read", value, files_under(tmp) - before
     try:
@@ -1061,8 +1062,9 @@ def run(case: Case, tmp: Path, w: World, capsys, monkeypatch):
         return "read", reached.seen, files_under(tmp) - before
     except BaseException as exc:  # noqa: BLE001 - anything else is the finding
         return "other", f"{type(exc).__name__}: {exc}", files_under(tmp) - before
-    err = capsys.readouterr().err
-    if rc == 2:
+    captured = capsys.readouterr()
+    err = captured.err
+    if rc == 2 and not captured.out:
         return "refused", err, files_under(tmp) - before
     if rc == 0 and case.interface == "config":
         return "read", rc, files_under(tmp) - before
