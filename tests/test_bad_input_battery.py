@@ -684,6 +684,11 @@ read("speed", "v_beside_a_v_c_word", with_data(dataset(speed(19.0, v_c="fast")))
 read("speed", "runs_at_different_constant_speeds", with_data(dataset(speed(lambda d: (18.0 + 0.2 * np.arange(d.sizes["sample"]))[:, None],
                                                                             dims=("sample", "time"), drop_v_c=True))),
      _speed_is(18.0 + 0.2 * 5.5))
+refuse("speed", "runs_at_speeds_too_far_apart", with_data(dataset(speed(lambda d: (12.0 + 2.0 * np.arange(d.sizes["sample"]))[:, None],
+                                                                            dims=("sample", "time"), drop_v_c=True))),
+        r"runs' speeds depart from their mean by up to \d+ % \(at most 20 %.*store the runs of similar speed in one file each")
+
+
 def _speed_note(tmp, w):
     from uqdrive.io import data_speed
 

@@ -22,6 +22,10 @@ __all__ = ["DataError", "OutputError", "check_writable", "check_output_folder", 
 
 #: Vehicle speeds (m/s) a measured ensemble may carry in its ``v_c`` attribute.
 V_C_RANGE = (0.5, 100.0)
+#: Largest departure of one run's speed from the runs' mean, as a share of that mean: the model
+#: drives every run at the mean, and the yaw-rate gain v / (L + K v^2) of a run this far away
+#: already differs by about as much, more than the spread of the parameters it identifies.
+RUN_SPEED_SPREAD = 0.2
 #: Largest magnitude (SI units) of each variable: beyond it the numbers are not a vehicle's (a unit
 #: or scale error). Angles of a spinning car grow, so psi and beta get room; delta is a wheel angle.
 VALUE_LIMITS = {"psi": 1e4, "psi_dot": 1e3, "beta": 1e4, "y": 1e6, "a_y": 200.0, "delta": math.pi / 2}
@@ -133,6 +137,13 @@ def _check_speed(ds: xr.Dataset, source: str) -> None:
     if np.any(values < lo) or np.any(values > hi):
         raise DataError(f"{source}: variable 'v' reaches {float(values.min()):g}..{float(values.max()):g} m/s, outside "
                         f"{lo:g}-{hi:g} m/s; the model needs a forward speed: give |v| in m/s (no reversing, no standstill)")
+    if v.dims == ("sample", "time") and values.shape[0] > 1:
+        mean = values.mean(axis=0)
+        apart = float(np.max(np.abs(values - mean) / mean))
+        if apart > RUN_SPEED_SPREAD:
+            raise DataError(f"{source}: variable 'v': the runs' speeds depart from their mean by up to {100 * apart:.0f} % "
+                            f"(at most {100 * RUN_SPEED_SPREAD:.0f} %: the model drives every run at the mean); "
+                            "store the runs of similar speed in one file each")
 
 
 def speed_profile(ds: xr.Dataset) -> np.ndarray | None:
