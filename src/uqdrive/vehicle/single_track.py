@@ -193,8 +193,8 @@ class LSTCoefficients:
 
     Attributes
     ----------
-    l_f, l_r, c_f, c_r, m, I_z
-        Axle distances (m), cornering stiffnesses (N/rad), mass (kg), yaw inertia (kg m^2).
+    l_f, l_r, c_f, c_r, m, I_z, M_c
+        Axle distances (m), cornering stiffnesses (N/rad), mass (kg), yaw inertia (kg m^2), yaw moment factor (m).
     yaw_stiffness, stiffness_moment, axle_stiffness
         c_f l_f^2 + c_r l_r^2 (N m^2/rad), c_r l_r - c_f l_f (N m/rad), c_f + c_r (N/rad).
     yaw_damping, yaw_slip, yaw_steer, yaw_wind
@@ -209,28 +209,26 @@ class LSTCoefficients:
     c_r: Any
     m: Any
     I_z: Any
-    yaw_stiffness: Any
-    stiffness_moment: Any
-    axle_stiffness: Any
-    yaw_damping: Any
-    yaw_slip: Any
-    yaw_steer: Any
-    yaw_wind: Any
-    slip_yaw: Any
-    slip_damping: Any
-    slip_steer: Any
-    slip_wind: Any
+    M_c: float
+    # computed where asked for, as (5.4) is used: a simulator's arrays of thousands of realisations are not all held at once
+    yaw_stiffness = property(lambda c: c.c_f * c.l_f**2 + c.c_r * c.l_r**2)
+    stiffness_moment = property(lambda c: c.c_r * c.l_r - c.c_f * c.l_f)
+    axle_stiffness = property(lambda c: c.c_f + c.c_r)
+    yaw_damping = property(lambda c: -c.yaw_stiffness / c.I_z)
+    yaw_slip = property(lambda c: c.stiffness_moment / c.I_z)
+    yaw_steer = property(lambda c: c.c_f * c.l_f / c.I_z)
+    yaw_wind = property(lambda c: c.M_c / c.I_z)
+    slip_yaw = property(lambda c: c.stiffness_moment / c.m)
+    slip_damping = property(lambda c: -c.axle_stiffness / c.m)
+    slip_steer = property(lambda c: c.c_f / c.m)
+    slip_wind = property(lambda c: 1.0 / c.m)
 
 
 def lst_speed_coefficients(p: VehicleParameters) -> LSTCoefficients:
     """The coefficients of (5.4) with the speed factored out (:class:`LSTCoefficients`), thesis eq.
     (5.4) with FACTS' corrections: ``p`` scalar or per-realisation (mu, m_load, l_f of shape () or
     (n,); complex for complex-step derivatives)."""
-    m, I_z = p.m, p.I_z
-    l_f, l_r, c_f, c_r = _as_array(p.l_f), p.l_r, p.c_f, p.c_r
-    yaw_stiffness, moment, axle = c_f * l_f**2 + c_r * l_r**2, c_r * l_r - c_f * l_f, c_f + c_r
-    return LSTCoefficients(l_f, l_r, c_f, c_r, m, I_z, yaw_stiffness, moment, axle, -yaw_stiffness / I_z, moment / I_z, c_f * l_f / I_z,
-                           p.M_c / I_z, moment / m, -axle / m, c_f / m, 1.0 / m)
+    return LSTCoefficients(_as_array(p.l_f), p.l_r, p.c_f, p.c_r, p.m, p.I_z, p.M_c)
 
 
 def _per_realisation(a, ndim: int):
