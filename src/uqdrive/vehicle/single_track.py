@@ -185,22 +185,18 @@ def magic_formula(slip, F_z, B, C, D, E):
 
 @dataclass(frozen=True)
 class LSTCoefficients:
-    """The linear single-track model (5.4) with the speed v factored out, per realisation (every
-    attribute of shape () or (n,), as the parameters it is made of)::
+    """The linear single-track model (5.4) with the speed v factored out, per realisation.
+
+    At the speed v (m/s)::
 
         psi_ddot = (yaw_damping / v) psi_dot + yaw_slip beta + yaw_steer delta + yaw_wind F_w
         beta_dot = (slip_yaw / v^2 - 1) psi_dot + (slip_damping / v) beta + (slip_steer / v) delta + (slip_wind / v) F_w
 
     Attributes
     ----------
-    l_f, l_r, c_f, c_r, m, I_z, M_c
-        Axle distances (m), cornering stiffnesses (N/rad), mass (kg), yaw inertia (kg m^2), yaw moment factor (m).
-    yaw_stiffness, stiffness_moment, axle_stiffness
-        c_f l_f^2 + c_r l_r^2 (N m^2/rad), c_r l_r - c_f l_f (N m/rad), c_f + c_r (N/rad).
-    yaw_damping, yaw_slip, yaw_steer, yaw_wind
-        -yaw_stiffness / I_z (m/s^2), stiffness_moment / I_z (1/s^2), c_f l_f / I_z (1/s^2), M_c / I_z (1/(kg m)).
-    slip_yaw, slip_damping, slip_steer, slip_wind
-        stiffness_moment / m (m^2/s^2), -axle_stiffness / m (m/s^2), c_f / m (m/s^2), 1 / m (1/kg).
+    l_f, l_r, c_f, c_r, m, I_z, M_c : float or ndarray, shape (n,)
+        Axle distances (m), cornering stiffnesses (N/rad), mass (kg), yaw inertia (kg m^2), yaw moment factor (m);
+        the coefficients are computed where asked for (a simulator's arrays of thousands of realisations are not all held at once).
     """
 
     l_f: Any
@@ -210,24 +206,55 @@ class LSTCoefficients:
     m: Any
     I_z: Any
     M_c: float
-    # computed where asked for, as (5.4) is used: a simulator's arrays of thousands of realisations are not all held at once
-    yaw_stiffness = property(lambda c: c.c_f * c.l_f**2 + c.c_r * c.l_r**2)
-    stiffness_moment = property(lambda c: c.c_r * c.l_r - c.c_f * c.l_f)
-    axle_stiffness = property(lambda c: c.c_f + c.c_r)
-    yaw_damping = property(lambda c: -c.yaw_stiffness / c.I_z)
-    yaw_slip = property(lambda c: c.stiffness_moment / c.I_z)
-    yaw_steer = property(lambda c: c.c_f * c.l_f / c.I_z)
-    yaw_wind = property(lambda c: c.M_c / c.I_z)
-    slip_yaw = property(lambda c: c.stiffness_moment / c.m)
-    slip_damping = property(lambda c: -c.axle_stiffness / c.m)
-    slip_steer = property(lambda c: c.c_f / c.m)
-    slip_wind = property(lambda c: 1.0 / c.m)
+    @property
+    def yaw_stiffness(self):
+        """c_f l_f^2 + c_r l_r^2 (N m^2/rad)."""
+        return self.c_f * self.l_f**2 + self.c_r * self.l_r**2
+    @property
+    def stiffness_moment(self):
+        """c_r l_r - c_f l_f (N m/rad)."""
+        return self.c_r * self.l_r - self.c_f * self.l_f
+    @property
+    def axle_stiffness(self):
+        """c_f + c_r (N/rad)."""
+        return self.c_f + self.c_r
+    @property
+    def yaw_damping(self):
+        """-(c_f l_f^2 + c_r l_r^2) / I_z (m/s^2)."""
+        return -self.yaw_stiffness / self.I_z
+    @property
+    def yaw_slip(self):
+        """(c_r l_r - c_f l_f) / I_z (1/s^2)."""
+        return self.stiffness_moment / self.I_z
+    @property
+    def yaw_steer(self):
+        """c_f l_f / I_z (1/s^2)."""
+        return self.c_f * self.l_f / self.I_z
+    @property
+    def yaw_wind(self):
+        """M_c / I_z (1/(kg m))."""
+        return self.M_c / self.I_z
+    @property
+    def slip_yaw(self):
+        """(c_r l_r - c_f l_f) / m (m^2/s^2)."""
+        return self.stiffness_moment / self.m
+    @property
+    def slip_damping(self):
+        """-(c_f + c_r) / m (m/s^2)."""
+        return -self.axle_stiffness / self.m
+    @property
+    def slip_steer(self):
+        """c_f / m (m/s^2)."""
+        return self.c_f / self.m
+    @property
+    def slip_wind(self):
+        """1 / m (1/kg)."""
+        return 1.0 / self.m
 
 
 def lst_speed_coefficients(p: VehicleParameters) -> LSTCoefficients:
-    """The coefficients of (5.4) with the speed factored out (:class:`LSTCoefficients`), thesis eq.
-    (5.4) with FACTS' corrections: ``p`` scalar or per-realisation (mu, m_load, l_f of shape () or
-    (n,); complex for complex-step derivatives)."""
+    """The coefficients of (5.4) with the speed factored out (:class:`LSTCoefficients`), thesis eq. (5.4) with FACTS'
+    corrections: ``p`` scalar or per-realisation (mu, m_load, l_f of shape () or (n,); complex: complex-step derivatives)."""
     return LSTCoefficients(_as_array(p.l_f), p.l_r, p.c_f, p.c_r, p.m, p.I_z, p.M_c)
 
 
@@ -306,22 +333,9 @@ def lst_matrices(p: VehicleParameters):
 
 
 def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
-    """Slalom steering angle, thesis (5.5) (``sign=+1``) and inverted (5.7) (``sign=-1``).
-
-    Parameters
-    ----------
-    t : array_like, shape (T,)
-        Time (s).
-    delta_max : float
-        Amplitude (rad).
-    period : float
-        Period (s); the thesis uses 4 s, i.e. cos(pi t / 2).
-
-    Returns
-    -------
-    ndarray, shape (T,)
-        delta(t) = sign * delta_max * cos(2 pi t / period) (rad).
-    """
+    """Slalom steering angle delta(t) = sign delta_max cos(2 pi t / period) (rad), thesis (5.5) (``sign=+1``)
+    and inverted (5.7) (``sign=-1``), at the times ``t`` (s, shape (T,)) for the amplitude ``delta_max``
+    (rad) and ``period`` (s; the thesis' 4 s: cos(pi t / 2)). Returns an ndarray of shape (T,)."""
     return sign * delta_max * np.cos(2.0 * np.pi * np.asarray(t, dtype=float) / period)
 
 
