@@ -1,6 +1,5 @@
-"""Single-track vehicle models of the thesis: the parameters, the tyre laws, the linear LST (5.4); the
-non-linear NLST (5.3)'s right-hand side is :mod:`uqdrive.vehicle.dynamics`.
-
+"""Single-track vehicle models of the thesis: the parameters, the tyre laws and the linear LST (5.4),
+each equation written once as a pure function; the NLST (5.3)'s right-hand side is :mod:`uqdrive.vehicle.dynamics`.
 Every function is vectorised over realisations: parameters may be scalars or arrays of shape (n,).
 """
 
@@ -13,33 +12,15 @@ import numpy as np
 
 from ..settings import Settings
 
-__all__ = [
-    "STATES",
-    "STATE_UNITS",
-    "STATE_NAMES",
-    "VehicleParameters",
-    "magic_formula",
-    "curvature_argument",
-    "tyre_angle",
-    "lst_matrices",
-    "steering_input",
-    "lateral_acceleration_map",
-    "lst_matrices_at_speed",
-    "gust_input_column",
-    "input_matrix",
-    "wind_yaw_moment",
-    "with_compliance_steer",
-]
+__all__ = ["STATES", "STATE_UNITS", "STATE_NAMES", "VehicleParameters", "magic_formula", "curvature_argument", "tyre_angle",
+           "LSTCoefficients", "lst_speed_coefficients", "linear_axle_forces", "lst_lateral_acceleration", "lst_matrices",
+           "steering_input", "lateral_acceleration_map", "lst_matrices_at_speed", "gust_input_column", "input_matrix",
+           "wind_yaw_moment", "with_compliance_steer"]
 
 #: State vector x = [psi, psi_dot, beta, y] of (5.3)/(5.4).
 STATES = ("psi", "psi_dot", "beta", "y")
 STATE_UNITS = {"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m"}
-STATE_NAMES = {
-    "psi": "yaw angle",
-    "psi_dot": "yaw rate",
-    "beta": "vehicle side-slip angle",
-    "y": "lateral position",
-}
+STATE_NAMES = {"psi": "yaw angle", "psi_dot": "yaw rate", "beta": "vehicle side-slip angle", "y": "lateral position"}
 
 
 def _as_array(x):
@@ -86,22 +67,8 @@ class VehicleParameters:
     def from_settings(cls, settings: Settings, **draws) -> "VehicleParameters":
         """Nominal parameters of the settings' car and means; ``draws`` override mu, m_load, l_f."""
         veh, unc = settings.vehicle, settings.uncertainty
-        nominal = cls(
-            mu=unc.mu.mean,
-            m_load=unc.m_load.mean,
-            l_f=unc.l_f.mean,
-            m_base=veh.m_base,
-            J0=veh.J0,
-            wheelbase=veh.wheelbase,
-            c_Sf=veh.c_Sf,
-            c_Sr=veh.c_Sr,
-            v_c=veh.v_c,
-            M_c=veh.M_c,
-            g=veh.g,
-            C=veh.C,
-            E=veh.E,
-        )
-        return replace(nominal, **draws)
+        car = {f: getattr(veh, f) for f in ("m_base", "J0", "wheelbase", "c_Sf", "c_Sr", "v_c", "M_c", "g", "C", "E")}
+        return cls(**{"mu": unc.mu.mean, "m_load": unc.m_load.mean, "l_f": unc.l_f.mean, **car, **draws})
 
     @property
     def m(self):
@@ -216,6 +183,117 @@ def magic_formula(slip, F_z, B, C, D, E):
     return F_z * D * np.sin(tyre_angle(B * slip, C, E))
 
 
+@dataclass(frozen=True)
+class LSTCoefficients:
+    """The linear single-track model (5.4) with the speed v factored out, per realisation.
+
+    At the speed v (m/s)::
+
+        psi_ddot = (yaw_damping / v) psi_dot + yaw_slip beta + yaw_steer delta + yaw_wind F_w
+        beta_dot = (slip_yaw / v^2 - 1) psi_dot + (slip_damping / v) beta + (slip_steer / v) delta + (slip_wind / v) F_w
+
+    Attributes
+    ----------
+    l_f, l_r, c_f, c_r, m, I_z, M_c : float or ndarray, shape (n,)
+        Axle distances (m), cornering stiffnesses (N/rad), mass (kg), yaw inertia (kg m^2), yaw moment factor (m);
+        the coefficients are computed where asked for (a simulator's arrays of thousands of realisations are not all held at once).
+    """
+
+    l_f: Any
+    l_r: Any
+    c_f: Any
+    c_r: Any
+    m: Any
+    I_z: Any
+    M_c: float
+    @property
+    def yaw_stiffness(self):
+        """c_f l_f^2 + c_r l_r^2 (N m^2/rad)."""
+        return self.c_f * self.l_f**2 + self.c_r * self.l_r**2
+    @property
+    def stiffness_moment(self):
+        """c_r l_r - c_f l_f (N m/rad)."""
+        return self.c_r * self.l_r - self.c_f * self.l_f
+    @property
+    def axle_stiffness(self):
+        """c_f + c_r (N/rad)."""
+        return self.c_f + self.c_r
+    @property
+    def yaw_damping(self):
+        """-(c_f l_f^2 + c_r l_r^2) / I_z (m/s^2)."""
+        return -self.yaw_stiffness / self.I_z
+    @property
+    def yaw_slip(self):
+        """(c_r l_r - c_f l_f) / I_z (1/s^2)."""
+        return self.stiffness_moment / self.I_z
+    @property
+    def yaw_steer(self):
+        """c_f l_f / I_z (1/s^2)."""
+        return self.c_f * self.l_f / self.I_z
+    @property
+    def yaw_wind(self):
+        """M_c / I_z (1/(kg m))."""
+        return self.M_c / self.I_z
+    @property
+    def slip_yaw(self):
+        """(c_r l_r - c_f l_f) / m (m^2/s^2)."""
+        return self.stiffness_moment / self.m
+    @property
+    def slip_damping(self):
+        """-(c_f + c_r) / m (m/s^2)."""
+        return -self.axle_stiffness / self.m
+    @property
+    def slip_steer(self):
+        """c_f / m (m/s^2)."""
+        return self.c_f / self.m
+    @property
+    def slip_wind(self):
+        """1 / m (1/kg)."""
+        return 1.0 / self.m
+
+
+def lst_speed_coefficients(p: VehicleParameters) -> LSTCoefficients:
+    """The coefficients of (5.4) with the speed factored out (:class:`LSTCoefficients`), thesis eq. (5.4) with FACTS'
+    corrections: ``p`` scalar or per-realisation (mu, m_load, l_f of shape () or (n,); complex: complex-step derivatives)."""
+    return LSTCoefficients(_as_array(p.l_f), p.l_r, p.c_f, p.c_r, p.m, p.I_z, p.M_c)
+
+
+def _per_realisation(a, ndim: int):
+    """``a`` (shape () or (n,)) with trailing axes to broadcast against states of ``ndim`` axes whose first is the realisations'."""
+    return a if np.ndim(a) in (0, ndim) else np.reshape(a, np.shape(a) + (1,) * (ndim - np.ndim(a)))
+
+
+def linear_axle_forces(p, delta, beta, psi_dot, v):
+    """Lateral axle forces of the linear tyres at the small slip angles of (5.4), thesis eq. (5.4):
+    F_f = c_f (delta - beta - l_f psi_dot / v), F_r = c_r (l_r psi_dot / v - beta).
+
+    Parameters
+    ----------
+    p : VehicleParameters or LSTCoefficients
+        Its l_f, l_r (m), c_f, c_r (N/rad), of shape () or (n,).
+    delta, v : float or ndarray
+        Front wheel angle (rad) and speed (m/s), broadcasting against ``beta`` (e.g. (K,) against (n, K)).
+    beta, psi_dot : ndarray, shape (n, ...) or (n,)
+        Side-slip angle (rad) and yaw rate (rad/s); their first axis is the realisations'.
+
+    Returns
+    -------
+    F_f, F_r : ndarray, the broadcast shape
+        Front and rear lateral forces (N).
+    """
+    l_f, l_r, c_f, c_r = p.l_f, p.l_r, p.c_f, p.c_r
+    if np.ndim(beta) > 1:  # realisations by time: a parameter per row
+        l_f, l_r, c_f, c_r = (_per_realisation(a, np.ndim(beta)) for a in (l_f, l_r, c_f, c_r))
+    return c_f * (delta - beta - l_f * psi_dot / v), c_r * (l_r * psi_dot / v - beta)
+
+
+def lst_lateral_acceleration(p, delta, beta, psi_dot, F_w, v):
+    """a_y = (F_f + F_r + F_w) / m (m/s^2) of the linear single-track model, thesis eq. (5.4): the forces of :func:`linear_axle_forces`
+    (same arguments) and the side wind ``F_w`` (N, broadcasting against ``beta``) over the mass (:func:`lateral_acceleration_map`)."""
+    F_f, F_r = linear_axle_forces(p, delta, beta, psi_dot, v)
+    return (F_f + F_r + F_w) / (p.m if np.ndim(beta) < 2 else _per_realisation(p.m, np.ndim(beta)))
+
+
 def lst_matrices(p: VehicleParameters):
     """System matrices of the linear single-track model, thesis (5.4) with FACTS' corrections.
 
@@ -235,43 +313,29 @@ def lst_matrices(p: VehicleParameters):
         Side-wind input column per newton, [0, M_c / I_z, 1 / (m v_c), 0], so that the
         disturbance term of (5.4) is W F_w(t).
     """
-    m, I_z, v = p.m, p.I_z, p.v_c
-    l_f, l_r, c_f, c_r = _as_array(p.l_f), p.l_r, p.c_f, p.c_r
-    shape = np.broadcast_shapes(np.shape(m), np.shape(l_f), np.shape(c_f))
-    dtype = np.result_type(m, l_f, c_f, float)  # complex parameters give complex-step derivatives
+    c, v = lst_speed_coefficients(p), p.v_c
+    shape = np.broadcast_shapes(np.shape(c.m), np.shape(c.l_f), np.shape(c.c_f))
+    dtype = np.result_type(c.m, c.l_f, c.c_f, float)  # complex parameters give complex-step derivatives
     A = np.zeros(shape + (4, 4), dtype)
     A[..., 0, 1] = 1.0
-    A[..., 1, 1] = -(c_f * l_f**2 + c_r * l_r**2) / (I_z * v)
-    A[..., 1, 2] = (c_r * l_r - c_f * l_f) / I_z
-    A[..., 2, 1] = (c_r * l_r - c_f * l_f) / (m * v**2) - 1.0
-    A[..., 2, 2] = -(c_f + c_r) / (m * v)
+    A[..., 1, 1] = -c.yaw_stiffness / (c.I_z * v)
+    A[..., 1, 2] = c.yaw_slip
+    A[..., 2, 1] = c.stiffness_moment / (c.m * v**2) - 1.0
+    A[..., 2, 2] = -c.axle_stiffness / (c.m * v)
     A[..., 3, 0] = v
     B = np.zeros(shape + (4,), dtype)
-    B[..., 1] = l_f * c_f / I_z
-    B[..., 2] = c_f / (m * v)
+    B[..., 1] = c.yaw_steer
+    B[..., 2] = c.c_f / (c.m * v)
     W = np.zeros(shape + (4,), dtype)
-    W[..., 1] = p.M_c / I_z
-    W[..., 2] = 1.0 / (m * v)
+    W[..., 1] = c.yaw_wind
+    W[..., 2] = 1.0 / (c.m * v)
     return A, B, W
 
 
 def steering_input(t, delta_max: float, period: float, sign: float = 1.0):
-    """Slalom steering angle, thesis (5.5) (``sign=+1``) and inverted (5.7) (``sign=-1``).
-
-    Parameters
-    ----------
-    t : array_like, shape (T,)
-        Time (s).
-    delta_max : float
-        Amplitude (rad).
-    period : float
-        Period (s); the thesis uses 4 s, i.e. cos(pi t / 2).
-
-    Returns
-    -------
-    ndarray, shape (T,)
-        delta(t) = sign * delta_max * cos(2 pi t / period) (rad).
-    """
+    """Slalom steering angle delta(t) = sign delta_max cos(2 pi t / period) (rad), thesis (5.5) (``sign=+1``)
+    and inverted (5.7) (``sign=-1``), at the times ``t`` (s, shape (T,)) for the amplitude ``delta_max``
+    (rad) and ``period`` (s; the thesis' 4 s: cos(pi t / 2)). Returns an ndarray of shape (T,)."""
     return sign * delta_max * np.cos(2.0 * np.pi * np.asarray(t, dtype=float) / period)
 
 
@@ -282,11 +346,10 @@ A_Y_UNIT = "m/s^2"
 def lateral_acceleration_map(p: VehicleParameters):
     """Output map a_y = C x + D_delta delta + D_w F_w of the linear single-track model.
 
-    a_y is the lateral acceleration of the centre of gravity in the vehicle frame, the sum of the
-    lateral forces over the mass, (c_f alpha_f + c_r alpha_r + F_w) / m with the linear slip
-    angles of (5.4). At constant speed it equals v (beta_dot + psi_dot); while the speed changes
-    it equals v (beta_dot + psi_dot) + v_dot beta (the derivative of v_y = v beta). A sensor
-    mounted x_s metres ahead of the centre of gravity reads a_y + x_s psi_ddot.
+    a_y is the lateral acceleration of the centre of gravity in the vehicle frame, the lateral forces
+    over the mass (:func:`lst_lateral_acceleration`). At constant speed it equals v (beta_dot + psi_dot);
+    while the speed changes v (beta_dot + psi_dot) + v_dot beta (the derivative of v_y = v beta). A
+    sensor mounted x_s metres ahead of the centre of gravity reads a_y + x_s psi_ddot.
 
     Parameters
     ----------
@@ -302,14 +365,13 @@ def lateral_acceleration_map(p: VehicleParameters):
     D_w : ndarray, shape (...)
         1 / m (m/s^2 per N of side wind).
     """
-    m, v = p.m, p.v_c
-    l_f, l_r, c_f, c_r = _as_array(p.l_f), p.l_r, p.c_f, p.c_r
-    shape = np.broadcast_shapes(np.shape(m), np.shape(l_f), np.shape(c_f), np.shape(v))
-    dtype = np.result_type(m, l_f, c_f, float)
+    c, v = lst_speed_coefficients(p), p.v_c
+    shape = np.broadcast_shapes(np.shape(c.m), np.shape(c.l_f), np.shape(c.c_f), np.shape(v))
+    dtype = np.result_type(c.m, c.l_f, c.c_f, float)
     C = np.zeros(shape + (4,), dtype)
-    C[..., 1] = (c_r * l_r - c_f * l_f) / (m * v)
-    C[..., 2] = -(c_f + c_r) / m
-    return C, np.broadcast_to(c_f / m, shape), np.broadcast_to(1.0 / m, shape)
+    C[..., 1] = c.stiffness_moment / (c.m * v)
+    C[..., 2] = c.slip_damping
+    return C, np.broadcast_to(c.slip_steer, shape), np.broadcast_to(c.slip_wind, shape)
 
 
 def lst_matrices_at_speed(p: VehicleParameters, v, v_dot=0.0):

@@ -24,7 +24,8 @@ import numpy as np
 
 from ..numerics.integrate import rk4_fixed_step_into
 from .dynamics.rhs import SingleTrackRHS
-from .single_track import STATES, VehicleParameters, with_compliance_steer
+from .single_track import (STATES, VehicleParameters, linear_axle_forces, lst_lateral_acceleration, lst_speed_coefficients, wind_yaw_moment,
+                           with_compliance_steer)
 
 __all__ = ["integrate_single_track", "speed_on_half_steps", "linear_lateral_acceleration", "LinearTrackRHS",
            "integrate_linear_ltv", "rk4_lateral_acceleration", "measured_channels"]
@@ -82,7 +83,8 @@ def speed_on_half_steps(time, speed, t_half):
 
 
 def linear_lateral_acceleration(p: VehicleParameters, x, delta, F_w, v, compliance_steer: float = 0.0):
-    """a_y (m/s^2) of the linear single-track model (5.4): (F_f + F_r + F_w) / m.
+    """a_y (m/s^2) of the linear single-track model (5.4), (F_f + F_r + F_w) / m, of simulated states
+    (:func:`~uqdrive.vehicle.single_track.lst_lateral_acceleration`).
 
     Parameters
     ----------
@@ -104,22 +106,17 @@ def linear_lateral_acceleration(p: VehicleParameters, x, delta, F_w, v, complian
     -------
     ndarray, shape (n, K)
     """
-    col = lambda a: np.asarray(a, float)[..., None] if np.ndim(a) else float(a)  # noqa: E731 (per realisation: a column)
-    psi_dot, beta = x[1], x[2]
-    p = with_compliance_steer(p, compliance_steer)
-    l_f, l_r, c_f, c_r, m = col(p.l_f), col(p.l_r), col(p.c_f), col(p.c_r), col(p.m)
-    F_f = c_f * (np.asarray(delta, float) - beta - l_f * psi_dot / v)
-    F_r = c_r * (l_r * psi_dot / v - beta)
-    return (F_f + F_r + F_w) / m
+    return lst_lateral_acceleration(with_compliance_steer(p, compliance_steer), np.asarray(delta, float), x[2], x[1], F_w, v)
 
 
 class LinearTrackRHS:
     """dx/dt of the linear single-track model (5.4) along a speed profile, for n realisations.
 
-    Slip angles and forces as (5.4) at the local speed v_j: F_f = c_f (delta - beta - l_f psi_dot / v),
-    F_r = c_r (l_r psi_dot / v - beta); psi_ddot = (l_f F_f - l_r F_r + M_w) / I_z,
-    beta_dot = (F_f + F_r + F_w) / (m v) - psi_dot - (v_dot / v) beta + a_lat / v,
-    y_dot = v (psi + k beta), or v sin(psi + k beta) for the exact course kinematics.
+    (5.4) at the local speed v_j, its coefficients with the speed factored out
+    (:func:`~uqdrive.vehicle.single_track.lst_speed_coefficients`): psi_ddot = (l_f F_f - l_r F_r + M_w) / I_z,
+    beta_dot = (F_f + F_r + F_w) / (m v) - psi_dot - (v_dot / v) beta + a_lat / v, the forces of
+    :func:`~uqdrive.vehicle.single_track.linear_axle_forces`; y_dot = v (psi + k beta), or
+    v sin(psi + k beta) for the exact course kinematics.
 
     Parameters
     ----------
@@ -152,17 +149,14 @@ class LinearTrackRHS:
         self._has_lat = bool(np.any(self.a_lat))
         self.delta_half, self.F_w_half = np.asarray(delta_half, float), F_w_half
         self.v_half, self.v_dot_half = np.asarray(v_half, float), np.asarray(v_dot_half, float)
-        self.l_f, self.l_r, self.c_f, self.c_r = np.asarray(p.l_f, float), p.l_r, p.c_f, p.c_r
-        self.m, self.I_z = p.m, p.I_z
+        self.coefficients = c = lst_speed_coefficients(p)
         n = F_w_half.shape[1]
         as_n = lambda a: np.broadcast_to(np.asarray(a, float), (n,)).copy()  # noqa: E731
-        cf, cr, lf, lr, m, I_z = self.c_f, self.c_r, self.l_f, self.l_r, self.m, self.I_z
-        # (5.4) with the speed factored out: psi_ddot = (P / v) r + a12 beta + a13 d + M_w / I_z,
+        # psi_ddot = (P / v) r + a12 beta + a13 d + M_w / I_z,
         # beta_dot = (Q / v^2 - 1) r + (R / v - v_dot / v) beta + (S / v) d + F_w / (m v) + a_lat / v
-        self.P, self.a12, self.a13 = as_n(-(cf * lf**2 + cr * lr**2) / I_z), as_n((cr * lr - cf * lf) / I_z), as_n(cf * lf / I_z)
-        self.Q, self.R, self.S, self.inv_m = as_n((cr * lr - cf * lf) / m), as_n(-(cf + cr) / m), as_n(cf / m), as_n(1.0 / m)
-        self.W1 = as_n(p.M_c / I_z)
-        self.M_term = None if yaw_gust else as_n(p.M_c * np.asarray(wind, float) / I_z)
+        self.P, self.a12, self.a13, self.W1 = as_n(c.yaw_damping), as_n(c.yaw_slip), as_n(c.yaw_steer), as_n(c.yaw_wind)
+        self.Q, self.R, self.S, self.inv_m = as_n(c.slip_yaw), as_n(c.slip_damping), as_n(c.slip_steer), as_n(c.slip_wind)
+        self.M_term = None if yaw_gust else as_n(wind_yaw_moment(p.M_c, np.asarray(wind, float), 0.0, False) / c.I_z)
         self.inv_v = [float(1.0 / v) for v in self.v_half]
         self.rate = [float(vd / v) for v, vd in zip(self.v_half, self.v_dot_half)]
         self._t = np.empty(n)
@@ -187,8 +181,7 @@ class LinearTrackRHS:
 
     def forces(self, x, j: int):
         """Front and rear tyre forces (N), each shape (n,), at half step ``j``."""
-        v, psi_dot, beta = self.v_half[j], x[1], x[2]
-        return self.c_f * (self.delta_half[j] - beta - self.l_f * psi_dot / v), self.c_r * (self.l_r * psi_dot / v - beta)
+        return linear_axle_forces(self.coefficients, self.delta_half[j], x[2], x[1], self.v_half[j])
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (4, n) of ``x`` (4, n) at half step ``j`` into ``out``."""
@@ -226,8 +219,7 @@ class LinearTrackRHS:
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: (F_f + F_r + F_w) / m."""
-        F_f, F_r = self.forces(x, j)
-        return (F_f + F_r + self.F_w_half[j]) / self.m
+        return lst_lateral_acceleration(self.coefficients, self.delta_half[j], x[2], x[1], self.F_w_half[j], self.v_half[j])
 
 
 def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
