@@ -2,11 +2,11 @@
 benchmark discovers (rule discrepancy_discover: combined, saturation, delay and null cases) and
 detection-table cells (rule discrepancy_channel_cell), one whose baseline cannot explain the data.
 
-"old": the fits search theta alone for their whole budget (``StructureFit.spread_as_variance =
-False``); "new": a fit not converged within ``StructureFit.THETA_EVALUATIONS`` evaluations goes
-on with the spreads squared (:class:`uqdrive.inference.discrepancy.fit.SpreadCoordinates`), where
-trf reaches the optimum instead of creeping towards a spread of zero for its budget. The
-jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
+"old": every candidate fit runs to trf's tolerances (``CandidateFitter.resolve_at`` a no-op);
+"new": a candidate fit stops once its Gauss-Newton model predicts less than a share of the null
+band's chi2 standard deviation at consecutive points (:mod:`uqdrive.inference.discrepancy.stopping`).
+Every moved number is listed with its change in null-band chi2 standard deviations where it is a
+chi2 (``chi2_null_sd`` of the job's verdict). The jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
 `studies.hidden_effects.generate`, the cell by `studies.discrepancy.channel_detection_cell`);
 the two variants alternate in one process, the old one first, after an untimed warm-up discover
 (imports, caches). The outputs must agree in what the verdict says (the named effects, the
@@ -26,7 +26,7 @@ from pathlib import Path
 
 from timing import without
 from uqdrive.config import load_config
-from uqdrive.inference.discrepancy.fit import StructureFit
+from uqdrive.inference.discrepancy.fitter import CandidateFitter
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
 DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:tyre_saturation_5deg:all:40", "discover:combined_saturation_lag",
@@ -60,15 +60,16 @@ def says(output) -> dict:
     return out
 
 
-class ThetaAsItIs:
-    """Within the block, the fits search theta alone (the spreads never squared)."""
+class ToTrfTolerances:
+    """Within the block, the candidates' fits run to trf's tolerances (no resolution stop)."""
 
     def __enter__(self):
-        StructureFit.spread_as_variance = False
+        self._resolve_at = CandidateFitter.resolve_at
+        CandidateFitter.resolve_at = lambda fitter, band: None
         return self
 
     def __exit__(self, *exc):
-        StructureFit.spread_as_variance = True
+        CandidateFitter.resolve_at = self._resolve_at
 
 
 def run_job(config, job: str):
@@ -99,7 +100,7 @@ def main(argv=None):
     run_job(config, "discover:none_step_held")  # untimed: the first discover's imports and caches would fall on the old variant
     rows = []
     for job in args.jobs:
-        with ThetaAsItIs():
+        with ToTrfTolerances():
             old, out_old = run_job(config, job)
         new, out_new = run_job(config, job)
         same = says(out_old) == says(out_new)

@@ -14,6 +14,7 @@ from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
+from .stopping import ResolutionRule, ResolutionStop
 
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "SpreadCoordinates", "StructureFit"]
 
@@ -109,6 +110,11 @@ class StructureFit:
     memo : SimulationMemo, optional
         Linear models' simulations shared with other fits on the same simulator
         (:class:`.fitter.SimulationMemo`).
+    resolution : float, optional
+        chi2 (this fit's units) below which a remaining decrease is of no consequence to the
+        comparison the fit serves: the search stops at :data:`.stopping.RESOLVED_TIMES`
+        consecutive points whose Gauss-Newton model predicts less (:class:`.stopping.ResolutionRule`).
+        None: trf's own tolerances alone.
 
     Attributes
     ----------
@@ -142,8 +148,9 @@ class StructureFit:
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
                  base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None,
-                 memo=None):
+                 memo=None, resolution: float | None = None):
         self.simulator = simulator
+        self.resolution = resolution
         self.memo = memo
         self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
         self.index = np.asarray(index, int)
@@ -331,7 +338,11 @@ class StructureFit:
         # profile a linear model is integrated by RK4 as well, its pairs batched alike.
         ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
 
+        calls = [0]
+        rule = None if self.resolution is None else ResolutionRule(self.resolution, lo[free] / unit[free], hi[free] / unit[free])
+
         def residuals(params):
+            calls[0] += 1
             u = whole(params)
             if ahead:
                 points = difference_points(u)[1]
@@ -343,16 +354,23 @@ class StructureFit:
             h, points = difference_points(whole(params))
             self._simulate(pairs(points))
             f = [self._misfit(pt, theta0, measured, scale) for pt in points]
-            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
+            jac = np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
+            if rule is not None:  # trf asks for it at each accepted point: whether the search is done
+                rule.check(params, jac, f[0])
+            return jac
 
         u = unit[free]
-        res = least_squares(residuals, x0[free] / u, jac=jacobian, bounds=(lo[free] / u, hi[free] / u), x_scale=typical[free] / u,
-                            method="trf", max_nfev=budget, xtol=1e-8, ftol=1e-8)
-        jac = np.zeros((res.jac.shape[0], x0.size))
-        jac[:, free] = res.jac / u
+        try:
+            res = least_squares(residuals, x0[free] / u, jac=jacobian, bounds=(lo[free] / u, hi[free] / u), x_scale=typical[free] / u,
+                                method="trf", max_nfev=budget, xtol=1e-8, ftol=1e-8)
+            point, found, nfev, status, message = res.x, res.jac, int(res.nfev), int(res.status), str(res.message)
+        except ResolutionStop as stop:
+            point, found, nfev, status, message = stop.point, stop.jac, calls[0], 5, str(stop)
+        jac = np.zeros((found.shape[0], x0.size))
+        jac[:, free] = found / u
         if spread is not None:  # d z / d theta by the chain rule through the squares
-            jac = jac @ spread.derivative(whole(res.x))
-        return full(res.x), jac, int(res.nfev), int(res.status), str(res.message)
+            jac = jac @ spread.derivative(whole(point))
+        return full(point), jac, nfev, status, message
 
     def fit(self, measured, scale, theta0, effect_start=None) -> "StructureFit":
         """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, C, K)."""
