@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from uqdrive.inference.discrepancy.fit import StructureFit
-from uqdrive.inference.discrepancy.stopping import RESOLVED_TIMES, ResolutionRule, ResolutionStop, predicted_decrease
+from uqdrive.inference.discrepancy.ranking import RESOLVED_TIMES, ResolutionRule, ResolutionStop, predicted_decrease
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 
 from test_discrepancy_fit import TRUTH, _Analytic, _measured

@@ -8,13 +8,12 @@ that is comparable across candidate effects; trust-region least squares with bou
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
-from .stopping import ResolutionRule, ResolutionStop
+from .ranking import resolved_least_squares
 
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "SpreadCoordinates", "StructureFit"]
 
@@ -111,10 +110,7 @@ class StructureFit:
         Linear models' simulations shared with other fits on the same simulator
         (:class:`.fitter.SimulationMemo`).
     resolution : float, optional
-        chi2 (this fit's units) below which a remaining decrease is of no consequence to the
-        comparison the fit serves: the search stops at :data:`.stopping.RESOLVED_TIMES`
-        consecutive points whose Gauss-Newton model predicts less (:class:`.stopping.ResolutionRule`).
-        None: trf's own tolerances alone.
+        chi2 (its units) of no consequence where the fit is used (:func:`.ranking.resolved_least_squares`).
 
     Attributes
     ----------
@@ -338,11 +334,7 @@ class StructureFit:
         # profile a linear model is integrated by RK4 as well, its pairs batched alike.
         ahead = self.structure(x0[6:] if self.fit_theta else x0).nonlinear or getattr(self.simulator, "speed", None) is not None
 
-        calls = [0]
-        rule = None if self.resolution is None else ResolutionRule(self.resolution, lo[free] / unit[free], hi[free] / unit[free])
-
         def residuals(params):
-            calls[0] += 1
             u = whole(params)
             if ahead:
                 points = difference_points(u)[1]
@@ -354,18 +346,11 @@ class StructureFit:
             h, points = difference_points(whole(params))
             self._simulate(pairs(points))
             f = [self._misfit(pt, theta0, measured, scale) for pt in points]
-            jac = np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
-            if rule is not None:  # trf asks for it at each accepted point: whether the search is done
-                rule.check(params, jac, f[0])
-            return jac
+            return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
 
         u = unit[free]
-        try:
-            res = least_squares(residuals, x0[free] / u, jac=jacobian, bounds=(lo[free] / u, hi[free] / u), x_scale=typical[free] / u,
-                                method="trf", max_nfev=budget, xtol=1e-8, ftol=1e-8)
-            point, found, nfev, status, message = res.x, res.jac, int(res.nfev), int(res.status), str(res.message)
-        except ResolutionStop as stop:
-            point, found, nfev, status, message = stop.point, stop.jac, calls[0], 5, str(stop)
+        point, found, nfev, status, message = resolved_least_squares(residuals, jacobian, x0[free] / u, (lo[free] / u, hi[free] / u),
+                                                                     typical[free] / u, budget, self.resolution)
         jac = np.zeros((found.shape[0], x0.size))
         jac[:, free] = found / u
         if spread is not None:  # d z / d theta by the chain rule through the squares

@@ -15,8 +15,7 @@ from ...vehicle.effects import EFFECTS, ModelStructure
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
-from .ranking import screen
-from .stopping import RESOLVED_SHARE
+from .ranking import RESOLVED_SHARE, screen
 
 __all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear"]
 
@@ -109,7 +108,7 @@ class CandidateFitter:
     def resolve_at(self, band) -> None:
         """Stop the candidates' fits at the resolution of the comparisons made with ``band``.
 
-        :data:`.stopping.RESOLVED_SHARE` of its chi2 standard deviation: every choice among fits
+        :data:`.ranking.RESOLVED_SHARE` of its chi2 standard deviation: every choice among fits
         (the tie margin, a step's justification, the backward check) compares chi2 differences
         with 2 of them, so a fit that stops this short of its optimum moves a comparison by at
         most a fortieth of the margin. The baseline, whose residuals and Jacobian make the band,
