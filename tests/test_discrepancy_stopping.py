@@ -89,3 +89,21 @@ def test_a_fit_stopped_at_its_resolution_is_within_it_with_fewer_evaluations():
     assert stopped.nfev_ < full.nfev_ and stopped.success_
     assert 0.0 <= stopped.chi2_ - full.chi2_ < 1.0
     assert tight.chi2_ == pytest.approx(full.chi2_, rel=1e-9)
+
+
+def test_a_wide_footing_fit_resolves_at_the_linear_footings_resolution_divided_by_its_squared_scale_ratio():
+    """The comparison multiplies a numerically integrated fit's chi2 excess by its squared scale
+    ratio (here 4: the scale doubled), so its tolerance in its own chi2 is a quarter; none is set
+    before the band is known (the baseline's fit)."""
+    from types import SimpleNamespace
+
+    from uqdrive.inference.discrepancy.fitter import CandidateFitter
+    from uqdrive.inference.discrepancy.ranking import RESOLVED_SHARE
+
+    scale = np.ones((2, 4, 12))
+    data = SimpleNamespace(scale=scale, scale_for=lambda wide: 2.0 * scale if wide else scale)
+    fitter = CandidateFitter(data, {}, TRUTH, 0.97, 3)
+    assert fitter._resolution(False) is None and fitter._resolution(True) is None
+    fitter.resolve_at(SimpleNamespace(chi2_null_sd=80.0))
+    assert fitter._resolution(False) == pytest.approx(RESOLVED_SHARE * 80.0, rel=1e-12)
+    assert fitter._resolution(True) == pytest.approx(RESOLVED_SHARE * 80.0 / 4.0, rel=1e-12)
