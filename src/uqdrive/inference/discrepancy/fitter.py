@@ -112,10 +112,7 @@ class CandidateFitter:
         (the tie margin, a step's justification, the backward check) compares chi2 differences
         with 2 of them, so a fit that stops this short of its optimum moves a comparison by at
         most a fortieth of the margin. The baseline, whose residuals and Jacobian make the band,
-        is fitted before and not stopped; nor are the screening's held fits (linear, a few
-        hundredths of a second each): a held fit stopped there was 1.7 sd short of its optimum
-        on combined_bank_bias (its Gauss-Newton model predicted under the tolerance twice),
-        and their chi2 rank the candidates."""
+        is fitted before and not stopped."""
         self.resolution = RESOLVED_SHARE * float(band.chi2_null_sd)
 
     def _resolution(self, wide: bool):
@@ -166,7 +163,7 @@ class CandidateFitter:
         def held(name, theta):
             structure = EFFECTS[name].augment(base, EFFECTS[name].start)
             f = StructureFit(d.sim_for(structure.nonlinear), d.index, d.noise, d.spin, effect=EFFECTS[name], base=base,
-                             fit_theta=False, max_nfev=40, memo=self.memo)
+                             fit_theta=False, max_nfev=40, memo=self.memo, resolution=self._resolution(structure.nonlinear))
             return f.fit(d.measured, d.scale_for(structure.nonlinear), theta)
 
         fixed = {c: [self.tyre_E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if nonlinear(c)}
