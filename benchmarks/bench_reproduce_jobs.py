@@ -2,11 +2,11 @@
 benchmark discovers (rule discrepancy_discover: combined, saturation, delay and null cases) and
 detection-table cells (rule discrepancy_channel_cell), one whose baseline cannot explain the data.
 
-"old": the fits search theta alone for their whole budget (``StructureFit.spread_as_variance =
-False``); "new": a fit not converged within ``StructureFit.THETA_EVALUATIONS`` evaluations goes
-on with the spreads squared (:class:`uqdrive.inference.discrepancy.fit.SpreadCoordinates`), where
-trf reaches the optimum instead of creeping towards a spread of zero for its budget. The
-jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
+"old": every candidate fit runs to trf's tolerances (``CandidateFitter.resolve_at`` a no-op);
+"new": a candidate fit stops once its Gauss-Newton model predicts less than a share of the null
+band's chi2 standard deviation at consecutive points (:func:`uqdrive.inference.discrepancy.ranking.resolved_least_squares`).
+Every moved number is listed with its change in null-band chi2 standard deviations where it is a
+chi2 (``chi2_null_sd`` of the job's verdict). The jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
 `studies.hidden_effects.generate`, the cell by `studies.discrepancy.channel_detection_cell`);
 the two variants alternate in one process, the old one first, after an untimed warm-up discover
 (imports, caches). The outputs must agree in what the verdict says (the named effects, the
@@ -14,7 +14,7 @@ ambiguity, the untestable candidates, the decision); the record lists every numb
 by more than 1e-6 relative, with the old and new value.
 
 Usage: python benchmarks/bench_reproduce_jobs.py [--jobs discover:combined_saturation_lag cell:actuator_lag_200ms:imu_speed:20 ...]
-       [--json docs/measurements/benchmarks_reproduce_jobs.json]
+       [--json docs/measurements/benchmarks_reproduce_jobs.json] [--reference RESULTS]
 """
 
 import argparse
@@ -26,11 +26,11 @@ from pathlib import Path
 
 from timing import without
 from uqdrive.config import load_config
-from uqdrive.inference.discrepancy.fit import StructureFit
+from uqdrive.inference.discrepancy.fitter import CandidateFitter
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
-DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:tyre_saturation_5deg:all:40", "discover:combined_saturation_lag",
-                "discover:tyre_saturation_5deg", "discover:actuator_delay_150ms", "discover:none_step")
+DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:sensor_scale_psi_dot_125:imu_speed:20", "cell:tyre_saturation_5deg:imu_speed:40",
+                "discover:combined_saturation_lag", "discover:tyre_saturation_5deg", "discover:actuator_delay_150ms", "discover:none_step")
 #: What a verdict says, as opposed to how well it fits: these must be equal between the variants.
 VERDICT_KEYS = ("effect", "verdict", "correct", "untestable", "ambiguous_with", "decision", "named", "significant", "rejected", "removed")
 
@@ -48,6 +48,28 @@ def moved(old, new, path="", rtol=1e-6):
     return [] if not numbers and old == new else [(path, old, new)]
 
 
+def null_sd(output):
+    """The null band's chi2 standard deviation of a discover's verdict (None for a cell's rows)."""
+    return output.get("evidence", {}).get("chi2_null_sd") if isinstance(output, dict) else None
+
+
+def in_null_sd(path: str, old, new, sd):
+    """A moved chi2 (a fit's, a candidate's, a screening prediction's) in null-band chi2
+    standard deviations; None for any other number."""
+    chi2_like = "chi2" in path or ".candidates." in path or ".screening." in path or ".model_fits." in path
+    if sd and chi2_like and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (old, new)):
+        return round((new - old) / sd, 4)
+    return None
+
+
+def reference_output(reference: Path, job: str):
+    """A job's output in a reproduction's results folder (``results/`` of ``make reproduce``), or None."""
+    kind, name, *cell = job.split(":")
+    path = (reference / "discrepancy" / "benchmark" / "discover" / name / "verdict.json" if kind == "discover"
+            else reference / "discrepancy" / "channel_sets" / cell[0] / cell[1] / f"{name}.json")
+    return without(json.loads(path.read_text())) if path.exists() else None
+
+
 def says(output) -> dict:
     """What a job's verdict says: the named effects and the keys of :data:`VERDICT_KEYS`."""
     rows = output if isinstance(output, list) else [output]
@@ -60,15 +82,16 @@ def says(output) -> dict:
     return out
 
 
-class ThetaAsItIs:
-    """Within the block, the fits search theta alone (the spreads never squared)."""
+class ToTrfTolerances:
+    """Within the block, the candidates' fits run to trf's tolerances (no resolution stop)."""
 
     def __enter__(self):
-        StructureFit.spread_as_variance = False
+        self._resolve_at = CandidateFitter.resolve_at
+        CandidateFitter.resolve_at = lambda fitter, band: None
         return self
 
     def __exit__(self, *exc):
-        StructureFit.spread_as_variance = True
+        CandidateFitter.resolve_at = self._resolve_at
 
 
 def run_job(config, job: str):
@@ -94,28 +117,36 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--jobs", nargs="+", default=list(DEFAULT_JOBS), help="discover:CASE or cell:CASE:SET:RUNS")
     parser.add_argument("--json", type=Path, help="write the record here")
+    parser.add_argument("--reference", type=Path, help="a reproduction's results folder: each new verdict compared with its own there")
     args = parser.parse_args(argv)
     config = load_config(CONFIG)
     run_job(config, "discover:none_step_held")  # untimed: the first discover's imports and caches would fall on the old variant
     rows = []
     for job in args.jobs:
-        with ThetaAsItIs():
+        with ToTrfTolerances():
             old, out_old = run_job(config, job)
         new, out_new = run_job(config, job)
         same = says(out_old) == says(out_new)
         changes = moved(out_old, out_new)
+        ref = reference_output(args.reference, job) if args.reference else None
+        as_reference = None if ref is None else says(ref) == says(out_new)
         rows.append({"job": job, "verdict": says(out_new), "old_cpu_s": round(old, 1), "new_cpu_s": round(new, 1), "same_verdict": same,
-                     "moved": [{"at": p, "old": a, "new": b} for p, a, b in changes]})
+                     "same_verdict_as_reference": as_reference,
+                     "chi2_null_sd": null_sd(out_old),
+                     "moved": [{"at": p, "old": a, "new": b, "null_sd": in_null_sd(p, a, b, null_sd(out_old))} for p, a, b in changes]})
         print(f"{job}: old {old:.1f} CPU-s, new {new:.1f} CPU-s ({old / new:.2f}x), verdict {says(out_new)}, same verdict: {same}, "
-              f"{len(changes)} numbers moved", flush=True)
+              f"{len(changes)} numbers moved, as the reference: {as_reference}", flush=True)
         for p, a, b in changes:
-            print(f"    {p}: {a} -> {b}", flush=True)
-    record = {"command": "python benchmarks/bench_reproduce_jobs.py", "machine": f"{platform.machine()}, {os.cpu_count()} cores, load "
+            print(f"    {p}: {a} -> {b} ({in_null_sd(p, a, b, null_sd(out_old))} null sd)", flush=True)
+    record = {"command": "python benchmarks/bench_reproduce_jobs.py", "old": "every candidate fit to trf's tolerances",
+              "new": "candidate fits stopped at the resolution (uqdrive.inference.discrepancy.ranking.resolved_least_squares)", "machine": f"{platform.machine()}, {os.cpu_count()} cores, load "
               f"{os.getloadavg()[0]:.1f} at the end", "rows": rows, "date": time.strftime("%Y-%m-%d")}
+    if args.reference:
+        record["reference"] = str(args.reference)
     if args.json:
         args.json.write_text(json.dumps(record, indent=1) + "\n")
-    if not all(r["same_verdict"] for r in rows):
-        raise SystemExit("the new variant's verdicts differ from the old one's")
+    if not all(r["same_verdict"] and r["same_verdict_as_reference"] is not False for r in rows):
+        raise SystemExit("the new variant's verdicts differ from the old one's or the reference's")
 
 
 if __name__ == "__main__":

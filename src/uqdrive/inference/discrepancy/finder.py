@@ -198,6 +198,7 @@ class DiscrepancyFinder:
         self.band_ = band = bands.null(base, key=0)
         self.footing_band_ = bands.footing(base) if any(nonlinear(c) for c in self.candidates_ + list(start_effects)) else None
         comparison = self.comparison_ = ModelComparison(band, self.scale_, self.footing_band_, bands)
+        fitter.resolve_at(band)
         stat0 = band.max_statistic(base.z_)
         significant = band.gate(base.z_)
         lap("null_band", f" ({self.bootstrap} replicates; max statistic {stat0:.3g}, threshold {band.threshold:.3g})")

@@ -8,12 +8,12 @@ that is comparable across candidate effects; trust-region least squares with bou
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
+from .ranking import resolved_least_squares
 
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "SpreadCoordinates", "StructureFit"]
 
@@ -109,6 +109,8 @@ class StructureFit:
     memo : SimulationMemo, optional
         Linear models' simulations shared with other fits on the same simulator
         (:class:`.fitter.SimulationMemo`).
+    resolution : float, optional
+        chi2 (its units) of no consequence where the fit is used (:func:`.ranking.resolved_least_squares`).
 
     Attributes
     ----------
@@ -142,8 +144,9 @@ class StructureFit:
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
                  base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None,
-                 memo=None):
+                 memo=None, resolution: float | None = None):
         self.simulator = simulator
+        self.resolution = resolution
         self.memo = memo
         self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
         self.index = np.asarray(index, int)
@@ -346,13 +349,13 @@ class StructureFit:
             return np.column_stack([(fi - f[0]) / hi_ for fi, hi_ in zip(f[1:], h[free])]) * unit[free]
 
         u = unit[free]
-        res = least_squares(residuals, x0[free] / u, jac=jacobian, bounds=(lo[free] / u, hi[free] / u), x_scale=typical[free] / u,
-                            method="trf", max_nfev=budget, xtol=1e-8, ftol=1e-8)
-        jac = np.zeros((res.jac.shape[0], x0.size))
-        jac[:, free] = res.jac / u
+        point, found, nfev, status, message = resolved_least_squares(residuals, jacobian, x0[free] / u, (lo[free] / u, hi[free] / u),
+                                                                     typical[free] / u, budget, self.resolution)
+        jac = np.zeros((found.shape[0], x0.size))
+        jac[:, free] = found / u
         if spread is not None:  # d z / d theta by the chain rule through the squares
-            jac = jac @ spread.derivative(whole(res.x))
-        return full(res.x), jac, int(res.nfev), int(res.status), str(res.message)
+            jac = jac @ spread.derivative(whole(point))
+        return full(point), jac, nfev, status, message
 
     def fit(self, measured, scale, theta0, effect_start=None) -> "StructureFit":
         """Fit from ``theta0`` (and the effect's start values); ``measured``, ``scale`` (2, C, K)."""

@@ -15,7 +15,7 @@ from ...vehicle.effects import EFFECTS, ModelStructure
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
-from .ranking import screen
+from .ranking import RESOLVED_SHARE, screen
 
 __all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear"]
 
@@ -87,6 +87,12 @@ class CandidateFitter:
         Linear candidates re-identified jointly per forward step.
     memo : SimulationMemo, optional
         Linear simulations shared by the fits (:meth:`release` drops it).
+
+    Attributes
+    ----------
+    resolution : float or None
+        chi2 on the linear footing below which a fit's remaining decrease does not matter
+        (:meth:`resolve_at`); None until the null band is known: every fit runs to trf's tolerances.
     """
 
     def __init__(self, data: Compared, known: Mapping[int, float], start: Sequence[float], tyre_E: float, top: int,
@@ -97,6 +103,26 @@ class CandidateFitter:
         self.tyre_E = tyre_E
         self.top = int(top)
         self.memo = memo
+        self.resolution = None
+
+    def resolve_at(self, band) -> None:
+        """Stop the candidates' fits at the resolution of the comparisons made with ``band``.
+
+        :data:`.ranking.RESOLVED_SHARE` of its chi2 standard deviation: every choice among fits
+        (the tie margin, a step's justification, the backward check) compares chi2 differences
+        with 2 of them, so a fit that stops this short of its optimum moves a comparison by at
+        most a fortieth of the margin. The baseline, whose residuals and Jacobian make the band,
+        is fitted before and not stopped."""
+        self.resolution = RESOLVED_SHARE * float(band.chi2_null_sd)
+
+    def _resolution(self, wide: bool):
+        """The resolution in the chi2 of a fit on the footing of ``wide``: a numerically
+        integrated model's excess counts its squared scale ratio on the linear footing
+        (:meth:`.comparison.ModelComparison.chi2`), so its tolerance shrinks by that ratio."""
+        if self.resolution is None:
+            return None
+        d = self.data
+        return self.resolution / float(np.mean((d.scale_for(wide) / d.scale) ** 2))
 
     def release(self) -> None:
         """Drop the shared simulations (a posterior batches its own)."""
@@ -118,7 +144,7 @@ class CandidateFitter:
         wide = any(nonlinear(k) for k in names)
         budget = max_nfev or (25 if wide else 60)
         f = StructureFit(d.sim_for(wide), d.index, d.noise, d.spin, effect=eff, max_nfev=budget,
-                         fixed={**dict(self.known), **held}, memo=self.memo)
+                         fixed={**dict(self.known), **held}, memo=self.memo, resolution=self._resolution(wide))
         return f.fit(d.measured, d.scale_for(wide), theta_start)
 
     def probe(self, theta, names, values, chi2) -> StructureFit:
@@ -137,7 +163,7 @@ class CandidateFitter:
         def held(name, theta):
             structure = EFFECTS[name].augment(base, EFFECTS[name].start)
             f = StructureFit(d.sim_for(structure.nonlinear), d.index, d.noise, d.spin, effect=EFFECTS[name], base=base,
-                             fit_theta=False, max_nfev=40, memo=self.memo)
+                             fit_theta=False, max_nfev=40, memo=self.memo, resolution=self._resolution(structure.nonlinear))
             return f.fit(d.measured, d.scale_for(structure.nonlinear), theta)
 
         fixed = {c: [self.tyre_E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if nonlinear(c)}
