@@ -20,10 +20,11 @@ import argparse
 import json
 import subprocess
 import sys
-import resource
 from pathlib import Path
 
 import yaml
+
+import judgement
 
 from uqdrive.config import load_config
 from uqdrive.io import write_dataset
@@ -61,40 +62,8 @@ EXPECTED = {
 
 
 def judge(row: dict) -> str:
-    """Physical (every named effect present in the reality, the gap at least halved or an
-    `unrecognised` rest after what is named, or `unrecognised` alone where no candidate fitted
-    closes half the chi2 excess), or what is wrong."""
-    named = [e["effect"] for e in row.get("effects") or []]
-    wrong = [n for n in named if n not in PRESENT_BY_CAR[row.get("car", "sedan")]]
-    if wrong:
-        return f"names {', '.join(wrong)}, absent from the reality"
-    if named == ["unrecognised"] and row["gap_after"] >= row["gap_before"]:
-        best = row.get("best") or {}
-        if best.get("share_closed") is not None and best["share_closed"] < 0.5:
-            return f"physical: `unrecognised`, no candidate closes half the chi2 excess (`{best['effect']}` {best['share_closed']:.2f})"
-        return "`unrecognised` alone, gap unchanged"
-    if row["gap_after"] <= 0.5 * row["gap_before"] or "unrecognised" in named or row["gap_before"] == 0:
-        best = row.get("best") or {}
-        return "physical" + (f" (`{best['effect']}` alone closes {best['share_closed']:.2f} of the chi2 excess)"
-                             if best.get("share_closed") is not None else "")
-    return "gap not halved"
-
-
-def best_candidate(verdict: dict) -> dict:
-    """The first forward step's best candidate of a ``verdict`` (its document) and the share of the
-    baseline's chi2 excess it closes on the linear footing, as the acceptance judged it."""
-    ev = verdict["evidence"]
-    fits = {k: c for k, c in (ev.get("candidates") or {}).items() if "chi2_linear_footing" in c}
-    if not fits:
-        return {}
-    name = min(fits, key=lambda k: fits[k]["chi2_linear_footing"])
-    share = (ev["chi2_baseline"] - fits[name]["chi2_linear_footing"]) / ev["excess_chi2"] if ev.get("excess_chi2") else None
-    return {"effect": name, "chi2": fits[name]["chi2_linear_footing"], "share_closed": None if share is None else round(share, 4)}
-
-
-def _effect_cell(e) -> str:
-    params = ", ".join(f"{k} {v[0]:.3g} [{v[1]:.3g}, {v[2]:.3g}]" for k, v in e.get("parameters", {}).items() if isinstance(v, list))
-    return f"`{e['effect']}`" + (f": {params}" if params else "")
+    """The shared judgement (judgement.judge) against the effects of the row's car."""
+    return judgement.judge(row, PRESENT_BY_CAR[row.get("car", "sedan")])
 
 
 def table(rows) -> str:
@@ -104,16 +73,10 @@ def table(rows) -> str:
         if "error" in r:
             lines.append(f"| {r['name']} | {EXPECTED.get(r['name'], '')} | error: {r['error']} | | | |")
             continue
-        named = "; ".join(_effect_cell(e) for e in r.get("effects") or []) or "`none`"
+        named = "; ".join(judgement.effect_cell(e) for e in r.get("effects") or []) or "`none`"
         lines.append(f"| {r['name']} | {EXPECTED.get(r['name'], '')} | {named} | {r['gap_before']:.3g} -> {r['gap_after']:.3g} | "
                      f"{judge(r)} | {r['seconds']:.0f} s |")
     return "\n".join(lines)
-
-
-def _children_cpu() -> float:
-    """CPU seconds (user + system) of the finished child processes."""
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
 
 
 def main(argv=None):
@@ -136,10 +99,7 @@ def main(argv=None):
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     limits = {}
     keep = set(args.cases.split(",")) if args.cases else None
-    old = {}
-    for record in (args.json, out / "summary.json"):  # the record's rows, then this folder's (newer) ones
-        if record is not None and record.exists():
-            old.update({r["name"]: r for r in json.loads(record.read_text())})
+    old = judgement.merged_rows(args.json, out / "summary.json")  # the record's rows, then this folder's (newer) ones
     for i, case in enumerate(real_tyre_cases(config, samples=args.samples)):
         if keep and case.name not in keep:
             continue
@@ -154,19 +114,16 @@ def main(argv=None):
         row = {"case": tag, "name": case.name, "car": case.car, "level": case.level, "runs": case.samples,
                "amplitude_deg": json.loads((out / "labels" / f"{tag}.json").read_text())["amplitude_deg"]}
         target = out / "discover" / tag
-        cpu0 = _children_cpu()
+        cpu0 = judgement.children_cpu()
         run = subprocess.run([sys.executable, "-m", "uqdrive.cli.main", "discover", str(data), "--config", str(out / "config.yaml"),
                               "--candidates", args.candidates, "--out", str(target), "--no-posterior", "--force"],
                              capture_output=True, text=True)
-        row["seconds"] = round(_children_cpu() - cpu0, 1)
+        row["seconds"] = round(judgement.children_cpu() - cpu0, 1)
         (out / "labels" / f"{tag}.discover.log").write_text(run.stderr)  # the progress lines: which candidates each step fitted
         if run.returncode:
             row["error"] = run.stderr.strip().splitlines()[-1] if run.stderr.strip() else f"exit {run.returncode}"
         else:
-            v = json.loads((target / "verdict.json").read_text())
-            row.update({k: v.get(k) for k in ("effect", "effects", "gap_before", "gap_after", "warnings")})
-            row["steps"] = [{k: s.get(k) for k in ("effect", "chi2", "explains") if k in s} for s in (v["evidence"].get("steps") or [])]
-            row["best"] = best_candidate(v)
+            row.update(judgement.verdict_row(json.loads((target / "verdict.json").read_text())))
             row["judged"] = judge(row)
         old[case.name] = row
         print(json.dumps(row, default=str), flush=True)

@@ -90,6 +90,7 @@ def write_all(root: Path, outdir: Path) -> None:
     _write(outdir / "workflow_rules.md", workflow_rules(root))
     _write(outdir / "four_wheel_car.md", four_wheel_car())
     _write(outdir / "four_wheel_cases.md", four_wheel_cases(root))
+    _write(outdir / "four_wheel_results.md", four_wheel_results(root))
     _write(outdir / "plausible_car.md", plausible_car())
     _write(outdir / "gpu_ensembles.md", gpu_ensembles(root / "docs" / "measurements" / "gpu.json"))
     _write(outdir / "real_tyres_cases.md", real_tyres(root, "cases"))
@@ -161,16 +162,35 @@ def four_wheel_car() -> str:
     return "\n".join(lines) + "\n"
 
 
+def _bench(root: Path, name: str):
+    """The benchmark script ``root``/benchmarks/``name``.py as a module, with the scripts' folder on
+    the import path (as when it runs: the scripts import their shared helpers by name)."""
+    import importlib.util
+    import sys
+
+    folder = str(root / "benchmarks")
+    if folder not in sys.path:
+        sys.path.append(folder)
+    spec = importlib.util.spec_from_file_location(name, root / "benchmarks" / f"{name}.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench
+
+
+def four_wheel_results(root: Path) -> str:
+    """Markdown results table of the four-wheel benchmark from the committed docs/four_wheel.json,
+    each verdict judged against the reality (benchmarks/bench_four_wheel.py)."""
+    import json
+
+    return _bench(root, "bench_four_wheel").table(json.loads((root / "docs" / "four_wheel.json").read_text())) + "\n"
+
+
 def four_wheel_cases(root: Path) -> str:
     """Markdown table of the four-wheel benchmark's cases with the expectation that
     benchmarks/bench_four_wheel.py states for each."""
-    import importlib.util
-
     from uqdrive.studies.four_wheel import four_wheel_cases as cases
 
-    spec = importlib.util.spec_from_file_location("bench_four_wheel", root / "benchmarks" / "bench_four_wheel.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _bench(root, "bench_four_wheel")
     lines = ["| case | input | level (of the steady limit) | duration (s) | expected named set (order free) |", "|---|---|---:|---:|---|"]
     for c in cases({"seed": 0}):
         params = ", ".join(f"{k} {v}" for k, v in dict(c.manoeuvre_params).items())
@@ -183,16 +203,13 @@ def real_tyres(root: Path, part: str) -> str:
     """The real-tyres benchmark's cases with the expectation benchmarks/bench_real_tyres.py states
     for each (``part`` "cases"), its results table from the committed docs/real_tyres.json
     ("results"), or each car's constants that differ from the sedan's ("cars")."""
-    import importlib.util
     import json
 
     from dataclasses import asdict
 
     from uqdrive.studies.real_tyres import CARS, real_tyre_cases
 
-    spec = importlib.util.spec_from_file_location("bench_real_tyres", root / "benchmarks" / "bench_real_tyres.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = _bench(root, "bench_real_tyres")
     if part == "results":
         return bench.table(json.loads((root / "docs" / "real_tyres.json").read_text())) + "\n"
     if part == "cars":

@@ -3,10 +3,12 @@ wrong, `unrecognised` alone is physical only where no candidate closes half the 
 a physical row gives the best candidate's share."""
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
 
+sys.path.append(str(Path(__file__).resolve().parents[1] / "benchmarks"))  # the scripts import their shared judgement by name
 _spec = importlib.util.spec_from_file_location("bench_real_tyres", Path(__file__).resolve().parents[1] / "benchmarks" / "bench_real_tyres.py")
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)
