@@ -45,6 +45,18 @@ def tiny_config(t_end: float = 0.8, samples: int = 12) -> dict:
     return cfg
 
 
+def tiny_files(folder: Path) -> tuple[Path, Path]:
+    """(config file, valid NLST ensemble file) of :func:`tiny_config` written into ``folder`` by
+    the CLI itself (12 runs x 41 time points)."""
+    from uqdrive.cli.main import main
+
+    config = folder / "tiny.yaml"
+    config.write_text(yaml.safe_dump(tiny_config()))
+    data = folder / "tiny.nc"
+    assert main(["simulate", "--model", "nlst", "--config", str(config), "--out", str(data)]) == 0
+    return config, data
+
+
 @pytest.fixture(scope="session")
 def config():
     return load_config(REPO / "config" / "config.yaml")

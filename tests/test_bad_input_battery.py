@@ -26,7 +26,7 @@ from uqdrive.config import ConfigError, load_config
 from uqdrive.io import DataError
 from uqdrive.studies.sweep import SweepError
 
-from conftest import REPO, tiny_config
+from conftest import REPO, tiny_config, tiny_files
 
 #: A refusal's line must say what to do: a verb of a fix, the rule it breaks or the names allowed.
 FIX = re.compile(r"\b(give|write|add|choose|pass|remove|keep|convert|set|store|fix|record|swap|use|check|save|create|resample|"
@@ -71,10 +71,7 @@ class World:
 def world(tmp_path_factory):
     """A tiny config and its valid NLST ensemble (12 runs x 41 points at 70 km/h), and ten short CSV recordings."""
     folder = tmp_path_factory.mktemp("battery")
-    config = folder / "tiny.yaml"
-    config.write_text(yaml.safe_dump(tiny_config()))
-    data = folder / "tiny.nc"
-    assert main(["simulate", "--model", "nlst", "--config", str(config), "--out", str(data)]) == 0
+    config, data = tiny_files(folder)
     t = np.arange(300) * 10.0  # ms
     for i in range(10):
         steer = 15.0 * np.sin(2 * np.pi * t / 1500.0) * (1 + 0.01 * i)

@@ -19,18 +19,13 @@ from uqdrive.cli.identify import fit_warnings
 from uqdrive.cli.main import Interrupted, _signals_exit_cleanly, main
 from uqdrive.io import OutputError, atomic_path, write_dataset
 
-from conftest import REPO, tiny_config
+from conftest import REPO, tiny_config, tiny_files
 
 
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory):
     """(config file, valid NLST ensemble file) of 12 samples x 41 time points."""
-    folder = tmp_path_factory.mktemp("tiny")
-    config = folder / "tiny.yaml"
-    config.write_text(yaml.safe_dump(tiny_config()))
-    data = folder / "tiny.nc"
-    assert main(["simulate", "--model", "nlst", "--config", str(config), "--out", str(data)]) == 0
-    return config, data
+    return tiny_files(tmp_path_factory.mktemp("tiny"))
 
 
 def files_under(folder: Path) -> set:
