@@ -135,3 +135,13 @@ def test_the_matrices_are_built_from_the_speed_factored_coefficients(car):
     A_1, A_2 = lst_matrices(VehicleParameters(mu=1.0 + 1e-6))[0], lst_matrices(VehicleParameters(mu=1.0 - 1e-6))[0]
     # (5.4)'s entries are linear in mu: the central difference is exact but for rounding, ~1e-10 relative
     np.testing.assert_allclose(A_c.imag / h, (A_1 - A_2) / 2e-6, rtol=1e-8, atol=1e-12)
+
+
+def test_the_steering_column_keeps_its_order_under_a_complex_step(car):
+    # A complex product's imaginary part rounds by the order of its factors (l_f c_f against
+    # c_f l_f), and the identifications' complex-step gradients, and the fits that follow them, keep
+    # the last bits of this order: the column is l_f c_f / I_z as (5.4) writes B.
+    rng = np.random.default_rng(5)
+    p = VehicleParameters(**{**car.__dict__, "l_f": car.l_f + 1e-20j * rng.normal(size=N), "mu": car.mu + 1e-20j * rng.normal(size=N)})
+    _, B, _ = lst_matrices(p)
+    assert np.array_equal(B[..., 1], p.l_f * p.c_f / p.I_z)

@@ -228,8 +228,8 @@ class LSTCoefficients:
         return self.stiffness_moment / self.I_z
     @property
     def yaw_steer(self):
-        """c_f l_f / I_z (1/s^2)."""
-        return self.c_f * self.l_f / self.I_z
+        """l_f c_f / I_z (1/s^2); in this order: a complex step's imaginary part rounds by it."""
+        return self.l_f * self.c_f / self.I_z
     @property
     def yaw_wind(self):
         """M_c / I_z (1/(kg m))."""
