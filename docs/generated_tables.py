@@ -4,6 +4,7 @@ discover (the registry) and the workflow's rules, so that no page types what the
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from pathlib import Path
@@ -162,6 +163,7 @@ def four_wheel_car() -> str:
     return "\n".join(lines) + "\n"
 
 
+@functools.lru_cache(maxsize=None)
 def _bench(root: Path, name: str):
     """The benchmark script ``root``/benchmarks/``name``.py as a module, with the scripts' folder on
     the import path (as when it runs: the scripts import their shared helpers by name)."""

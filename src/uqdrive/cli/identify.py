@@ -19,7 +19,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..io import DataError, atomic_path, check_run_count, check_spread, present_channels, read_ensemble, speed_profile
+from ..io import DataError, atomic_path, check_run_count, check_spread, data_speed, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, state_weights
 from ..plots.fit import fit_figure
 from ..vehicle.channels import ChannelChaosModel
@@ -44,7 +44,8 @@ def _model_settings(config: Mapping[str, Any], ds, source: str) -> Settings:
         raise DataError(f"{source}: 'time' starts at {t[0]:g} s; the model starts from straight driving at t = 0: "
                         "subtract the start time from the time coordinate")
     dt = float(t[1] - t[0])
-    v = float(ds.attrs["v_c"]) if "v_c" in ds.attrs else float(np.ravel(ds["v"].values)[0])  # v_c: io.data_speed's
+    v, _ = data_speed(ds)  # a profile's: its start (the settings' constant speed; the profile goes beside it)
+    v = float(np.ravel(ds["v"].values)[0]) if v is None else v
     return Settings.from_config(config, time=TimeGrid(float(t[-1]), dt, dt), speed=v)
 
 
