@@ -2,19 +2,23 @@
 benchmark discovers (rule discrepancy_discover: combined, saturation, delay and null cases) and
 detection-table cells (rule discrepancy_channel_cell), one whose baseline cannot explain the data.
 
-"old": every candidate fit runs to trf's tolerances (``CandidateFitter.resolve_at`` a no-op);
-"new": a candidate fit stops once its Gauss-Newton model predicts less than a share of the null
-band's chi2 standard deviation at consecutive points (:func:`uqdrive.inference.discrepancy.ranking.resolved_least_squares`).
+"new": the package as it is: a candidate fit stops once its Gauss-Newton model predicts less
+than a share of the null band's chi2 standard deviation at consecutive points, or where even
+twice that decrease leaves it above the chi2 it must reach to matter (a hopeless probe of a
+non-linear candidate, a refit that cannot remove an effect)
+(:func:`uqdrive.inference.discrepancy.ranking.resolved_least_squares`). "old" (``--old``):
+``reach``, without the hopeless stop; ``trf``, every candidate fit to trf's tolerances.
+``--new-only`` runs the new variant alone and compares it with ``--reference``.
 Every moved number is listed with its change in null-band chi2 standard deviations where it is a
 chi2 (``chi2_null_sd`` of the job's verdict). The jobs run as the workflow runs them (config/config.yaml; the case's ensemble made by
 `studies.hidden_effects.generate`, the cell by `studies.discrepancy.channel_detection_cell`);
-the two variants alternate in one process, the old one first, after an untimed warm-up discover
+the two variants alternate in one process, the new one first, after an untimed warm-up discover
 (imports, caches). The outputs must agree in what the verdict says (the named effects, the
 ambiguity, the untestable candidates, the decision); the record lists every number that moved
 by more than 1e-6 relative, with the old and new value.
 
 Usage: python benchmarks/bench_reproduce_jobs.py [--jobs discover:combined_saturation_lag cell:actuator_lag_200ms:imu_speed:20 ...]
-       [--json docs/measurements/benchmarks_reproduce_jobs.json] [--reference RESULTS]
+       [--json docs/measurements/benchmarks_reproduce_jobs.json] [--reference RESULTS] [--old reach|trf] [--new-only]
 """
 
 import argparse
@@ -26,6 +30,7 @@ from pathlib import Path
 
 from timing import without
 from uqdrive.config import load_config
+from uqdrive.inference.discrepancy import ranking
 from uqdrive.inference.discrepancy.fitter import CandidateFitter
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "config.yaml"
@@ -94,6 +99,36 @@ class ToTrfTolerances:
         CandidateFitter.resolve_at = self._resolve_at
 
 
+class WithoutHopelessStop:
+    """Within the block, no fit stops for being out of reach (an infinite optimism: never hopeless)."""
+
+    def __enter__(self):
+        self._optimism, ranking.HOPELESS_OPTIMISM = ranking.HOPELESS_OPTIMISM, float("inf")
+        return self
+
+    def __exit__(self, *exc):
+        ranking.HOPELESS_OPTIMISM = self._optimism
+
+
+#: The old variants: (context, description).
+OLD = {"reach": (WithoutHopelessStop, "candidate fits stopped at the resolution only (no hopeless stop)"),
+       "trf": (lambda: _Both(ToTrfTolerances(), WithoutHopelessStop()), "every candidate fit to trf's tolerances")}
+
+
+class _Both:
+    def __init__(self, *contexts):
+        self.contexts = contexts
+
+    def __enter__(self):
+        for c in self.contexts:
+            c.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        for c in reversed(self.contexts):
+            c.__exit__(*exc)
+
+
 def run_job(config, job: str):
     """CPU seconds and output of one job, ``discover:CASE`` or ``cell:CASE:SET:RUNS``."""
     from uqdrive.cli.discover import discover_dataset
@@ -113,19 +148,48 @@ def run_job(config, job: str):
     return time.process_time() - clock, without(rows)
 
 
+def every_job(results: Path) -> list:
+    """The discrepancy jobs of a reproduction's results folder: discover:CASE and cell:CASE:SET:RUNS."""
+    base = results / "discrepancy"
+    jobs = [f"discover:{d.name}" for d in sorted((base / "benchmark" / "discover").iterdir()) if (d / "verdict.json").exists()]
+    return jobs + [f"cell:{f.stem}:{f.parent.parent.name}:{f.parent.name}" for f in sorted((base / "channel_sets").glob("*/*/*.json"))]
+
+
+def compare_folders(results: Path, reference: Path) -> None:
+    """Print every job whose verdict (:func:`says`) differs between two reproductions' results."""
+    differ = []
+    for job in every_job(results):
+        new, old = reference_output(results, job), reference_output(reference, job)
+        if old is None or says(new) != says(old):
+            differ.append(job)
+            print(f"{job}: {says(old) if old is not None else 'not in the reference'} -> {says(new)}", flush=True)
+    print(f"{len(every_job(results))} jobs compared, {len(differ)} differ")
+    if differ:
+        raise SystemExit(1)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--jobs", nargs="+", default=list(DEFAULT_JOBS), help="discover:CASE or cell:CASE:SET:RUNS")
     parser.add_argument("--json", type=Path, help="write the record here")
     parser.add_argument("--reference", type=Path, help="a reproduction's results folder: each new verdict compared with its own there")
+    parser.add_argument("--old", choices=sorted(OLD), default="reach", help="the old variant (default: reach)")
+    parser.add_argument("--new-only", action="store_true", help="only the new variant, compared with --reference")
+    parser.add_argument("--compare", type=Path, help="no runs: every job of this results folder compared with --reference's")
     args = parser.parse_args(argv)
+    if args.compare:
+        return compare_folders(args.compare, args.reference)
+    old_context, old_text = OLD[args.old]
     config = load_config(CONFIG)
     run_job(config, "discover:none_step_held")  # untimed: the first discover's imports and caches would fall on the old variant
     rows = []
     for job in args.jobs:
-        with ToTrfTolerances():
-            old, out_old = run_job(config, job)
         new, out_new = run_job(config, job)
+        if args.new_only:
+            old, out_old = new, out_new
+        else:
+            with old_context():
+                old, out_old = run_job(config, job)
         same = says(out_old) == says(out_new)
         changes = moved(out_old, out_new)
         ref = reference_output(args.reference, job) if args.reference else None
@@ -138,8 +202,9 @@ def main(argv=None):
               f"{len(changes)} numbers moved, as the reference: {as_reference}", flush=True)
         for p, a, b in changes:
             print(f"    {p}: {a} -> {b} ({in_null_sd(p, a, b, null_sd(out_old))} null sd)", flush=True)
-    record = {"command": "python benchmarks/bench_reproduce_jobs.py", "old": "every candidate fit to trf's tolerances",
-              "new": "candidate fits stopped at the resolution (uqdrive.inference.discrepancy.ranking.resolved_least_squares)", "machine": f"{platform.machine()}, {os.cpu_count()} cores, load "
+    record = {"command": "python benchmarks/bench_reproduce_jobs.py" + (f" --old {args.old}" if args.old != "reach" else ""), "old": old_text,
+              "new": "candidate fits stopped at the resolution and where out of reach (uqdrive.inference.discrepancy.ranking.resolved_least_squares)",
+              "machine": f"{platform.machine()}, {os.cpu_count()} cores, load "
               f"{os.getloadavg()[0]:.1f} at the end", "rows": rows, "date": time.strftime("%Y-%m-%d")}
     if args.reference:
         record["reference"] = str(args.reference)

@@ -289,6 +289,17 @@ class ModelComparison:
         own = self.band_of(fit).mean_square_null * fit.z_.size
         return level + (fit.chi2_ - own) * (ratio2 if fit.chi2_ > own else 1.0)
 
+    def chi2_bar(self, bar: float, wide: bool) -> float:
+        """The chi2 of a fit on its own scale above which its :meth:`chi2` is above ``bar``: the
+        inverse of that conversion for a fit judged on the wide scale (``wide``: a numerically
+        integrated model's, :meth:`Compared.scale_for`) or on the linear models' (``bar`` itself)."""
+        ratio2 = float(np.mean((self.bands.data.scale_for(True) / self.scale) ** 2)) if wide else 1.0
+        if ratio2 == 1.0:
+            return float(bar)
+        level = self.band.mean_square_null * self.scale.size
+        own = (self.footing_band or self.band).mean_square_null * self.scale.size
+        return own + (bar - level) / (ratio2 if bar > level else 1.0)
+
     def margin(self, margin: float, *fits) -> float:
         """The tie margin of a comparison of ``fits`` in chi2 on the linear footing: a fit on the
         non-linear footing brings that footing's chi2 spread, converted by its squared scale

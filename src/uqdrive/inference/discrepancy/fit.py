@@ -111,6 +111,8 @@ class StructureFit:
         (:class:`.fitter.SimulationMemo`).
     resolution : float, optional
         chi2 (its units) of no consequence where the fit is used (:func:`.ranking.resolved_least_squares`).
+    hopeless_above : float, optional
+        chi2 (its units) it must come below to matter; it stops where it cannot (``success_`` False).
 
     Attributes
     ----------
@@ -144,9 +146,9 @@ class StructureFit:
 
     def __init__(self, simulator: AugmentedSimulator, index, noise_variance, spin_threshold=None, effect: Effect | None = None,
                  base: ModelStructure = ModelStructure(), fit_theta: bool = True, max_nfev: int = 200, fixed=None,
-                 memo=None, resolution: float | None = None):
+                 memo=None, resolution: float | None = None, hopeless_above: float | None = None):
         self.simulator = simulator
-        self.resolution = resolution
+        self.resolution, self.hopeless_above = resolution, hopeless_above
         self.memo = memo
         self.fixed = {int(k): float(v) for k, v in (fixed or {}).items()} if fit_theta else {}
         self.index = np.asarray(index, int)
@@ -350,7 +352,7 @@ class StructureFit:
 
         u = unit[free]
         point, found, nfev, status, message = resolved_least_squares(residuals, jacobian, x0[free] / u, (lo[free] / u, hi[free] / u),
-                                                                     typical[free] / u, budget, self.resolution)
+                                                                     typical[free] / u, budget, self.resolution, self.hopeless_above)
         jac = np.zeros((found.shape[0], x0.size))
         jac[:, free] = found / u
         if spread is not None:  # d z / d theta by the chain rule through the squares
@@ -372,20 +374,18 @@ class StructureFit:
         for i, v in self.fixed.items():
             x0[i] = v  # a known value is used as given (a std of 0 sits on its bound)
         free = np.array([i not in self.fixed for i in range(x0.size)], bool)
-
         typical = np.array(typical, float)
         if not free.any():
             x, jac, nfev, success, message = x0, np.zeros((self._misfit(x0, theta0, measured, scale).size, x0.size)), 1, True, "nothing to fit"
         else:
-            # theta as it is first, within THETA_EVALUATIONS (a fit that converges there keeps
-            # its numbers); a fit still searching then goes on in the spreads' squares
+            # theta first, within THETA_EVALUATIONS; a fit still searching goes on in the spreads' squares
             first = self.max_nfev if not (self.fit_theta and self.spread_as_variance) else min(self.max_nfev, self.THETA_EVALUATIONS)
             x, jac, nfev, status, message = self._search(x0, free, lo, hi, typical, None, first, theta0, measured, scale)
             if status == 0 and nfev < self.max_nfev and first < self.max_nfev:
                 spread = SpreadCoordinates(self.fixed)
                 x, jac, more, status, message = self._search(x, free, lo, hi, typical, spread, self.max_nfev - nfev, theta0, measured, scale)
                 nfev += more
-            success = status > 0
+            success = 0 < status < 6  # 6: stopped out of reach (ranking.ResolutionStop)
         theta, ev = self._split(x, theta0)
         theta = theta.copy()
         theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)

@@ -17,7 +17,7 @@ from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
 from .ranking import RESOLVED_SHARE, screen
 
-__all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear"]
+__all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear", "reach_bar"]
 
 #: A non-linear candidate is first fitted with this budget of model evaluations (:meth:`CandidateFitter.probe`), then finished only
 #: when it closed PROBE_SHARE of what the best linear candidate closed (its chi2 can only fall further).
@@ -60,13 +60,21 @@ def nonlinear(name: str) -> bool:
     return EFFECTS[name].augment(ModelStructure(), EFFECTS[name].start).nonlinear
 
 
+def reach_bar(comparison: ModelComparison, cur, others) -> float | None:
+    """The chi2 a non-linear candidate's short fit must reach to be worth finishing: ``cur``'s
+    less :data:`PROBE_SHARE` of what the best of ``others`` (the linear candidates) closed;
+    None where none of them closed anything (every probe is finished)."""
+    chi2 = comparison.chi2
+    gain = chi2(cur) - min((chi2(f) for f in others), default=chi2(cur))
+    return None if gain <= 0 else chi2(cur) - PROBE_SHARE * gain
+
+
 def in_reach(comparison: ModelComparison, cur, probe, others) -> bool:
     """Whether a non-linear candidate's short fit is worth finishing: it already closed at
     least :data:`PROBE_SHARE` of what the best linear candidate closed (a full fit only
-    lowers chi2 further), or no linear candidate closed anything."""
-    chi2 = comparison.chi2
-    gain = chi2(cur) - min((chi2(f) for f in others), default=chi2(cur))
-    return gain <= 0 or chi2(cur) - chi2(probe) >= PROBE_SHARE * gain
+    lowers chi2 further), or no linear candidate closed anything (:func:`reach_bar`)."""
+    bar = reach_bar(comparison, cur, others)
+    return bar is None or comparison.chi2(probe) <= bar
 
 
 class CandidateFitter:
@@ -133,9 +141,11 @@ class CandidateFitter:
         d = self.data
         return StructureFit(d.sim, d.index, d.noise, d.spin, fixed=dict(self.known), memo=self.memo).fit(d.measured, d.scale, theta0)
 
-    def joint(self, theta_start, names, values, max_nfev: int | None = None, release=()) -> StructureFit:
+    def joint(self, theta_start, names, values, max_nfev: int | None = None, release=(), hopeless_above=None) -> StructureFit:
         """Distributions and the parameters of every effect in ``names`` fitted jointly; a parameter
-        with one physical value is held there (:meth:`.effectset.EffectSet.physical`) unless its effect is in ``release``."""
+        with one physical value is held there (:meth:`.effectset.EffectSet.physical`) unless its effect is in ``release``.
+        ``hopeless_above``: a callable (wide -> chi2 on that footing's scale, :meth:`.comparison.ModelComparison.chi2_bar`)
+        giving the chi2 the fit must come below to matter (None: it runs its course)."""
         d = self.data
         eff = EffectSet(names, {k: values[k] for k in names if k in values})
         held = {len(THETA_NAMES) + i: v for i, v in eff.physical(release).items()}
@@ -144,13 +154,15 @@ class CandidateFitter:
         wide = any(nonlinear(k) for k in names)
         budget = max_nfev or (25 if wide else 60)
         f = StructureFit(d.sim_for(wide), d.index, d.noise, d.spin, effect=eff, max_nfev=budget,
-                         fixed={**dict(self.known), **held}, memo=self.memo, resolution=self._resolution(wide))
+                         fixed={**dict(self.known), **held}, memo=self.memo, resolution=self._resolution(wide),
+                         hopeless_above=None if hopeless_above is None else hopeless_above(wide))
         return f.fit(d.measured, d.scale_for(wide), theta_start)
 
-    def probe(self, theta, names, values, chi2) -> StructureFit:
+    def probe(self, theta, names, values, chi2, hopeless_above=None) -> StructureFit:
         """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the start's distributions, the one lower by ``chi2``: a
-        linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's)."""
-        return min((self.joint(th, names, values, max_nfev=PROBE_NFEV) for th in (theta, self.start)), key=chi2)
+        linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's).
+        ``hopeless_above``: as :meth:`joint`, each start stopped where it cannot reach it."""
+        return min((self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above) for th in (theta, self.start)), key=chi2)
 
     def screen(self, cur, pool) -> dict:
         """Rank the candidates by the prediction of their joint fit (:func:`.ranking.screen`), held at ``cur``'s distributions
@@ -182,8 +194,10 @@ class CandidateFitter:
             fits[c] = self.joint(screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
             if budget and chi2(cur) - chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
                 fits[c] = self.joint(fits[c].theta_, names + [c], fitted_values(fits[c]))
+        bar = reach_bar(comparison, cur, [fits[k] for k in linear])
+        out_of_reach = None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide))
         for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-            short = self.probe(cur.theta_, names + [c], {**values, c: screening[c]["values"]}, chi2)
+            short = self.probe(cur.theta_, names + [c], {**values, c: screening[c]["values"]}, chi2, out_of_reach)
             if in_reach(comparison, cur, short, [fits[k] for k in linear]):
                 short = self.joint(short.theta_, names + [c], fitted_values(short))
             fits[c] = short

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from itertools import combinations
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -90,11 +91,24 @@ class Pruned:
     band: Any
 
 
-def _refit_without(fitter, cur, start_effects, added, name):
-    """``cur`` refitted jointly without the added effect ``name`` (the others from their values in ``cur``)."""
+def _refit_without(fitter, cur, start_effects, added, name, hopeless_above=None):
+    """``cur`` refitted jointly without the added effect ``name`` (the others from their values in ``cur``;
+    ``hopeless_above`` as :meth:`.fitter.CandidateFitter.joint`)."""
     values = fitted_values(cur)
     rest = list(start_effects) + [n for n in added if n != name]
-    return fitter.joint(cur.theta_, rest, {k: values[k] for k in rest})
+    return fitter.joint(cur.theta_, rest, {k: values[k] for k in rest}, hopeless_above=hopeless_above)
+
+
+def _removal_bar(comparison, fitter, cur, name, margin, per_param):
+    """The chi2 (a callable of the refit's footing, :meth:`.comparison.ModelComparison.chi2_bar`)
+    below which ``cur`` refitted without ``name`` loses it in :func:`backward_check`: ``cur``'s
+    chi2 plus the effect's penalty and the margin between the two footings (a refit above it
+    keeps the effect, whatever its exact chi2)."""
+    def bar(wide: bool) -> float:
+        refit = SimpleNamespace(scale_=fitter.data.scale_for(wide))  # the margin reads a fit's footing from its scale alone
+        chi2 = comparison.chi2(cur) + per_param * len(EFFECTS[name].parameters) + comparison_margin(comparison, name, margin, refit, cur)
+        return comparison.chi2_bar(chi2, wide)
+    return bar
 
 
 def admissible(comparison, data, name, fit) -> tuple[bool, str]:
@@ -310,8 +324,8 @@ def backward_check(comparison, fitter, steps, cur, cur_band, start_effects, remo
         added = [s.name for s in steps]
         if len(start_effects) + len(added) < 2:
             break
-        fit = _refit_without(fitter, cur, start_effects, added, step.name)
         margin, per_param = criterion(cur_band)
+        fit = _refit_without(fitter, cur, start_effects, added, step.name, _removal_bar(comparison, fitter, cur, step.name, margin, per_param))
         saved = comparison.chi2(fit) - comparison.chi2(cur) - per_param * len(EFFECTS[step.name].parameters)
         if saved <= comparison_margin(comparison, step.name, margin, fit, cur):
             removed.append({"effect": family_of(step.name), "registry_name": step.name, "chi2_saved": round(saved, 2)})
