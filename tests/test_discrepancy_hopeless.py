@@ -115,7 +115,7 @@ def _comparison(ratio=2.0, null=1.1, footing_null=1.4):
 
 
 def _fit(c, scale):
-    return SimpleNamespace(chi2_=c, scale_=scale, z_=np.zeros_like(scale))
+    return SimpleNamespace(chi2_=c, scale_=scale, z_=np.zeros_like(scale), theta_=TRUTH)
 
 
 @settings(max_examples=300, deadline=None)
@@ -146,3 +146,46 @@ def test_the_removal_bar_is_the_backward_checks_threshold(wide, name):
         refit = _fit(c, data.scale_for(wide))
         saved = comparison.chi2(refit) - comparison.chi2(cur) - per_param * len(EFFECTS[name].parameters)
         assert (saved <= comparison_margin(comparison, name, margin, refit, cur)) == removed
+
+
+def test_a_probe_stopped_out_of_reach_is_finished_as_without_the_stop_when_asked():
+    """fit_pool hands each non-linear probe the reach bar (here 100 - 0.25 x 60 = 85: the linear
+    candidate closed 60 of 100); a probe stopped there (its fit says so) is kept as it stopped, at
+    95, and recorded; finish() fits it again without the bar (its end, 90, still above the bar:
+    not finished further) and clears the record. Where the linear candidate closed nothing there
+    is no bar and nothing stops (the probe in reach is finished by a full fit)."""
+    from uqdrive.inference.discrepancy.effectset import EffectSet
+    from uqdrive.inference.discrepancy.fitter import PROBE_NFEV, CandidateFitter
+    from uqdrive.inference.discrepancy.ranking import ResolutionStop
+
+    comparison, data = _comparison(ratio=1.0)
+    one = data.scale_for(False)
+    calls = []
+
+    def joint(theta, names, values, max_nfev=None, release=(), hopeless_above=None):
+        bar = None if hopeless_above is None else hopeless_above(True)
+        calls.append((tuple(names), max_nfev, bar))
+        if names[-1] == "road_bank":
+            return SimpleNamespace(chi2_=closed_to, scale_=one, z_=np.zeros_like(one), theta_=TRUTH, message_="")
+        stopped = bar is not None
+        return SimpleNamespace(chi2_=95.0 if stopped else 90.0, scale_=one, z_=np.zeros_like(one), theta_=TRUTH,
+                               message_=ResolutionStop.MESSAGES[6] if stopped else "", effect=EffectSet(["tyre_saturation"]), effect_values_=np.ones(1))
+
+    fitter = CandidateFitter(SimpleNamespace(delta=np.zeros(100), dt=0.01, scale_for=lambda wide: one), {}, TRUTH, 0.97, top=1)
+    fitter.joint = joint
+    cur = _fit(100.0, one)
+    screening = {c: {"chi2": 0.0, "theta": TRUTH, "values": [0.0]} for c in ("road_bank", "tyre_saturation")}
+    margin_band = SimpleNamespace(chi2_null_sd=1.0, inflation=1.0)
+    for closed_to, bar in ((40.0, 85.0), (100.0, None)):
+        calls.clear()
+        fits, tried = fitter.fit_pool(comparison, cur, margin_band, ["road_bank", "tyre_saturation"], screening, [], {})
+        assert tried == ["road_bank", "tyre_saturation"] and fitter.reach_bar == bar
+        probes = [c for c in calls if c[0] == ("tyre_saturation",) and c[1] == PROBE_NFEV]
+        assert [c[2] for c in probes] == [bar, bar]  # both starts, each told the bar
+        if bar is None:
+            assert fitter.unfinished == {} and fits["tyre_saturation"].chi2_ == 90.0
+            continue
+        assert fits["tyre_saturation"].chi2_ == 95.0 and list(fitter.unfinished) == ["tyre_saturation"]
+        finished = fitter.finish(fits)
+        assert finished["tyre_saturation"].chi2_ == 90.0 and fits["tyre_saturation"].chi2_ == 95.0 and fitter.unfinished == {}
+        assert finished["road_bank"] is fits["road_bank"]

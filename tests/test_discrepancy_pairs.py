@@ -64,7 +64,7 @@ def _search(shares, pair_joins=True, excess=16.0, half=None):
                                structure_=ModelStructure(), scale_=one,
                                effect_intervals=lambda factor=1.0: {p: [2.0, 2.0 - w * np.sqrt(factor), 2.0 + w * np.sqrt(factor)] for p, w in widths.items()})
 
-    def joint(theta, names, values, max_nfev=None, release=()):
+    def joint(theta, names, values, max_nfev=None, release=(), **_):
         s = set(names)
         left = {"a", "b", "r"} - ({"a"} if A in s else set()) - ({"b"} if B in s and (pair_joins or A not in s) else set())
         calls.append(tuple(names))
@@ -160,7 +160,7 @@ def test_a_pair_whose_fitted_size_is_unresolvable_is_refused(pair_delay, named):
     s.candidates = [A, "actuator_delay"]
     joint = s.fitter.joint
 
-    def delay_as_b(theta, names, values, max_nfev=None, release=()):
+    def delay_as_b(theta, names, values, max_nfev=None, release=(), **_):
         fit = joint(theta, [B if n == "actuator_delay" else n for n in names], values)
         fit.effect = EffectSet(list(names))
         fit.effect_values_ = np.array([pair_delay if n == "actuator_delay" and len(names) == 2 else (0.05 if n == "actuator_delay" else 1.0)
@@ -191,7 +191,7 @@ def test_an_effect_whose_interval_holds_no_effect_is_dropped(inflation, chi2, ke
     whether the effect is needed)."""
     refits = []
     comparison, fitter = _linear(SimpleNamespace(inflation=inflation, mean_square_null=1.0),
-                                 lambda theta, names, values, max_nfev=None: refits.append(list(names)) or _sized(names, {A: 0.5}, chi2))
+                                 lambda theta, names, values, max_nfev=None, **_: refits.append(list(names)) or _sized(names, {A: 0.5}, chi2))
     base = SimpleNamespace(effect=None)
     out = selection.size_check(comparison, fitter, _steps(A, C), base, _sized([A, C], {A: 0.5, C: 0.05}, chi2), comparison.band, {})
     assert [s.name for s in out.steps] == kept
@@ -221,7 +221,7 @@ def _steps(*names):
 def _linear(band, joint):
     """A comparison on the linear footing of 480 cells (chi2 the fits' own, every own band ``band``) and a fitter whose joint fits are ``joint``."""
     comparison = ModelComparison(band, ONE, bands=SimpleNamespace(null=lambda fit, key=0: band))
-    fitter = CandidateFitter(SimpleNamespace(delta=np.zeros(100), dt=0.01), {}, THETA, 0.97, top=3)
+    fitter = CandidateFitter(SimpleNamespace(delta=np.zeros(100), dt=0.01, scale_for=lambda wide: ONE), {}, THETA, 0.97, top=3)
     fitter.joint = joint
     return comparison, fitter
 
@@ -230,7 +230,7 @@ def _backward(chi2_without, names=(A, C), fit=None):
     """The backward check of ``names`` at chi2 100, a refit without some costing ``chi2_without[rest]``."""
     band = SimpleNamespace(chi2_null_sd=5.0, inflation=1.0, mean_square_null=1.0)  # margin 10, penalty 2 per parameter
     comparison, fitter = _linear(SimpleNamespace(inflation=1.0, mean_square_null=1.0),
-                                 lambda theta, rest, values, max_nfev=None: _chi2_fit(list(rest), chi2_without[tuple(rest)]))
+                                 lambda theta, rest, values, max_nfev=None, **_: _chi2_fit(list(rest), chi2_without[tuple(rest)]))
     return selection.backward_check(comparison, fitter, _steps(*names), fit or _chi2_fit(list(names), 100.0), band, {})
 
 
@@ -282,7 +282,7 @@ def test_an_unresolvable_size_that_explains_the_gap_ends_the_search():
     s.candidates = ["actuator_delay", B]
     joint = s.fitter.joint
 
-    def with_delay(theta, names, values, max_nfev=None, release=()):
+    def with_delay(theta, names, values, max_nfev=None, release=(), **_):
         if "actuator_delay" in names:
             fit = joint(theta, [A, B], values)  # removes both parts: the gap more than halved
             fit.effect, fit.effect_values_ = EffectSet(["actuator_delay"]), np.array([0.004])
@@ -303,7 +303,7 @@ def test_of_two_effects_without_a_size_the_one_the_data_need_least_goes_first():
     and the bias refitted alone (0.1 -+ 0.05) has a size and stays. By the half-widths (the
     nearest to none first) the bias would have gone and the bank stayed."""
     comparison, fitter = _linear(SimpleNamespace(inflation=1.0, mean_square_null=1.0),
-                                 lambda theta, names, values, max_nfev=None: _sized(list(names), {A: 0.5, C: 0.05}, 490.0 if list(names) == [C] else 4800.0))
+                                 lambda theta, names, values, max_nfev=None, **_: _sized(list(names), {A: 0.5, C: 0.05}, 490.0 if list(names) == [C] else 4800.0))
     out = selection.size_check(comparison, fitter, _steps(A, C), SimpleNamespace(effect=None), _sized([A, C], {A: 2.5, C: 0.2}, 480.0), comparison.band, {})
     assert [s.name for s in out.steps] == [C] and [r["registry_name"] for r in out.removed] == [A]
     assert list(out.final.effect.names) == [C] and out.final.chi2_ == 490.0
@@ -321,7 +321,7 @@ def _cancelling_search(together):
     gap, one = 4.0 * u, np.ones_like(noise)
     R, S, CS = "roll_steer", "tyre_relaxation", "compliance_steer"
 
-    def joint(theta, names, values, max_nfev=None, release=()):
+    def joint(theta, names, values, max_nfev=None, release=(), **_):
         s = set(names)
         left = 1.0 - together if {R, S} <= s else 0.75 if CS in s else 0.9 if R in s else 1.0
         calls.append((tuple(names), max_nfev, {k: list(values[k]) for k in names if k in values}))
@@ -333,7 +333,7 @@ def _cancelling_search(together):
 
     calls = []
     search = _stand_in_search([CS, R, S], band, one, joint)
-    search.fitter.probe = lambda theta, names, values, chi2: joint(theta, names, values, max_nfev=6)
+    search.fitter.probe = lambda theta, names, values, chi2, hopeless_above=None: joint(theta, names, values, max_nfev=6)
     base = SimpleNamespace(z_=noise + gap, chi2_=float(np.sum((noise + gap) ** 2)), theta_=THETA, effect=None, effect_values_=np.zeros(0),
                            structure_=ModelStructure(), scale_=one)
     return search, base, band, calls, EFFECTS

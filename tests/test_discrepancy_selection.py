@@ -232,7 +232,7 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     chi2 = ModelComparison(SimpleNamespace(mean_square_null=1.0), np.ones((2, 4, 10))).chi2
     starts = []
 
-    def joint(theta, names, values, max_nfev=None):
+    def joint(theta, names, values, max_nfev=None, **_):
         starts.append((list(theta), max_nfev))
         chi2 = 50.0 if list(theta) == list(prior) else 900.0  # only the prior's start reaches the good basin
         return SimpleNamespace(structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=chi2, theta_=theta, scale_=np.ones((2, 4, 10)))
@@ -243,7 +243,7 @@ def test_a_non_linear_probe_starts_from_the_current_and_the_prior_distributions(
     assert best.chi2_ == 50.0 and list(best.theta_) == list(prior)
     assert starts == [(lowered, 6), (list(prior), 6)]  # both starts, each with the probe's budget
     starts.clear()
-    joint_lowered_wins = lambda theta, names, values, max_nfev=None: SimpleNamespace(  # noqa: E731
+    joint_lowered_wins = lambda theta, names, values, max_nfev=None, **_: SimpleNamespace(  # noqa: E731
         structure_=ModelStructure(), z_=np.zeros((2, 4, 10)), chi2_=10.0 if list(theta) == lowered else 900.0, theta_=theta, scale_=np.ones((2, 4, 10)))
     f.joint = joint_lowered_wins
     assert list(f.probe(lowered, ["tyre_saturation"], {}, chi2).theta_) == lowered

@@ -15,7 +15,7 @@ from ...vehicle.effects import EFFECTS, ModelStructure
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
-from .ranking import RESOLVED_SHARE, screen
+from .ranking import RESOLVED_SHARE, ResolutionStop, screen
 
 __all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear", "reach_bar"]
 
@@ -101,6 +101,13 @@ class CandidateFitter:
     resolution : float or None
         chi2 on the linear footing below which a fit's remaining decrease does not matter
         (:meth:`resolve_at`); None until the null band is known: every fit runs to trf's tolerances.
+    reach_bar : float or None
+        The last :meth:`fit_pool`'s :func:`reach_bar`: its probes stopped where they could not reach it.
+    unfinished : dict
+        The last :meth:`fit_pool`'s non-linear candidates whose probe stopped out of reach, with
+        what :meth:`finish` needs to fit them as without the stop.
+    probe_stopped : bool
+        Whether a start of the last :meth:`probe` stopped out of reach.
     """
 
     def __init__(self, data: Compared, known: Mapping[int, float], start: Sequence[float], tyre_E: float, top: int,
@@ -112,6 +119,7 @@ class CandidateFitter:
         self.top = int(top)
         self.memo = memo
         self.resolution = None
+        self.reach_bar, self.unfinished, self.probe_stopped = None, {}, False
 
     def resolve_at(self, band) -> None:
         """Stop the candidates' fits at the resolution of the comparisons made with ``band``.
@@ -162,7 +170,29 @@ class CandidateFitter:
         """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the start's distributions, the one lower by ``chi2``: a
         linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's).
         ``hopeless_above``: as :meth:`joint`, each start stopped where it cannot reach it."""
-        return min((self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above) for th in (theta, self.start)), key=chi2)
+        starts = [self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above) for th in (theta, self.start)]
+        self.probe_stopped = any(getattr(f, "message_", "") == ResolutionStop.MESSAGES[6] for f in starts)
+        return min(starts, key=chi2)
+
+    def _nonlinear_candidate(self, comparison, cur, names, values, linear, bar):
+        """A non-linear candidate's fit of :meth:`fit_pool`: its probe (each start stopped out of
+        reach of ``bar``, None: not), finished when in reach; and whether a start stopped."""
+        self.probe_stopped = False
+        short = self.probe(cur.theta_, names, values, comparison.chi2, None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide)))
+        stopped = self.probe_stopped
+        if in_reach(comparison, cur, short, linear):
+            short = self.joint(short.theta_, names, fitted_values(short))
+        return short, stopped
+
+    def finish(self, fits: dict) -> dict:
+        """``fits`` with each probe :meth:`fit_pool` stopped out of reach (:attr:`unfinished`)
+        fitted as without the stop, for a choice that reads more of them than whether they are
+        in reach (their order, a tie, a pair)."""
+        out = dict(fits)
+        for c, (comparison, cur, names, values, linear) in self.unfinished.items():
+            out[c] = self._nonlinear_candidate(comparison, cur, names, values, linear, None)[0]
+        self.unfinished = {}
+        return out
 
     def screen(self, cur, pool) -> dict:
         """Rank the candidates by the prediction of their joint fit (:func:`.ranking.screen`), held at ``cur``'s distributions
@@ -194,11 +224,12 @@ class CandidateFitter:
             fits[c] = self.joint(screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
             if budget and chi2(cur) - chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
                 fits[c] = self.joint(fits[c].theta_, names + [c], fitted_values(fits[c]))
-        bar = reach_bar(comparison, cur, [fits[k] for k in linear])
-        out_of_reach = None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide))
+        others = [fits[k] for k in linear]
+        self.reach_bar = reach_bar(comparison, cur, others)
+        self.unfinished = {}
         for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-            short = self.probe(cur.theta_, names + [c], {**values, c: screening[c]["values"]}, chi2, out_of_reach)
-            if in_reach(comparison, cur, short, [fits[k] for k in linear]):
-                short = self.joint(short.theta_, names + [c], fitted_values(short))
-            fits[c] = short
+            args = (comparison, cur, names + [c], {**values, c: screening[c]["values"]}, others)
+            fits[c], stopped = self._nonlinear_candidate(*args, self.reach_bar)
+            if stopped:
+                self.unfinished[c] = args
         return fits, tried

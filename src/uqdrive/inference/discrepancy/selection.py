@@ -271,30 +271,43 @@ def forward_selection(comparison, fitter, candidates, max_effects, base, band, s
         lap(f"step_{step + 1}", f" (screened {len(pool)}, fitted {', '.join(tried)})")
         margin, per_param = criterion(cur_band)
         prev_gap = excess_rms(cur.z_, cur_band)
-        chosen, stalled, best = None, None, min(fits, key=lambda c: chi2(fits[c]))
-        for c in simplest_first(fits, chi2, margin):
-            fc = fits[c]
-            ok, why = resolvable(c, fitted_values(fc)[c], data.delta, data.dt)
-            if not ok:
-                unresolved[c] = why
-                if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
-                    unresolved["explains_gap"] = c  # the gap is at the sampling's resolution
-                    return Forward(tuple(steps), cur, cur_band, first_fits, first_screening, unresolved)
-                continue
-            weak = _no_size(comparison, c, fc)
-            if weak:  # no size the sampling tells from none (the resolution was checked above)
-                unresolved[c] = weak
-                continue
-            if not _gain_justified(comparison, cur, fc, c, margin, per_param):
-                break  # the best resolvable addition is not justified: nothing further is
-            after_band, which = comparison.own_band(fc, key=step + 1)
-            explains = after_band.max_statistic(fc.z_) <= after_band.threshold
-            gap = excess_rms(fc.z_, after_band)
-            if explains or gap <= STEP_SHRINK * prev_gap:
-                chosen = c
-            else:
-                stalled = c
-            break
+        best = min(fits, key=lambda c: chi2(fits[c]))
+        if fitter.unfinished and chi2(fits[best]) + margin >= fitter.reach_bar:  # a stopped probe might tie with the best
+            fits = fitter.finish(fits)
+        while True:  # a probe stopped out of reach (fitter.unfinished) ranks where it stopped: finished where the choice reads it
+            chosen, stalled, reached = None, None, False
+            for c in simplest_first(fits, chi2, margin):
+                if c in fitter.unfinished:
+                    reached = True
+                    break
+                fc = fits[c]
+                ok, why = resolvable(c, fitted_values(fc)[c], data.delta, data.dt)
+                if not ok:
+                    unresolved[c] = why
+                    if step == 0 and c == best and (band.max_statistic(fc.z_) <= band.threshold or excess_rms(fc.z_, band) <= 0.5 * prev_gap):
+                        unresolved["explains_gap"] = c  # the gap is at the sampling's resolution
+                        return Forward(tuple(steps), cur, cur_band, first_fits, first_screening, unresolved)
+                    continue
+                weak = _no_size(comparison, c, fc)
+                if weak:  # no size the sampling tells from none (the resolution was checked above)
+                    unresolved[c] = weak
+                    continue
+                if not _gain_justified(comparison, cur, fc, c, margin, per_param):
+                    break  # the best resolvable addition is not justified: nothing further is
+                after_band, which = comparison.own_band(fc, key=step + 1)
+                explains = after_band.max_statistic(fc.z_) <= after_band.threshold
+                gap = excess_rms(fc.z_, after_band)
+                if explains or gap <= STEP_SHRINK * prev_gap:
+                    chosen = c
+                else:
+                    stalled = c
+                break
+            tie = chosen is not None and chi2(fits[chosen]) + margin >= (fitter.reach_bar or np.inf)
+            if not fitter.unfinished or not (reached or stalled is not None or tie):  # a stalled step seeks pairs among all fits
+                break
+            fits = fitter.finish(fits)
+        if step == 0:
+            first_fits = fits
         if chosen is not None:
             fc = fits[chosen]
             steps.append(_step(comparison, chosen, fc, after_band, which, explains, gap, fits, screening, margin))
