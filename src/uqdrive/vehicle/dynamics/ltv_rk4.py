@@ -16,99 +16,116 @@ __all__ = ["rk4_linear_track"]
 
 def _compiled(py_func):
     """``py_func`` compiled at its first call, the machine code cached beside the module (or in
-    the user's cache); with no writable place numba refuses to cache: then compiled anew per process."""
+    the user's cache); with no writable place numba refuses to cache: then compiled anew per process.
+
+    error_model "numpy": a division by zero gives inf or nan as NumPy's does, and the loop carries
+    no branch to raise it (a branch there keeps LLVM from vectorising the loop).
+    """
     try:
-        return njit(cache=True, nogil=True)(py_func)
+        return njit(cache=True, nogil=True, error_model="numpy")(py_func)
     except RuntimeError:  # "cannot cache function ...: no locator available"
-        return njit(nogil=True)(py_func)
+        return njit(nogil=True, error_model="numpy")(py_func)
 
 
-def _rk4_pass(x, out, h, n_steps, record_every, heading, exact, has_lat, yaw_gust,
-              P, a12, a13, W1, Q, R, S, inv_m, M_term, a_lat, k, delta_half, F_w_half, inv_v, rate):
-    """In place: ``x`` (d, n) advanced ``n_steps``, every ``record_every``-th state into ``out``.
+@njit(error_model="numpy")
+def _stage(psi, r, b, iv, d, F, rate, heading, exact, has_lat, yaw_gust, P, a12, a13, W1, Q, R, S, inv_m, M_term, a_lat, k):
+    """dx/dt (psi_dot, psi_ddot, beta_dot, y_dot) of one realisation at one half step (its
+    speed's 1 / v ``iv`` and v_dot / v ``rate``, steering ``d``, wind ``F``): the operations of
+    LinearTrackRHS.__call__ and its _inputs, in their order."""
+    # the state-free terms (LinearTrackRHS._inputs)
+    u0 = a13 * d
+    u2 = S * (d * iv)
+    u3 = inv_m * F
+    u3 *= iv
+    # psi_ddot
+    o1 = P * r
+    o1 *= iv
+    o1 += a12 * b
+    o1 += u0
+    o1 += W1 * F if yaw_gust else M_term
+    # beta_dot
+    o2 = Q * r
+    o2 *= iv * iv
+    o2 -= r
+    t = R * b
+    t *= iv
+    o2 += t
+    o2 -= b * rate
+    o2 += u2
+    o2 += u3
+    if has_lat:
+        o2 += a_lat * iv
+    o0 = o3 = 0.0
+    if heading:
+        o0 = r
+        o3 = b * k
+        o3 += psi
+        if exact:
+            o3 = math.sin(o3)
+        o3 /= iv
+    return o0, o1, o2, o3
+
+
+@njit(inline="always", error_model="numpy")
+def _steps(out, h, n_steps, record_every, heading, exact, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate):
+    """``out`` (K + 1, d, n): the states from rest every ``record_every`` steps; ``C`` (11, n):
+    the coefficients P, a12, a13, W1, Q, R, S, inv_m, M_term, a_lat, k as rows (one array: the
+    loop over realisations then reads few enough arrays to be vectorised).
 
     Per realisation and stage the operations of
     :meth:`uqdrive.vehicle.track_rk4.LinearTrackRHS.__call__` and its ``_inputs``, in their order
     (no fused multiply-add: numba contracts none without fastmath), and the stage sums of
-    :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`.
+    :func:`uqdrive.numerics.integrate.rk4_fixed_step_into`: the next stage's state h/2 k + x
+    (h k3 + x), the step x + (h/6)(k1 + 2 (k2 + k3) + k4) summed as it sums them.
     """
-    n = x.shape[1]
+    n = C.shape[1]
     half, sixth = 0.5 * h, h / 6.0
-    ir, ib = (1, 2) if heading else (0, 1)
+    x = np.zeros((4, n))  # psi, psi_dot, beta, y (psi and y stay 0 without heading)
     for i in range(n_steps):
         j = 2 * i
+        iv0, iv1, iv2 = inv_v[j], inv_v[j + 1], inv_v[j + 2]
+        d0, d1, d2 = delta_half[j], delta_half[j + 1], delta_half[j + 2]
+        q0, q1, q2 = rate[j], rate[j + 1], rate[j + 2]
         for m in range(n):
-            x0, r0, b0 = x[0, m], x[ir, m], x[ib, m]
-            psi, r, b = x0, r0, b0
-            acc_r = acc_b = acc_psi = acc_y = 0.0
-            k1r = k1b = k1p = k1y = 0.0
-            k2r = k2b = k2p = k2y = 0.0
-            k3r = k3b = k3p = k3y = 0.0
-            for stage in range(4):
-                jj = j if stage == 0 else (j + 2 if stage == 3 else j + 1)
-                iv, d, F = inv_v[jj], delta_half[jj], F_w_half[jj, m]
-                # the state-free terms (LinearTrackRHS._inputs)
-                u0 = a13[m] * d
-                u2 = S[m] * (d * iv)
-                u3 = inv_m[m] * F
-                u3 *= iv
-                # psi_ddot
-                o1 = P[m] * r
-                o1 *= iv
-                o1 += a12[m] * b
-                o1 += u0
-                o1 += W1[m] * F if yaw_gust else M_term[m]
-                # beta_dot
-                o2 = Q[m] * r
-                o2 *= iv * iv
-                o2 -= r
-                t = R[m] * b
-                t *= iv
-                o2 += t
-                o2 -= b * rate[jj]
-                o2 += u2
-                o2 += u3
-                if has_lat:
-                    o2 += a_lat[m] * iv
-                o0 = o3 = 0.0
-                if heading:
-                    o0 = r
-                    o3 = b * k[m]
-                    o3 += psi
-                    if exact:
-                        o3 = math.sin(o3)
-                    o3 /= iv
-                if stage == 0:
-                    k1r, k1b, k1p, k1y = o1, o2, o0, o3
-                    scale = half
-                elif stage == 1:
-                    k2r, k2b, k2p, k2y = o1, o2, o0, o3
-                    scale = half
-                elif stage == 2:
-                    k3r, k3b, k3p, k3y = o1, o2, o0, o3
-                    scale = h
-                else:
-                    # x + (h / 6) (k1 + 2 (k2 + k3) + k4), in rk4_fixed_step_into's order
-                    acc_r = (((k2r + k3r) * 2.0 + k1r) + o1) * sixth
-                    acc_b = (((k2b + k3b) * 2.0 + k1b) + o2) * sixth
-                    acc_psi = (((k2p + k3p) * 2.0 + k1p) + o0) * sixth
-                    acc_y = (((k2y + k3y) * 2.0 + k1y) + o3) * sixth
-                    break
-                # the next stage's state: h/2 k + x (or h k3 + x), formed as the stepper forms it
-                r = o1 * scale + r0
-                b = o2 * scale + b0
-                psi = o0 * scale + x0
-            x[ir, m] = r0 + acc_r
-            x[ib, m] = b0 + acc_b
+            F0, F1, F2 = F_w_half[j, m], F_w_half[j + 1, m], F_w_half[j + 2, m]
+            c = (C[0, m], C[1, m], C[2, m], C[3, m], C[4, m], C[5, m], C[6, m], C[7, m], C[8, m], C[9, m], C[10, m])
+            p0, r0, b0 = x[0, m], x[1, m], x[2, m]
+            k1 = _stage(p0, r0, b0, iv0, d0, F0, q0, heading, exact, has_lat, yaw_gust, *c)
+            k2 = _stage(k1[0] * half + p0, k1[1] * half + r0, k1[2] * half + b0, iv1, d1, F1, q1, heading, exact, has_lat, yaw_gust, *c)
+            k3 = _stage(k2[0] * half + p0, k2[1] * half + r0, k2[2] * half + b0, iv1, d1, F1, q1, heading, exact, has_lat, yaw_gust, *c)
+            k4 = _stage(k3[0] * h + p0, k3[1] * h + r0, k3[2] * h + b0, iv2, d2, F2, q2, heading, exact, has_lat, yaw_gust, *c)
+            x[1, m] = r0 + (((k2[1] + k3[1]) * 2.0 + k1[1]) + k4[1]) * sixth
+            x[2, m] = b0 + (((k2[2] + k3[2]) * 2.0 + k1[2]) + k4[2]) * sixth
             if heading:
-                x[0, m] = x0 + acc_psi
-                x[3, m] = x[3, m] + acc_y
+                x[0, m] = p0 + (((k2[0] + k3[0]) * 2.0 + k1[0]) + k4[0]) * sixth
+                x[3, m] = x[3, m] + (((k2[3] + k3[3]) * 2.0 + k1[3]) + k4[3]) * sixth
         if (i + 1) % record_every == 0:
-            out[(i + 1) // record_every] = x
+            if heading:
+                out[(i + 1) // record_every] = x
+            else:
+                out[(i + 1) // record_every] = x[1:3]
     return out
 
 
-_rk4_pass = _compiled(_rk4_pass)
+def _rates_pass(out, h, n_steps, record_every, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate):
+    """:func:`_steps` of psi_dot and beta alone."""
+    return _steps(out, h, n_steps, record_every, False, False, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate)
+
+
+def _heading_pass(out, h, n_steps, record_every, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate):
+    """:func:`_steps` of psi, psi_dot, beta and y, y_dot = v (psi + k beta)."""
+    return _steps(out, h, n_steps, record_every, True, False, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate)
+
+
+def _exact_course_pass(out, h, n_steps, record_every, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate):
+    """:func:`_steps` of psi, psi_dot, beta and y, y_dot = v sin(psi + k beta)."""
+    return _steps(out, h, n_steps, record_every, True, True, has_lat, yaw_gust, C, delta_half, F_w_half, inv_v, rate)
+
+
+# heading and the course kinematics compiled into separate loops: branches on them inside the
+# loop over realisations keep LLVM from vectorising it (8-40x slower); the other two do not
+# (each compiled at its first call)
+_rates_pass, _heading_pass, _exact_course_pass = (_compiled(f) for f in (_rates_pass, _heading_pass, _exact_course_pass))
 
 
 def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool, exact: bool, P, a12, a13, W1, Q, R, S, inv_m, M_term,
@@ -167,10 +184,8 @@ def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool
     F_w_half = own(F_w_half)
     n = F_w_half.shape[1]
     as_n = lambda a: np.array(np.broadcast_to(np.asarray(a, float), (n,)), order="C")  # noqa: E731
-    x = np.zeros((4 if heading else 2, n))
-    out = np.empty((n_steps // record_every + 1,) + x.shape)
-    out[0] = x
-    args = (x, out, float(h), int(n_steps), int(record_every), bool(heading), bool(exact), bool(np.any(a_lat)), M_term is None,
-            *(as_n(a) for a in (P, a12, a13, W1, Q, R, S, inv_m, 0.0 if M_term is None else M_term, a_lat, k)),
-            own(delta_half), F_w_half, own(inv_v), own(rate))
-    return _rk4_pass(*args)
+    out = np.zeros((n_steps // record_every + 1, 4 if heading else 2, n))
+    C = np.stack([as_n(a) for a in (P, a12, a13, W1, Q, R, S, inv_m, 0.0 if M_term is None else M_term, a_lat, k)])
+    args = (out, float(h), int(n_steps), int(record_every), bool(np.any(a_lat)), M_term is None, C, own(delta_half), F_w_half,
+            own(inv_v), own(rate))
+    return (_rates_pass if not heading else _exact_course_pass if exact else _heading_pass)(*args)
