@@ -10,7 +10,12 @@ best of ``--repeats`` alternating calls after an untimed warm-up; both must agre
 Also the kernel's start-up in fresh processes with an empty numba cache (the compile) and with
 that cache filled (the cached load): numba's import, the first call and a second call.
 
+``--cells case:channel_set:runs ...``: each cell of the detection table
+(:func:`uqdrive.studies.discrepancy.channel_detection_cell` on one case) with the NumPy pass and
+with the kernel, in CPU seconds; its rows and verdict (clock readings left out) must be equal.
+
     python benchmarks/bench_ltv.py [--realisations 300 1000 2400] [--repeats 3] [--json docs/measurements/benchmarks_ltv.json]
+    python benchmarks/bench_ltv.py --cells actuator_lag_200ms:imu_speed:20 actuator_lag_200ms:imu_speed:100 [--json ...]
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from timing import without
 from uqdrive.config import load_config
 from uqdrive.numerics.integrate import rk4_fixed_step_into
 from uqdrive.settings import Settings
@@ -96,13 +102,71 @@ def startup() -> dict:
             "cached_load_s": round(runs[1]["first_call_s"] - runs[1]["second_call_s"], 3)}
 
 
+def numpy_pass(rhs, h, n_steps, record_every):
+    """The simulators' integration along a speed profile by the NumPy reference (states (4, n, K + 1), psi and y NaN without heading)."""
+    x = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, rhs.F_w_half.shape[1])), h, n_steps, record_every)
+    if x.shape[1] == 2:
+        full = np.full((x.shape[0], 4, x.shape[2]), np.nan)
+        full[:, 1:3] = x
+        x = full
+    return x.transpose(1, 2, 0)
+
+
+def cells(specs) -> list[dict]:
+    """CPU seconds of each detection-table cell with the NumPy pass (before) and the kernel (after), rows and verdicts compared."""
+    import uqdrive.vehicle.dynamics.engine as engine
+    from uqdrive.inference.discrepancy import DiscrepancyFinder
+    from uqdrive.studies.discrepancy import channel_detection_cell
+    from uqdrive.studies.hidden_effects import benchmark_cases
+
+    config = load_config(Path(__file__).resolve().parents[1] / "config" / "config.yaml")  # the workflow's, as make reproduce runs the table
+    compiled, fit = engine.integrate_linear_ltv, DiscrepancyFinder.fit
+    verdicts = []
+
+    def capture(self, data):
+        result = fit(self, data)
+        verdicts.append(self.verdict_)
+        return result
+
+    rows = []
+    DiscrepancyFinder.fit = capture
+    try:
+        for spec in specs:
+            name, channel_set, runs = spec.split(":")
+            case = {c.name: c for c in benchmark_cases(config)}[name]
+            got = {}
+            for variant, integrate in (("before", numpy_pass), ("after", compiled)):
+                engine.integrate_linear_ltv = integrate
+                verdicts.clear()
+                seconds, table = cpu(lambda: channel_detection_cell(config, [case], channel_set, int(runs)))
+                got[variant] = (seconds, without(table), without(verdicts))
+            same = got["before"][1:] == got["after"][1:]
+            rows.append({"data": spec.replace(":", ": "), "verdict": got["after"][1][0]["verdict"], "before": round(got["before"][0], 1),
+                         "after": round(got["after"][0], 1), "same": same})
+            print(f"{spec}: {got['before'][0]:.1f} -> {got['after'][0]:.1f} CPU s, rows and verdict equal: {same}", flush=True)
+    finally:
+        engine.integrate_linear_ltv, DiscrepancyFinder.fit = compiled, fit
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--realisations", type=int, nargs="+", default=[300, 1000, 2400])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--machine", default="this machine", help="words for the record")
-    parser.add_argument("--json", type=Path, default=None, help="write the record the benchmarks page renders")
+    parser.add_argument("--cells", nargs="+", default=None, help="case:channel_set:runs of detection-table cells, before and after")
+    parser.add_argument("--json", type=Path, default=None, help="write the record the benchmarks page renders (the other part kept)")
     args = parser.parse_args(argv)
+    record = json.loads(args.json.read_text()) if args.json and args.json.exists() else {}
+    if args.cells:
+        rows = cells(args.cells)
+        if args.json:
+            record["cells"] = {"command": "python benchmarks/bench_ltv.py --cells " + " ".join(args.cells), "machine": args.machine,
+                               "date": time.strftime("%Y-%m-%d", time.gmtime()), "rows": rows}
+            args.json.write_text(json.dumps(record, indent=1) + "\n")
+        if not all(r["same"] for r in rows):
+            raise SystemExit("a cell's rows or verdict differ between the NumPy pass and the kernel")
+        return
     settings = Settings.from_config(load_config(None))
     n_steps = int(round(DURATION / H))
     start = startup()
@@ -123,9 +187,9 @@ def main(argv=None):
         rows.append({"realisations": n, "old_s": round(best["old"][0], 4), "new_s": round(best["new"][0], 4), "same": same})
         print(f"| {n} | {best['old'][0]:.3f} | {best['new'][0]:.4f} | {best['old'][0] / best['new'][0]:.1f}x | {same} |", flush=True)
     if args.json:
-        record = {"command": "python benchmarks/bench_ltv.py" + (f" --repeats {args.repeats}" if args.repeats != 3 else ""), "machine": args.machine,
-                  "date": time.strftime("%Y-%m-%d", time.gmtime()), "duration_s": DURATION, "step_ms": H * 1e3, "steps": n_steps, **start,
-                  "rows": rows}
+        record.update({"command": "python benchmarks/bench_ltv.py" + (f" --repeats {args.repeats}" if args.repeats != 3 else ""),
+                       "machine": args.machine, "date": time.strftime("%Y-%m-%d", time.gmtime()), "duration_s": DURATION, "step_ms": H * 1e3,
+                       "steps": n_steps, **start, "rows": rows})
         args.json.write_text(json.dumps(record, indent=1) + "\n")
         print(f"wrote {args.json}")
     if not all(r["same"] for r in rows):

@@ -118,6 +118,10 @@ class LinearTrackRHS:
     :func:`~uqdrive.vehicle.single_track.linear_axle_forces`; y_dot = v (psi + k beta), or
     v sin(psi + k beta) for the exact course kinematics.
 
+    The simulators integrate it by a compiled pass (:func:`integrate_linear_ltv`) that performs
+    these operations in this order: calling it (``rk4_fixed_step_into``) gives the same numbers,
+    bit for bit, and is the reference the compiled pass is tested against.
+
     Parameters
     ----------
     p : VehicleParameters

@@ -158,11 +158,11 @@ def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool
         Per-realisation coefficients (LinearTrackRHS's attributes of those names; units such that
         each term is rad/s^2 or rad/s).
     M_term : ndarray, shape (n,), or None
-        Mean-wind yaw moment over I_z (rad/s^2); None: the gusts' W1 F_w instead.
+        Mean-wind yaw moment over I_z, in the units of psi_ddot (rad/s^2); None: the gusts' W1 F_w instead.
     a_lat : float or ndarray, shape (n,)
         Lateral acceleration (m/s^2) of the road (zero: the term is left out, as the NumPy path does).
     k : float or ndarray, shape (n,)
-        Course weight of beta in the course angle.
+        Course weight of beta in the course angle (-).
     delta_half : ndarray, shape (J,)
         Actual steering angle (rad) on the half-step grid, J = 2 ``n_steps`` + 1.
     F_w_half : ndarray, shape (J, n)
