@@ -67,9 +67,13 @@ def test_the_kernel_is_the_numpy_pass_bit_for_bit(car, heading, exact, lateral, 
 
 
 def test_integrate_linear_ltv_returns_the_reference_layout(car):
-    """integrate_linear_ltv (the simulators' call) is the reference pass, (4, n, K + 1), psi and y NaN without heading."""
+    """integrate_linear_ltv (the simulators' call) is the reference pass, (4, n, K + 1), psi and y
+    NaN without heading; here with a lateral acceleration per realisation (pairs with and without
+    it share a pass) and a read-only wind array."""
     for heading in (True, False):
-        rhs = _braking_rhs(car, _structure(True, True, True), False, heading, seed=3)
+        s = replace(_structure(True, True, False), lateral_acceleration=np.repeat([0.0, 0.8], N // 2))
+        rhs = _braking_rhs(car, s, False, heading, seed=3)
+        rhs.F_w_half.flags.writeable = False
         want = _reference(rhs, 10)
         if not heading:
             full = np.full((want.shape[0], 4, N), np.nan)
