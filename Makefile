@@ -78,6 +78,7 @@ bench: $(PYTHON)
 	$(PYTHON) benchmarks/bench_posterior.py
 	$(PYTHON) benchmarks/bench_chassis.py
 	$(PYTHON) benchmarks/bench_profile_batch.py
+	$(PYTHON) benchmarks/bench_ltv.py
 	$(PYTHON) benchmarks/bench_import.py
 
 clean:

@@ -116,6 +116,14 @@ def chassis_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def ltv_table() -> str:
+    r = _rec("ltv")
+    lines = ["| realisations | NumPy pass (s) | compiled pass (s) | ratio | same bits |", "|---|---|---|---:|---|"]
+    lines += [f"| {x['realisations']} | {x['old_s']:.3f} | {x['new_s']:.4f} | {x['old_s'] / x['new_s']:.1f}x | {'yes' if x['same'] else 'no'} |"
+              for x in r["rows"]]
+    return "\n".join(lines) + "\n"
+
+
 def reproduce_jobs_table() -> str:
     r = _rec("reproduce_jobs")
     lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | same verdict | numbers moved |", "|---|---|---|---:|---|---:|"]
@@ -131,7 +139,8 @@ def reproduce_jobs_table() -> str:
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
-          "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table}
+          "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
+          "bench_ltv": ltv_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -215,6 +224,12 @@ def substitutions() -> dict[str, str]:
              bench_dd_tour_runs=str(dd["tour"]["runs"]), bench_dd_machine=dd["machine"], bench_dd_side_by_side=dd["side_by_side"])
     ch = _rec("chassis")
     s.update(bench_chassis_realisations=str(ch["realisations"]), bench_chassis_duration=f"{ch['duration_s']} s", bench_chassis_machine=ch["machine"])
+    lt = _rec("ltv")
+    cells = lt["cells"]
+    s.update(bench_ltv_machine=lt["machine"], bench_ltv_duration=f"{lt['duration_s']:g} s", bench_ltv_steps=str(lt["steps"]),
+             bench_ltv_compile=f"{lt['compile_s']:g} s", bench_ltv_cached_load=f"{lt['cached_load_s']:g} s",
+             bench_ltv_import=f"{lt['numba_import_s']:g} s", bench_ltv_cells_machine=cells["machine"],
+             bench_ltv_cells="; ".join(f"{x['data']} {x['before']:.1f} -> {x['after']:.1f} ({x['before'] / x['after']:.2f}x)" for x in cells["rows"]))
     sw = _rec("sweeps")["seconds"]
     s["bench_sweeps"] = ", ".join(f"{_clock(v)} for `{k}`" for k, v in sw.items())
     ts = _rec("test_suite")

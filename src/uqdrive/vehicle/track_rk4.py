@@ -118,6 +118,10 @@ class LinearTrackRHS:
     :func:`~uqdrive.vehicle.single_track.linear_axle_forces`; y_dot = v (psi + k beta), or
     v sin(psi + k beta) for the exact course kinematics.
 
+    The simulators integrate it by a compiled pass (:func:`integrate_linear_ltv`) that performs
+    these operations in this order: calling it (``rk4_fixed_step_into``) gives the same numbers,
+    bit for bit, and is the reference the compiled pass is tested against.
+
     Parameters
     ----------
     p : VehicleParameters
@@ -224,8 +228,17 @@ class LinearTrackRHS:
 
 def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
     """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``);
-    psi and y NaN where ``rhs`` leaves them out (``heading`` False)."""
-    return _with_heading(rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, rhs.F_w_half.shape[1])), h, n_steps, record_every)).transpose(1, 2, 0)
+    psi and y NaN where ``rhs`` leaves them out (``heading`` False).
+
+    The pass is compiled (:func:`uqdrive.vehicle.dynamics.ltv_rk4.rk4_linear_track`): the numbers
+    of ``rk4_fixed_step_into(rhs, ...)`` bit for bit, without NumPy's cost per call on every stage.
+    """
+    from .dynamics.ltv_rk4 import rk4_linear_track  # numba: only where a speed profile is integrated
+
+    out = rk4_linear_track(h, n_steps, record_every, heading=rhs.heading, exact=rhs.exact, P=rhs.P, a12=rhs.a12, a13=rhs.a13, W1=rhs.W1,
+                           Q=rhs.Q, R=rhs.R, S=rhs.S, inv_m=rhs.inv_m, M_term=rhs.M_term, a_lat=rhs.a_lat, k=rhs.k,
+                           delta_half=rhs.delta_half, F_w_half=rhs.F_w_half, inv_v=rhs.inv_v, rate=rhs.rate)
+    return _with_heading(out).transpose(1, 2, 0)
 
 
 def rk4_lateral_acceleration(rhs, x, js):
