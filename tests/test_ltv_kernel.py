@@ -118,3 +118,20 @@ def test_an_operation_in_another_order_changes_the_bits(car, variant):
     moved = _reference(_Reordered(*args, heading=False, variant=variant))
     assert not np.array_equal(moved, want)
     assert np.allclose(moved, want, rtol=1e-9, atol=1e-12)  # a rounding, not another model
+
+
+def test_the_lateral_acceleration_of_every_time_at_once_is_each_times_bit_for_bit(car):
+    """rk4_lateral_acceleration reads a_y of all recorded times in one element-wise pass
+    (LinearTrackRHS.lateral_acceleration_along): the numbers of a call per time, with a compliance
+    steer (the coefficients of the softened front axle) and per-realisation parameters; a per-time
+    speed taken from the wrong half step would change them."""
+    from uqdrive.vehicle.track_rk4 import rk4_lateral_acceleration
+
+    rhs = _braking_rhs(car, _structure(False, False, True, compliance=0.4), True, False)
+    x = integrate_linear_ltv(rhs, H, STEPS, 5)
+    js = np.arange(x.shape[2]) * 10
+    each = np.stack([rhs.lateral_acceleration(np.ascontiguousarray(x[:, :, k]), j) for k, j in enumerate(js)], axis=-1)
+    together = rk4_lateral_acceleration(rhs, x, js)
+    assert together.shape == each.shape == (N, js.size) and np.all(np.isfinite(together))
+    assert np.array_equal(together, each)
+    assert not np.array_equal(rhs.lateral_acceleration_along(x, np.maximum(js - 1, 0)), each)

@@ -225,6 +225,13 @@ class LinearTrackRHS:
         """a_y (m/s^2), shape (n,), of ``x`` (4, n) at half step ``j``: (F_f + F_r + F_w) / m."""
         return lst_lateral_acceleration(self.coefficients, self.delta_half[j], x[2], x[1], self.F_w_half[j], self.v_half[j])
 
+    def lateral_acceleration_along(self, x, js):
+        """a_y (m/s^2), shape (n, K + 1), of the states ``x`` (4, n, K + 1) at the half steps ``js``
+        (K + 1,): :meth:`lateral_acceleration` of every time in one element-wise pass (the same
+        operations on each element, so the same numbers)."""
+        js = np.asarray(js)
+        return lst_lateral_acceleration(self.coefficients, self.delta_half[js], x[2], x[1], self.F_w_half[js].T, self.v_half[js])
+
 
 def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_every: int):
     """States (4, n, K + 1) of ``rhs`` from rest by RK4 (step h, recorded every ``record_every``);
@@ -243,7 +250,10 @@ def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_eve
 
 def rk4_lateral_acceleration(rhs, x, js):
     """a_y (m/s^2), shape (n, K + 1), of RK4 states x (4, n, K + 1) from the right-hand side
-    ``rhs`` (its ``lateral_acceleration(x, j)``) at the half-step indices ``js`` (K + 1,)."""
+    ``rhs`` (its ``lateral_acceleration(x, j)``, or ``lateral_acceleration_along(x, js)`` at
+    every time at once) at the half-step indices ``js`` (K + 1,)."""
+    if hasattr(rhs, "lateral_acceleration_along"):
+        return rhs.lateral_acceleration_along(x, js)
     return np.stack([rhs.lateral_acceleration(np.ascontiguousarray(x[:, :, k]), j) for k, j in enumerate(js)], axis=-1)
 
 
