@@ -56,7 +56,8 @@ def _with_heading(out):
     """Recorded states (K + 1, 4, n): those of psi_dot and beta alone (K + 1, 2, n) with psi and y NaN."""
     if out.shape[1] == 4:
         return out
-    full = np.full((out.shape[0], 4, out.shape[2]), np.nan)
+    full = np.empty((out.shape[0], 4, out.shape[2]))  # each row written once (a 10 s run of 2400 realisations: 77 MB)
+    full[:, 0] = full[:, 3] = np.nan
     full[:, 1:3] = out
     return full
 
