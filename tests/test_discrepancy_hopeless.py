@@ -11,14 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uqdrive.inference.discrepancy.comparison import ModelComparison
-from uqdrive.inference.discrepancy.fit import StructureFit
 from uqdrive.inference.discrepancy.fitter import PROBE_SHARE, in_reach, reach_bar
 from uqdrive.inference.discrepancy.ranking import HOPELESS_OPTIMISM, RESOLVED_TIMES, ResolutionRule, ResolutionStop
 from uqdrive.inference.discrepancy.selection import _removal_bar, comparison_margin
-from uqdrive.vehicle.effects import EFFECTS, ModelStructure
+from uqdrive.vehicle.effects import EFFECTS
 
-from test_discrepancy_fit import TRUTH, _Analytic, _measured
-from test_discrepancy_stopping import CHI2_MIN, OPT, A, _f
+from test_discrepancy_fit import TRUTH
+from test_discrepancy_stopping import CHI2_MIN, OPT, A, _f, road_bank_fit
 
 FREE = (np.full(3, -np.inf), np.full(3, np.inf))
 
@@ -64,15 +63,8 @@ def test_a_hopeless_fit_stops_early_above_its_bar_and_a_reachable_bar_changes_no
     so that chi2 at the optimum is F > 0): asked to come below F / 2, out of its reach, it stops
     with fewer evaluations, not converged, above the bar (as the whole fit ends); asked to come
     below 2 F, which it reaches, it gives the whole fit's numbers bit for bit."""
-    sim = _Analytic()
-    a_lat = EFFECTS["road_bank"].augment(ModelStructure(), [2.0]).lateral_acceleration
-    measured = _measured(sim, TRUTH, a_lat) + 1e-2 * np.random.default_rng(8).standard_normal((2, 4, 12))
-    scale = np.full_like(measured, 1e-2)
-    start = dict(theta0=[1.2, 0.3, 1.3, 0.3, -400.0, 400.0], effect_start=[0.5])
-
     def fit(bar):
-        return StructureFit(sim, np.arange(12), np.zeros(4), effect=EFFECTS["road_bank"], max_nfev=200,
-                            hopeless_above=bar).fit(measured, scale, **start)
+        return road_bank_fit(hopeless_above=bar)
 
     full = fit(None)
     assert full.chi2_ > 10.0 and full.success_

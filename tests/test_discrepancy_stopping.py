@@ -22,6 +22,17 @@ def _f(x):
     return A @ x - B
 
 
+def road_bank_fit(**stops):
+    """A joint fit of the distributions and a road bank (2 m/s^2) from far off on the analytic
+    stand-in, noise so that chi2 at the optimum is not 0, with the fit's ``stops`` (resolution,
+    hopeless_above)."""
+    sim = _Analytic()
+    a_lat = EFFECTS["road_bank"].augment(ModelStructure(), [2.0]).lateral_acceleration
+    measured = _measured(sim, TRUTH, a_lat) + 1e-2 * np.random.default_rng(8).standard_normal((2, 4, 12))
+    return StructureFit(sim, np.arange(12), np.zeros(4), effect=EFFECTS["road_bank"], max_nfev=200, **stops).fit(
+        measured, np.full_like(measured, 1e-2), theta0=[1.2, 0.3, 1.3, 0.3, -400.0, 400.0], effect_start=[0.5])
+
+
 def test_predicted_decrease_of_a_linear_problem_is_its_whole_remaining_decrease():
     """For f linear in x the Gauss-Newton model is exact: the prediction at any point is chi2 there
     less chi2 at the optimum (1e-9 relative: one QR solve); a bound the optimum lies beyond caps it
@@ -74,15 +85,8 @@ def test_a_fit_stopped_at_its_resolution_is_within_it_with_fewer_evaluations():
     evaluations than the fit to trf's tolerances, its chi2 above that fit's by less than the
     resolution (the Gauss-Newton model near the optimum is quadratic to within this margin);
     a resolution of 1e-12 runs the whole fit and gives its numbers."""
-    sim = _Analytic()
-    a_lat = EFFECTS["road_bank"].augment(ModelStructure(), [2.0]).lateral_acceleration
-    measured = _measured(sim, TRUTH, a_lat) + 1e-2 * np.random.default_rng(8).standard_normal((2, 4, 12))
-    scale = np.full_like(measured, 1e-2)
-    start = dict(theta0=[1.2, 0.3, 1.3, 0.3, -400.0, 400.0], effect_start=[0.5])
-
     def fit(resolution):
-        return StructureFit(sim, np.arange(12), np.zeros(4), effect=EFFECTS["road_bank"], max_nfev=200,
-                            resolution=resolution).fit(measured, scale, **start)
+        return road_bank_fit(resolution=resolution)
 
     full, stopped, tight = fit(None), fit(1.0), fit(1e-12)
     assert full.chi2_ > 10.0
