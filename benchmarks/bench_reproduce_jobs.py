@@ -22,11 +22,13 @@ Usage: python benchmarks/bench_reproduce_jobs.py [--jobs discover:combined_satur
 """
 
 import argparse
+import contextlib
 import json
 import os
 import platform
 import time
 from pathlib import Path
+from unittest import mock
 
 from timing import without
 from uqdrive.config import load_config
@@ -87,46 +89,22 @@ def says(output) -> dict:
     return out
 
 
-class ToTrfTolerances:
-    """Within the block, the candidates' fits run to trf's tolerances (no resolution stop)."""
-
-    def __enter__(self):
-        self._resolve_at = CandidateFitter.resolve_at
-        CandidateFitter.resolve_at = lambda fitter, band: None
-        return self
-
-    def __exit__(self, *exc):
-        CandidateFitter.resolve_at = self._resolve_at
-
-
-class WithoutHopelessStop:
+def without_hopeless_stop():
     """Within the block, no fit stops for being out of reach (an infinite optimism: never hopeless)."""
+    return mock.patch.object(ranking, "HOPELESS_OPTIMISM", float("inf"))
 
-    def __enter__(self):
-        self._optimism, ranking.HOPELESS_OPTIMISM = ranking.HOPELESS_OPTIMISM, float("inf")
-        return self
 
-    def __exit__(self, *exc):
-        ranking.HOPELESS_OPTIMISM = self._optimism
+def to_trf_tolerances():
+    """Within the block, the candidates' fits run to trf's tolerances (no resolution stop, no hopeless stop)."""
+    stack = contextlib.ExitStack()
+    stack.enter_context(mock.patch.object(CandidateFitter, "resolve_at", lambda fitter, band: None))
+    stack.enter_context(without_hopeless_stop())
+    return stack
 
 
 #: The old variants: (context, description).
-OLD = {"reach": (WithoutHopelessStop, "candidate fits stopped at the resolution only (no hopeless stop)"),
-       "trf": (lambda: _Both(ToTrfTolerances(), WithoutHopelessStop()), "every candidate fit to trf's tolerances")}
-
-
-class _Both:
-    def __init__(self, *contexts):
-        self.contexts = contexts
-
-    def __enter__(self):
-        for c in self.contexts:
-            c.__enter__()
-        return self
-
-    def __exit__(self, *exc):
-        for c in reversed(self.contexts):
-            c.__exit__(*exc)
+OLD = {"reach": (without_hopeless_stop, "candidate fits stopped at the resolution only (no hopeless stop)"),
+       "trf": (to_trf_tolerances, "every candidate fit to trf's tolerances")}
 
 
 def run_job(config, job: str):

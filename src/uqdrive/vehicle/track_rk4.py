@@ -245,8 +245,8 @@ def integrate_linear_ltv(rhs: LinearTrackRHS, h: float, n_steps: int, record_eve
 
     out = rk4_linear_track(h, n_steps, record_every, heading=rhs.heading, exact=rhs.exact, P=rhs.P, a12=rhs.a12, a13=rhs.a13, W1=rhs.W1,
                            Q=rhs.Q, R=rhs.R, S=rhs.S, inv_m=rhs.inv_m, M_term=rhs.M_term, a_lat=rhs.a_lat, k=rhs.k,
-                           delta_half=rhs.delta_half, F_w_half=rhs.F_w_half, inv_v=rhs.inv_v, rate=rhs.rate)
-    return _with_heading(out).transpose(1, 2, 0)
+                           delta_half=rhs.delta_half, F_w_half=rhs.F_w_half, inv_v=rhs.inv_v, rate=rhs.rate, padded=True)
+    return out.transpose(1, 2, 0)
 
 
 def rk4_lateral_acceleration(rhs, x, js):

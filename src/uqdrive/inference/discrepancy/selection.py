@@ -302,8 +302,10 @@ def forward_selection(comparison, fitter, candidates, max_effects, base, band, s
                 else:
                     stalled = c
                 break
-            tie = chosen is not None and chi2(fits[chosen]) + margin >= (fitter.reach_bar or np.inf)
-            if not fitter.unfinished or not (reached or stalled is not None or tie):  # a stalled step seeks pairs among all fits
+            if not fitter.unfinished:
+                break
+            tie = chosen is not None and chi2(fits[chosen]) + margin >= fitter.reach_bar
+            if not (reached or stalled is not None or tie):  # a stalled step seeks pairs among all fits
                 break
             fits = fitter.finish(fits)
         if step == 0:

@@ -102,6 +102,8 @@ def _steps(out, h, n_steps, record_every, heading, exact, has_lat, yaw_gust, C, 
         if (i + 1) % record_every == 0:
             if heading:
                 out[(i + 1) // record_every] = x
+            elif out.shape[1] == 4:  # padded: psi and y rows left as given (NaN)
+                out[(i + 1) // record_every, 1:3] = x[1:3]
             else:
                 out[(i + 1) // record_every] = x[1:3]
     return out
@@ -129,7 +131,7 @@ _rates_pass, _heading_pass, _exact_course_pass = (_compiled(f) for f in (_rates_
 
 
 def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool, exact: bool, P, a12, a13, W1, Q, R, S, inv_m, M_term,
-                     a_lat, k, delta_half, F_w_half, inv_v, rate):
+                     a_lat, k, delta_half, F_w_half, inv_v, rate, padded: bool = False):
     """States of the linear single-track model (5.4) along a speed profile from rest, by RK4.
 
     The right-hand side, with the speed v_j and its rate v_dot_j on the half-step grid and the
@@ -169,12 +171,15 @@ def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool
         Side wind (N) per half step and realisation.
     inv_v, rate : ndarray, shape (J,)
         1 / v (s/m) and v_dot / v (1/s) per half step, as LinearTrackRHS precomputes them.
+    padded : bool
+        Without ``heading``, return all four states with psi and y NaN (the simulators' layout,
+        written in place: no second array).
 
     Returns
     -------
     ndarray, shape (n_steps // record_every + 1, d, n)
         The states every ``record_every`` steps from t = 0, d = 4 (psi, psi_dot, beta, y in rad,
-        rad/s, rad, m) or 2 (psi_dot, beta).
+        rad/s, rad, m) or 2 (psi_dot, beta; 4 where ``padded``).
     """
     if n_steps % record_every:
         raise ValueError("n_steps must be a multiple of record_every")
@@ -184,7 +189,9 @@ def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool
     F_w_half = own(F_w_half)
     n = F_w_half.shape[1]
     as_n = lambda a: np.array(np.broadcast_to(np.asarray(a, float), (n,)), order="C")  # noqa: E731
-    out = np.zeros((n_steps // record_every + 1, 4 if heading else 2, n))
+    out = np.zeros((n_steps // record_every + 1, 4 if heading or padded else 2, n))
+    if padded and not heading:
+        out[:, 0] = out[:, 3] = np.nan
     C = np.stack([as_n(a) for a in (P, a12, a13, W1, Q, R, S, inv_m, 0.0 if M_term is None else M_term, a_lat, k)])
     args = (out, float(h), int(n_steps), int(record_every), bool(np.any(a_lat)), M_term is None, C, own(delta_half), F_w_half,
             own(inv_v), own(rate))
