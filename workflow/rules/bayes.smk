@@ -23,6 +23,7 @@ rule posterior:
     params:
         **reads(*BAYES_KEYS, "bayes.ensembles", "bayes.dispersion", "bayes.max_steps", per_job=("case", {"lst_noise": ("bayes.noise_level",)})),
     threads: 1
+    priority: LONG_JOB
     resources:
         mem_mb=2000,
         runtime=40,
@@ -46,6 +47,7 @@ rule posterior_coverage:
     params:
         **reads(*BAYES_KEYS, "montecarlo.samples", "montecarlo.spin_threshold", "bayes.calibration_sets", "bayes.calibration_steps"),
     threads: 1
+    priority: LONG_JOB
     resources:
         mem_mb=2000,
         runtime=40,

@@ -14,6 +14,14 @@ if "normal" in STEERS:
     FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]
 
 
+#: Priority of the jobs that run half a minute or more (the benchmark discovers and the measured
+#: files they need, the posteriors, the wheel-slip calibration): they start before the short ones,
+#: so that the DAG ends on short jobs filling both cores, not on one long job with the other core
+#: idle (longest first, as list scheduling on a few cores wants it). Snakemake's schedulers
+#: (ilp, greedy) take a ready job of higher priority first; its dependencies keep their own.
+LONG_JOB = 1
+
+
 def appendix_a_model(n):
     """Thesis numbering: A.1-A.L are the LST data sets, A.L+1-A.2L the NLST ones."""
     return "lst" if int(n) <= N_LEVELS else "nlst"

@@ -28,6 +28,7 @@ rule discrepancy_case:
     params:
         **reads(*CASE_KEYS),
     threads: 1
+    priority: LONG_JOB
     resources:
         mem_mb=1000,
         runtime=5,
@@ -51,6 +52,7 @@ rule discrepancy_discover:
     params:
         **reads(*DISC_KEYS),
     threads: 1
+    priority: LONG_JOB
     resources:
         mem_mb=3000,
         runtime=20,

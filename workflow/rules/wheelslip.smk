@@ -50,6 +50,7 @@ rule wheelslip_calibration:
         mcmc_sets=lambda wildcards, input: ws_mcmc_sets(wildcards.n),
         mcmc_trigger=lambda w: {"wheelslip.calibration.mcmc_sets": ws_mcmc_sets(w.n)},  # this size's entry
     threads: 1
+    priority: LONG_JOB
     resources:
         mem_mb=2000,
         runtime=30,
