@@ -196,11 +196,14 @@ class DiscrepancyFinder:
         self.baseline_ = base
         bands = NullBands(data, self.seed, self.bootstrap, self.level)
         self.band_ = band = bands.null(base, key=0)
-        self.footing_band_ = bands.footing(base) if any(nonlinear(c) for c in self.candidates_ + list(start_effects)) else None
-        comparison = self.comparison_ = ModelComparison(band, self.scale_, self.footing_band_, bands)
-        fitter.resolve_at(band)
         stat0 = band.max_statistic(base.z_)
         significant = band.gate(base.z_)
+        # the non-linear footing's band is bootstrapped where a non-linear model is judged: the
+        # start model's, or candidates searched because the baseline left the null
+        compared = list(start_effects) + (self.candidates_ if significant else [])
+        self.footing_band_ = bands.footing(base) if any(nonlinear(c) for c in compared) else None
+        comparison = self.comparison_ = ModelComparison(band, self.scale_, self.footing_band_, bands)
+        fitter.resolve_at(band)
         lap("null_band", f" ({self.bootstrap} replicates; max statistic {stat0:.3g}, threshold {band.threshold:.3g})")
         self.fits_, self.screening_, self.steps_, self.removed_, self.unresolved_, self.rejected_ = {}, {}, (), [], {}, []
         self.acceptance_, self.departures_ = {}, {}
