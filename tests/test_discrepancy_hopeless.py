@@ -161,7 +161,7 @@ def test_a_probe_stopped_out_of_reach_is_finished_as_without_the_stop_when_asked
             return SimpleNamespace(chi2_=closed_to, scale_=one, z_=np.zeros_like(one), theta_=TRUTH, message_="")
         stopped = bar is not None
         return SimpleNamespace(chi2_=95.0 if stopped else 90.0, scale_=one, z_=np.zeros_like(one), theta_=TRUTH,
-                               message_=ResolutionStop.MESSAGES[6] if stopped else "", effect=EffectSet(["tyre_saturation"]), effect_values_=np.ones(1))
+                               status_=ResolutionStop.OUT_OF_REACH if stopped else 1, effect=EffectSet(["tyre_saturation"]), effect_values_=np.ones(1))
 
     fitter = CandidateFitter(SimpleNamespace(delta=np.zeros(100), dt=0.01, scale_for=lambda wide: one), {}, TRUTH, 0.97, top=1)
     fitter.joint = joint

@@ -13,7 +13,7 @@ from ...settings import ParameterLayout
 from ...vehicle.augmented import THETA_NAMES, AugmentedSimulator
 from ...vehicle.effects import Effect, ModelStructure
 from .band import compared_times, mean_std
-from .ranking import resolved_least_squares
+from .ranking import ResolutionStop, resolved_least_squares
 
 __all__ = ["THETA_BOUNDS", "THETA_SCALE", "SpreadCoordinates", "StructureFit"]
 
@@ -132,7 +132,8 @@ class StructureFit:
         d z / d parameters at the estimate (the null band projects it out of bootstrap replicates).
     parameter_cov_ : ndarray, shape (p, p)
         Gauss-Newton covariance (J'J)^-1 of all fitted parameters (theta first) in z units.
-    nfev_ : int
+    nfev_, status_ : int
+        Evaluations; trf's status, :class:`.ranking.ResolutionStop`'s (5 resolved, 6 out of reach), 1 where nothing was free.
     success_ : bool
     message_ : str
     """
@@ -376,7 +377,7 @@ class StructureFit:
         free = np.array([i not in self.fixed for i in range(x0.size)], bool)
         typical = np.array(typical, float)
         if not free.any():
-            x, jac, nfev, success, message = x0, np.zeros((self._misfit(x0, theta0, measured, scale).size, x0.size)), 1, True, "nothing to fit"
+            x, jac, nfev, status, message = x0, np.zeros((self._misfit(x0, theta0, measured, scale).size, x0.size)), 1, 1, "nothing to fit"
         else:
             # theta first, within THETA_EVALUATIONS; a fit still searching goes on in the spreads' squares
             first = self.max_nfev if not (self.fit_theta and self.spread_as_variance) else min(self.max_nfev, self.THETA_EVALUATIONS)
@@ -385,7 +386,6 @@ class StructureFit:
                 spread = SpreadCoordinates(self.fixed)
                 x, jac, more, status, message = self._search(x, free, lo, hi, typical, spread, self.max_nfev - nfev, theta0, measured, scale)
                 nfev += more
-            success = 0 < status < 6  # 6: stopped out of reach (ranking.ResolutionStop)
         theta, ev = self._split(x, theta0)
         theta = theta.copy()
         theta[[1, 3]] = np.abs(theta[[1, 3]])  # the moments are even in each std (FACTS)
@@ -402,7 +402,7 @@ class StructureFit:
             self.parameter_cov_ = np.linalg.pinv(jac.T @ jac) if jac.size else np.zeros((0, 0))
         except np.linalg.LinAlgError:
             self.parameter_cov_ = np.full((x.size, x.size), np.nan)
-        self.nfev_, self.success_, self.message_ = int(nfev), success, message
+        self.nfev_, self.status_, self.message_, self.success_ = int(nfev), int(status), message, bool(0 < status != ResolutionStop.OUT_OF_REACH)
         return self
 
     def effect_intervals(self, inflation: float = 1.0, level_z: float = 1.959963984540054):

@@ -171,13 +171,12 @@ class CandidateFitter:
         linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's).
         ``hopeless_above``: as :meth:`joint`, each start stopped where it cannot reach it."""
         starts = [self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above) for th in (theta, self.start)]
-        self.probe_stopped = any(getattr(f, "message_", "") == ResolutionStop.MESSAGES[6] for f in starts)
+        self.probe_stopped = any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in starts)
         return min(starts, key=chi2)
 
     def _nonlinear_candidate(self, comparison, cur, names, values, linear, bar):
         """A non-linear candidate's fit of :meth:`fit_pool`: its probe (each start stopped out of
         reach of ``bar``, None: not), finished when in reach; and whether a start stopped."""
-        self.probe_stopped = False
         short = self.probe(cur.theta_, names, values, comparison.chi2, None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide)))
         stopped = self.probe_stopped
         if in_reach(comparison, cur, short, linear):

@@ -191,10 +191,11 @@ class ResolutionStop(Exception):
     resolution (``status`` 5) or cannot come below the chi2 it was asked for (``status`` 6): the
     point and its Jacobian (trf's variables)."""
 
-    MESSAGES = {5: "the remaining predicted decrease of chi2 is below the comparison's resolution",
-                6: "chi2 stays above the bar the fit was asked to reach, by twice its predicted decrease"}
+    RESOLVED, OUT_OF_REACH = 5, 6
+    MESSAGES = {RESOLVED: "the remaining predicted decrease of chi2 is below the comparison's resolution",
+                OUT_OF_REACH: "chi2 stays above the bar the fit was asked to reach, by twice its predicted decrease"}
 
-    def __init__(self, point, jac, status: int = 5):
+    def __init__(self, point, jac, status: int = RESOLVED):
         super().__init__(self.MESSAGES[status])
         self.point, self.jac, self.status = np.asarray(point, float), np.asarray(jac, float), int(status)
 
@@ -220,11 +221,11 @@ class ResolutionRule:
         resolved = self.tolerance is not None and rest < self.tolerance
         self.count = self.count + 1 if resolved else 0
         if self.count >= self.times:
-            raise ResolutionStop(point, jac, 5)
+            raise ResolutionStop(point, jac, ResolutionStop.RESOLVED)
         out_of_reach = self.above is not None and float(np.dot(f, f)) - HOPELESS_OPTIMISM * rest > self.above
         self.hopeless = self.hopeless + 1 if out_of_reach else 0
         if self.hopeless >= self.times:
-            raise ResolutionStop(point, jac, 6)
+            raise ResolutionStop(point, jac, ResolutionStop.OUT_OF_REACH)
 
 
 def resolved_least_squares(fun, jac, x0, bounds, x_scale, max_nfev: int, resolution: float | None, hopeless_above: float | None = None):
