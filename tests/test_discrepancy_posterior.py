@@ -22,7 +22,8 @@ from uqdrive.vehicle.single_track import STATES
 from uqdrive.settings import Settings
 
 TRUTH = {"mu_mean": 1.0, "mu_std": 0.2, "phi": 2.0}
-SAMPLER = dict(ensembles=2, walkers=16, burn_in=100, max_steps=600, check_every=200, validate=6)
+SAMPLER = dict(ensembles=2, walkers=16, burn_in=100, max_steps=600, check_every=200, validate=24)
+SAMPLER_TOLERANCE = 0.5  # AugmentedPosterior's default
 
 
 def test_quadratic_surrogate_reproduces_a_quadratic_exactly():
@@ -71,7 +72,7 @@ def bank(small):
     return generate(small, HiddenEffectCase("bank", "road_bank", 2.0, "step", {"amplitude_deg": 2.0}, samples=200, seed=5))
 
 
-def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, seed: int = 3, channels=STATES):
+def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, seed: int = 3, channels=STATES, **sampler):
     """Joint StructureFit of road_bank on M CRN realisations of the measured ``channels``, then its posterior."""
     x = np.stack([ds[s].values for s in channels])
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(len(channels))])
@@ -85,7 +86,7 @@ def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, see
     with single_blas_thread():
         fit = StructureFit(sim, index, noise, 0.2 if "beta" in channels else None, effect=EFFECTS["road_bank"])
         fit.fit(moment_statistics(x, index), statistic_scale(x, index, model_ratio=x.shape[1] / M), theta0)
-        return AugmentedPosterior(**SAMPLER).fit(fit, x, np.random.default_rng(4))
+        return AugmentedPosterior(**{**SAMPLER, **sampler}).fit(fit, x, np.random.default_rng(4))
 
 
 def _interval(post, name):
@@ -103,12 +104,23 @@ def test_posterior_covers_the_truth_and_a_wrong_constant_moves_it_off(small, ban
         lo, hi = _interval(post, name)
         assert lo <= truth <= hi, (name, lo, hi)
     assert post.validation_["passed"] and np.all(post.r_hat_ < 1.1)
+    assert post.validation_["shift"] <= SAMPLER_TOLERANCE and set(post.validation_["shifts"]) == set(post.names_)
     summary = post.summary()
     assert summary["mu_mean"][1] <= 1.0 <= summary["mu_mean"][2] and {"r_hat", "tau", "surrogate", "likelihood"} <= set(summary)
     wrong = copy.deepcopy(small)
     wrong["vehicle"]["c_Sf"] *= 0.85
     lo, hi = _interval(_posterior(wrong, bank), "mu_mean")
     assert lo > 1.05, (lo, hi)
+
+
+def test_a_surrogate_that_fails_its_check_gets_a_second_design(small, bank):
+    """The same fit with a tolerance no first-order shift can meet: the check fails, the design is
+    rebuilt around the first round's posterior (its validation draws kept) and emcee rerun; the
+    verdict says the surrogate failed."""
+    post = _posterior(small, bank, tolerance=1e-6, rounds=2)
+    v = post.validation_
+    assert not v["passed"] and v["rounds"] == 2 and len(v["history"]) == 2 and v["shift"] > 1e-6
+    assert v["design_points"] > v["history"][0]["design_points"] - 1 and post.summary()["surrogate"]["passed"] is False
 
 
 def test_posterior_on_an_imu_file_covers_the_truth(small):

@@ -8,6 +8,7 @@ import pytest
 
 from uqdrive.numerics.integrate import rk4_fixed_step, rk4_fixed_step_into
 from uqdrive.vehicle.augmented import AugmentedSimulator, actual_steering
+from uqdrive.vehicle.axle_loads import half_angle_sin_cos
 from uqdrive.vehicle.dynamics.engine import RK4_MAX_STEP
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 from uqdrive.settings import Settings
@@ -16,8 +17,8 @@ THETA = np.array([1.0, 0.25, 1.5, 0.2, -400.0, 400.0])
 
 
 def _reference_rhs(p, s, E):
-    """The right-hand side as it was before the in-place version (allocating, one expression
-    per state), vectorised over realisations."""
+    """The right-hand side written out (allocating, one expression per state), vectorised over
+    realisations; sines and cosines of beta and the tyre's angle by the half-angle tangent."""
     v = float(p.v_c)
     l_f = np.asarray(p.l_f, float)
     l_r = p.l_r
@@ -30,12 +31,12 @@ def _reference_rhs(p, s, E):
 
     def rhs(x, delta, F_w, M_w):
         psi, psi_dot, beta, _ = x
-        sin_b, cos_b = np.sin(beta), np.cos(beta)
+        sin_b, cos_b = half_angle_sin_cos(beta)
         slip = -np.arctan((v * sin_b + lever * psi_dot) / (v * cos_b))
         slip[0] += delta
         if s.tyre == "magic_formula":
             bx = Bs * slip
-            F = peak * np.sin(C * np.arctan(bx - E * (bx - np.arctan(bx))))
+            F = peak * half_angle_sin_cos(C * np.arctan(bx - E * (bx - np.arctan(bx))))[0]
         else:
             F = linear * slip
         F_fy_cos = F[0] * np.cos(delta)

@@ -12,14 +12,14 @@ weight, road bank, speed profile, the states integrated).
 
 The right-hand side writes into preallocated arrays (positional ``out``: NumPy parses an ``out=``
 keyword in ~0.3 us more per call), so a step allocates nothing; at the 300 realisations of a
-discover fit the per-call cost is most of a step. The arithmetic is fixed to the last bit: the
-emcee posterior of a named tyre effect is built on these simulations, and a chain diverges on any
-change of the last bits (sin and cos from the half-angle tangent halve a step's cost at 2400
-realisations and move the fits by 1e-10, and the thesis case's surrogate validation, 0.45 of the
-0.5 allowed, fails). For the same reason the balances keep the two roundings the package's data
-sets were made with: the augmented model and the ensembles' states at constant speed multiply by
-1 / I_z and 1 / (m v); the ensembles along a speed profile and their lateral acceleration divide
-by I_z and m v (``quotient``).
+discover fit the per-call cost is most of a step. The sines and cosines of the side slip and of
+the tyre's angle come from the half-angle tangent (:func:`half_angle_sin_cos_into`): NumPy does not
+vectorise its float64 sine and cosine, and at the 2400 realisations of a batched fit they were
+most of a step. The arithmetic is fixed to the last bit (the package's data sets are remade
+exactly, tests/test_single_track_rhs.py): the balances keep the two roundings the data sets were
+made with: the augmented model and the ensembles' states at constant speed multiply by 1 / I_z
+and 1 / (m v); the ensembles along a speed profile and their lateral acceleration divide by I_z
+and m v (``quotient``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,29 @@ import numpy as np
 
 from ..single_track import VehicleParameters, tyre_angle
 
-__all__ = ["slip_angles", "Balance", "HalfStepInputs", "GustInputs", "SingleTrackRHS", "nlst_rhs"]
+__all__ = ["half_angle_sin_cos_into", "slip_angles", "Balance", "HalfStepInputs", "GustInputs", "SingleTrackRHS", "nlst_rhs"]
+
+
+def half_angle_sin_cos_into(angle, sin_out, cos_out, t, inv) -> None:
+    """sin and cos of ``angle`` (rad, |angle| < pi) from t = tan(angle / 2), sin = 2 t / (1 + t^2),
+    cos = (1 - t^2) / (1 + t^2), into ``sin_out`` and ``cos_out`` (None: the sine only), in place.
+
+    The numbers of :func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos` to the bit, without its
+    temporaries: NumPy vectorises its tangent but not its float64 sine and cosine (7 ns an
+    element each, the tangent's pair a third of that), within 2 ulp of them. ``t`` and ``inv``
+    are work arrays of ``angle``'s shape; ``sin_out`` may be ``angle`` itself.
+    """
+    np.multiply(angle, 0.5, t)
+    np.tan(t, t)
+    np.multiply(t, t, inv)
+    if cos_out is not None:
+        np.subtract(1.0, inv, cos_out)
+    np.add(inv, 1.0, inv)
+    np.divide(1.0, inv, inv)
+    if cos_out is not None:
+        cos_out *= inv
+    np.multiply(t, 2.0, sin_out)
+    sin_out *= inv
 
 
 def slip_angles(v, sin_b, cos_b, lever, psi_dot, delta, out=None, work=None):
@@ -233,6 +255,9 @@ class SingleTrackRHS:
             self.inv_m = 1.0 / p.m
         self._sin_b, self._cos_b, self._t, self._fc, self._tmp = (np.empty(n) for _ in range(5))
         self._q, self._bx, self._F = np.empty((2, n)), np.empty((2, n)), np.empty((2, n))
+        # the tyre's angle C atan(u) stays below C pi / 2: its sine by the half-angle tangent
+        # while that is clear of pi (tan(angle / 2) is infinite at pi)
+        self._half_angle_tyre = bool(np.all(np.asarray(self.C) * 0.5 * np.pi < 3.0))
 
     @classmethod
     def of_structure(cls, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None,
@@ -269,13 +294,15 @@ class SingleTrackRHS:
     def _rates(self, x, out, delta, cos_delta, F_w, M_w, v, mass_factor, a_v, v_dot) -> None:
         psi_dot, beta = x[self._rows[0]], x[self._rows[1]]
         sin_b, cos_b, q, F = self._sin_b, self._cos_b, self._q, self._F
-        np.sin(beta, sin_b)
-        np.cos(beta, cos_b)
+        half_angle_sin_cos_into(beta, sin_b, cos_b, self._t, self._tmp)
         slip_angles(v, sin_b, cos_b, self.lever, psi_dot, delta, q, self._t)
         if self.saturating:  # D sin(C atan(B a - E (B a - atan(B a))))
             np.multiply(self.Bs, q, self._bx)
             tyre_angle(self._bx, self.C, self.E, F)
-            np.sin(F, F)
+            if self._half_angle_tyre:
+                half_angle_sin_cos_into(F, F, None, self._bx, self._q)
+            else:
+                np.sin(F, F)
             F *= self.peak
         else:
             np.multiply(self.linear, q, F)
