@@ -265,3 +265,24 @@ def test_sensors_without_heading_get_the_full_models_numbers(config, profile):
         for s in ([ModelStructure(), bank] if profile else []) + [_tyre(0.6), EFFECTS["road_bank"].augment(_tyre(0.6), [2.0])]:
             want, got = full.simulate(THETA, s), imu.simulate(THETA, s)
             assert np.array_equal(got, want[[4, 1, 2]]) and np.all(np.isfinite(got))
+
+
+def test_a_pass_after_a_larger_or_smaller_one_gives_a_fresh_simulators_numbers(config):
+    """The wind table of an RK4 pass reuses the previous pass's memory (uninitialised, of another
+    size): every pass writes all of it first, so a pass gives the numbers of a fresh simulator
+    whatever ran before it, a_y from its right-hand side included. And the memory is reused."""
+    t = np.arange(201) * 0.01
+    make = lambda: AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5), 25.0, 12,  # noqa: E731
+                                            np.random.default_rng(3), stride=4, channels=("psi_dot", "beta", "a_y"))
+    tyre = EFFECTS["tyre_saturation"].augment(ModelStructure(), [-1.0])
+    lag = EFFECTS["actuator_lag"].augment(tyre, [0.08])
+    fresh_one, fresh_many = make().simulate(THETA, lag), make().simulate_many([THETA, 1.1 * THETA, THETA], [tyre, tyre, lag])
+    sim = make()
+    many = sim.simulate_many([THETA, 1.1 * THETA, THETA], [tyre, tyre, lag])  # a larger pass first
+    one = sim.simulate(THETA, lag)
+    again = sim.simulate_many([THETA, 1.1 * THETA, THETA], [tyre, tyre, lag])  # then a larger one again
+    assert np.array_equal(one, fresh_one)
+    for a, b, c in zip(many, again, fresh_many):
+        assert np.array_equal(a, c) and np.array_equal(b, c)
+    small, large = sim._wind_half(10, 12), sim._wind_half(20, 36)
+    assert np.shares_memory(small, large) and small.flags.c_contiguous and large.shape == (20, 36)

@@ -12,6 +12,8 @@ evaluated at the RK4 half steps (:class:`HalfStepDrive`, :meth:`EnsembleSimulato
 
 from __future__ import annotations
 
+import threading
+
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -143,6 +145,7 @@ class EnsembleSimulator:
         if drive is not None and drive.speed is not None and self.speed is None:
             self.speed = drive.speed[0][: 2 * usable - 1: 2]  # on the grid: for the speed's checks, the half steps' values drive
         self._gust_products: dict = {}  # shared by the copies (with_input, and the germs' copies of a subclass): see _gusts
+        self._wind_table = threading.local()  # the (J, n) wind of the last RK4 pass, its memory reused: see _wind_half
         self._reference_loads = (float(self.base.F_fz), float(self.base.F_rz))  # the nominal car's: the tyre constants' loads
 
     @classmethod
@@ -260,6 +263,17 @@ class EnsembleSimulator:
             cache.pop(next(iter(cache)))
         return product
 
+    def _wind_half(self, J: int, n: int):
+        """An uninitialised (J, n) array for a pass's wind per half step, the memory of the previous
+        pass's (this thread's, shared by the copies). A fresh array of a pass's size (tens of MB)
+        costs three times the sums written into it (the kernel zeroes its pages on first touch);
+        the table lives only through its pass, whose right-hand side (and a_y from it) is used
+        before the next pass starts."""
+        held = getattr(self._wind_table, "memory", None)
+        if held is None or held.size < J * n:
+            held = self._wind_table.memory = np.empty(J * n)
+        return held[: J * n].reshape(J, n)
+
     def _held_input(self, s: ModelStructure) -> bool:
         """The actual steering is the held command itself (delayed): piecewise constant."""
         return self.interpolation == "previous" and s.steering_lag <= 0
@@ -322,7 +336,7 @@ class EnsembleSimulator:
             delta_half = self._delta_half(delta, s, t_half)
         f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
         # wind force per half step with one contiguous row of realisations each, (n_half, n)
-        F_w_half = np.empty((t_half.size, wind.size))
+        F_w_half = self._wind_half(t_half.size, wind.size)
         start = 0
         for size in (groups or [wind.size]):
             np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
