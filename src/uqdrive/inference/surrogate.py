@@ -1,5 +1,5 @@
-"""The posterior's quadratic response surface (design, least squares) and the check of how far
-the surrogate's error moves the posterior it stands in for."""
+"""Quadratic response surfaces that stand in for an expensive model in a posterior (design, least
+squares), and the check of how far the surrogate's error moves the posterior it stands in for."""
 
 from __future__ import annotations
 

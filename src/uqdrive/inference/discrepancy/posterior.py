@@ -16,11 +16,11 @@ a quadratic response surface of the moment map instead, built where the posterio
 5. Validation: the full model at ``validate`` posterior draws. The error log L(full) -
    log L(surrogate) matters only as far as it moves the posterior: its first-order shift of each
    parameter's mean and standard deviation (:func:`~uqdrive.inference.surrogate.first_order_shift`,
-   in posterior sd) must stay within ``tolerance``. (The spread of the error itself is reported
-   as ``loglik_spread``; it is heavy-tailed, a few draws where the full model fits by units of
-   log-likelihood better than the quadratic, and its standard deviation over a dozen draws
-   crossed any fixed limit with the chains' last bits while the summaries did not move.) When
-   the check fails, the design is rebuilt around the posterior's mean and covariance (earlier
+   in posterior sd) must stay within ``tolerance``. (The spread of the error itself, reported as
+   ``loglik_spread``, is no criterion: it is heavy-tailed, a few draws at the posterior's edge
+   where the full model fits by units of log-likelihood better than the quadratic, so its
+   standard deviation over a few dozen draws swings far more than the summaries it would
+   guard.) When the check fails, the design is rebuilt around the posterior's mean and covariance (earlier
    evaluations inside it, the validation draws above all, are kept) and emcee rerun.
 
 Likelihood: the project's whitened moment likelihood (:class:`uqdrive.inference.bayes.MomentLikelihood`)
@@ -40,12 +40,13 @@ truth 3-40 instead of 1 on model-generated data; 0.7-1.4 with a floor of 1 %).
 from __future__ import annotations
 
 import time as _time
+
 import numpy as np
 from scipy.linalg import solve_triangular
 
 from ..bayes import MOVES, MomentLikelihood, chain_dataset
-from .fit import StructureFit
 from ..surrogate import first_order_shift, fit_quadratic, gaussian_design, quadratic_features
+from .fit import StructureFit
 
 __all__ = ["quadratic_features", "fit_quadratic", "gaussian_design", "first_order_shift", "likelihood_times", "sample_vectorised", "AugmentedPosterior"]
 
