@@ -164,4 +164,7 @@ def test_thesis_posterior_row(interval, r_hat, passed, status):
     assert [r.status for r in rows] == [status]
     assert rows[0].status != "pass" or abs(rows[0].reproduced - 1.0) <= rows[0].tolerance
     assert thesis_posterior_rows(benchmark_dataset([case_outcome(label, _verdict())])) == []
+    assert "moves" not in rows[0].evidence
+    post["surrogate"]["shift"] = 0.2164
+    assert "at most 0.216 posterior sd" in thesis_posterior_rows(benchmark_dataset([case_outcome(label, _verdict(post))]))[0].evidence
     assert len(benchmark_rows(benchmark_dataset([case_outcome(label, _verdict(post))]))) == 4

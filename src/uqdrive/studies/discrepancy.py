@@ -81,7 +81,8 @@ def case_outcome(label: Mapping, verdict: Mapping) -> dict:
             "seconds": float(verdict.get("evidence", {}).get("seconds", np.nan)),
             "posterior_mu_mean": float(mu[0]), "posterior_mu_mean_lo95": float(mu[1]), "posterior_mu_mean_hi95": float(mu[2]),
             "posterior_r_hat_max": float(max(post.get("r_hat", {}).values(), default=np.nan)),
-            "posterior_surrogate_passed": bool(post.get("surrogate", {}).get("passed", False))}
+            "posterior_surrogate_passed": bool(post.get("surrogate", {}).get("passed", False)),
+            "posterior_surrogate_shift": float(post.get("surrogate", {}).get("shift", np.nan))}
 
 
 def detection_limits(ds: xr.Dataset) -> dict:
@@ -180,7 +181,9 @@ def thesis_posterior_rows(ds: xr.Dataset, max_r_hat: float = 1.1) -> list[ScoreR
     r_hat, validated = float(c["posterior_r_hat_max"]), bool(c["posterior_surrogate_passed"])
     quantity = "discrepancy: thesis case, emcee 95 % interval of the mu mean covers 1.0"
     tol = (hi - m) if m <= THESIS_MU_MEAN else (m - lo)
-    evidence = f"posterior mu mean {m:.4f} [{lo:.4f}, {hi:.4f}], R-hat max {r_hat:.3f}, surrogate validated {validated}; verdict.json of {THESIS_CASE}"
+    shift = float(c["posterior_surrogate_shift"]) if "posterior_surrogate_shift" in c else np.nan
+    moves = f" (its error moves a posterior mean or sd by at most {shift:.3f} posterior sd to first order)" if np.isfinite(shift) else ""
+    evidence = f"posterior mu mean {m:.4f} [{lo:.4f}, {hi:.4f}], R-hat max {r_hat:.3f}, surrogate validated {validated}{moves}; verdict.json of {THESIS_CASE}"
     covered = lo <= THESIS_MU_MEAN <= hi
     if covered and r_hat <= max_r_hat and validated:
         return [ScoreRow(quantity, "uqdrive check", THESIS_MU_MEAN, m, tol, "pass", "", evidence)]
