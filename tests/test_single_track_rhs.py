@@ -18,8 +18,7 @@ from uqdrive.vehicle.dynamics.ensemble import lateral_acceleration
 from uqdrive.vehicle.dynamics.engine import EnsembleSimulator
 from uqdrive.vehicle.montecarlo import NLST
 from uqdrive.vehicle.dynamics import SingleTrackRHS, nlst_rhs
-from uqdrive.vehicle.dynamics.rhs import half_angle_sin_cos_into
-from uqdrive.vehicle.axle_loads import half_angle_sin_cos
+from uqdrive.vehicle.axle_loads import half_angle_sin_cos, half_angle_sin_cos_into
 from uqdrive.vehicle.single_track import VehicleParameters
 
 N = 6
@@ -157,7 +156,7 @@ def test_the_ensembles_lateral_acceleration_is_the_forces_over_the_mass(case):
 @settings(max_examples=50, deadline=None)
 @given(arrays(np.float64, st.integers(1, 64), elements=st.floats(-3.1, 3.1)))
 def test_half_angle_in_place_is_the_allocating_one_and_numpys_to_rounding(angle):
-    """In place, the chassis RHS's allocating half-angle sine and cosine to the bit; both within
+    """In place, the allocating half-angle sine and cosine to the bit; both within
     a few ulp of NumPy's (|angle| <= 3.1: tan(angle / 2) stays below 42, the rounding of
     1 + t^2 and its reciprocal a few ulp of the result)."""
     s, c, t, inv = (np.empty_like(angle) for _ in range(4))

@@ -181,7 +181,7 @@ def thesis_posterior_rows(ds: xr.Dataset, max_r_hat: float = 1.1) -> list[ScoreR
     r_hat, validated = float(c["posterior_r_hat_max"]), bool(c["posterior_surrogate_passed"])
     quantity = "discrepancy: thesis case, emcee 95 % interval of the mu mean covers 1.0"
     tol = (hi - m) if m <= THESIS_MU_MEAN else (m - lo)
-    shift = float(c["posterior_surrogate_shift"]) if "posterior_surrogate_shift" in c else np.nan
+    shift = float(c["posterior_surrogate_shift"])
     moves = f" (its error moves a posterior mean or sd by at most {shift:.3f} posterior sd to first order)" if np.isfinite(shift) else ""
     evidence = f"posterior mu mean {m:.4f} [{lo:.4f}, {hi:.4f}], R-hat max {r_hat:.3f}, surrogate validated {validated}{moves}; verdict.json of {THESIS_CASE}"
     covered = lo <= THESIS_MU_MEAN <= hi

@@ -20,8 +20,9 @@ a quadratic response surface of the moment map instead, built where the posterio
    ``loglik_spread``, is no criterion: it is heavy-tailed, a few draws at the posterior's edge
    where the full model fits by units of log-likelihood better than the quadratic, so its
    standard deviation over a few dozen draws swings far more than the summaries it would
-   guard.) When the check fails, the design is rebuilt around the posterior's mean and covariance (earlier
-   evaluations inside it, the validation draws above all, are kept) and emcee rerun.
+   guard.) When the check fails, the design is rebuilt around the posterior's mean and
+   covariance (earlier evaluations inside it, the validation draws above all, are kept) and
+   emcee rerun.
 
 Likelihood: the project's whitened moment likelihood (:class:`uqdrive.inference.bayes.MomentLikelihood`)
 at ``times`` well-separated times, not the StructureFit's null-band residuals: those are strongly
@@ -171,6 +172,8 @@ class AugmentedPosterior:
         self.walkers, self.ensembles = walkers, int(ensembles)
         self.burn_in, self.max_steps, self.check_every, self.tau_factor = int(burn_in), int(max_steps), int(check_every), float(tau_factor)
         self.moves, self.validate, self.tolerance, self.rounds = moves, int(validate), float(tolerance), int(rounds)
+        if self.validate < 3:
+            raise ValueError(f"validate is the number of posterior draws that check the surrogate, at least 3; got {validate}")
         self.model_error, self.batch = float(model_error), int(batch)
 
     # -- pieces ---------------------------------------------------------------------------------
@@ -329,11 +332,8 @@ class AugmentedPosterior:
             full, w_full = self._loglik_full(Y_val)
             w_sur = quadratic_features((points - centre) @ self._inv_factor.T) @ self._coef
             error = full - self.log_prob(points)
-            spread = float(np.std(error, ddof=1)) if points.shape[0] > 1 else float("inf")
-            if points.shape[0] >= 3:
-                mean_shift, sd_shift, mean_se, sd_se = first_order_shift(points, error)
-            else:
-                mean_shift = sd_shift = mean_se = sd_se = np.full(p, np.inf)
+            spread = float(np.std(error, ddof=1))
+            mean_shift, sd_shift, mean_se, sd_se = first_order_shift(points, error)
             shift = float(max(np.max(np.abs(mean_shift)), np.max(np.abs(sd_shift))))
             history.append({"shift": round(shift, 4), "loglik_spread": round(spread, 4), "design_points": int(X.shape[0]),
                             "seconds": round(_time.perf_counter() - clock, 1)})

@@ -13,7 +13,6 @@ evaluated at the RK4 half steps (:class:`HalfStepDrive`, :meth:`EnsembleSimulato
 from __future__ import annotations
 
 import threading
-
 from dataclasses import dataclass, replace
 
 import numpy as np

@@ -13,7 +13,7 @@ weight, road bank, speed profile, the states integrated).
 The right-hand side writes into preallocated arrays (positional ``out``: NumPy parses an ``out=``
 keyword in ~0.3 us more per call), so a step allocates nothing; at the 300 realisations of a
 discover fit the per-call cost is most of a step. The sines and cosines of the side slip and of
-the tyre's angle come from the half-angle tangent (:func:`half_angle_sin_cos_into`): NumPy does not
+the tyre's angle come from the half-angle tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos_into`): NumPy does not
 vectorise its float64 sine and cosine, and at the 2400 realisations of a batched fit they were
 most of a step. The arithmetic is fixed to the last bit (the package's data sets are remade
 exactly, tests/test_single_track_rhs.py): the balances keep the two roundings the data sets were
@@ -26,31 +26,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..axle_loads import half_angle_sin_cos_into
 from ..single_track import VehicleParameters, tyre_angle
 
-__all__ = ["half_angle_sin_cos_into", "slip_angles", "Balance", "HalfStepInputs", "GustInputs", "SingleTrackRHS", "nlst_rhs"]
-
-
-def half_angle_sin_cos_into(angle, sin_out, cos_out, t, inv) -> None:
-    """sin and cos of ``angle`` (rad, |angle| < pi) from t = tan(angle / 2), sin = 2 t / (1 + t^2),
-    cos = (1 - t^2) / (1 + t^2), into ``sin_out`` and ``cos_out`` (None: the sine only), in place.
-
-    The numbers of :func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos` to the bit, without its
-    temporaries: NumPy vectorises its tangent but not its float64 sine and cosine (7 ns an
-    element each, the tangent's pair a third of that), within 2 ulp of them. ``t`` and ``inv``
-    are work arrays of ``angle``'s shape; ``sin_out`` may be ``angle`` itself.
-    """
-    np.multiply(angle, 0.5, t)
-    np.tan(t, t)
-    np.multiply(t, t, inv)
-    if cos_out is not None:
-        np.subtract(1.0, inv, cos_out)
-    np.add(inv, 1.0, inv)
-    np.divide(1.0, inv, inv)
-    if cos_out is not None:
-        cos_out *= inv
-    np.multiply(t, 2.0, sin_out)
-    sin_out *= inv
+__all__ = ["slip_angles", "Balance", "HalfStepInputs", "GustInputs", "SingleTrackRHS", "nlst_rhs"]
 
 
 def slip_angles(v, sin_b, cos_b, lever, psi_dot, delta, out=None, work=None):
