@@ -324,25 +324,26 @@ def test_a_band_with_the_models_own_sampling_holds_it():
     """A model evaluated on m raw realisations errs by its own sampling as much as the data's n
     do by theirs: with z = (data statistics - model statistics) / the scale of both (model ratio
     n / m = 2), E z^2 = (1/n + 1/m) / (3/n) = 1 when every replicate meets the model on fresh
-    germs (``model_statistics``), and 1/3 against the model's fixed, exact statistics. Over 60
-    replicates x 48 independent cells each mean is within 10 % (sd ~ 3 %)."""
-    from uqdrive.inference.discrepancy.band import bootstrap_band
+    germs (``model``), and 1/3 against the model's fixed, exact statistics. Over 60 replicates x
+    48 independent cells each mean is within 10 % (sd ~ 3 %). Replicates drawn at model ratio 0
+    and compared at ratio 2 (:meth:`Replicates.scale_at`) give the band of replicates drawn at 2."""
+    from uqdrive.inference.discrepancy.band import band_of_replicates, bootstrap_band, bootstrap_replicates
 
     n, m, index = 200, 100, np.arange(1, 7)
     base = type("Base", (), dict(theta_=np.array([0.5, 2.0]), structure_=None, jacobian_=np.zeros((48, 0)),
                                  statistics_=np.stack([np.full((4, 6), 0.5), np.full((4, 6), 2.0)])))()
-    model_sim = _Recording()
-
-    def model(rng, reps):
-        return np.array([moment_statistics(model_sim.simulate(base.theta_, None, _Germs.draw(rng, m, 32)), index) for _ in range(reps)])
-
+    model_sim, rng = _Recording(), np.random.default_rng(13)
+    model = np.array([moment_statistics(model_sim.simulate(base.theta_, None, _Germs.draw(rng, m, 32)), index) for _ in range(60)])
     fixed = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05)
-    fresh = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05, model_statistics=model)
+    replicates = bootstrap_replicates(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60)
+    fresh = band_of_replicates(replicates, base, 0.05, model=model)
     assert fixed.mean_square_null == pytest.approx(1 / 3, rel=0.1)
     assert fresh.mean_square_null == pytest.approx(1.0, rel=0.1)
-    assert len(model_sim.calls) == 60  # one fresh model ensemble per replicate
+    unscaled = bootstrap_replicates(_Recording(), base, n, index, np.zeros(4), None, 0.0, np.random.default_rng(11), 60)
+    rescaled = band_of_replicates(unscaled, base, 0.05, model=model, ratio=n / m)
+    np.testing.assert_allclose(rescaled.chi2_null, fresh.chi2_null, rtol=1e-12)
+    assert band_of_replicates(unscaled, base, 0.05, model=model).mean_square_null == pytest.approx(3.0, rel=0.1)
     # a Jacobian given for the comparison's scale is the one projected out
     J = np.random.default_rng(12).standard_normal((48, 3))
-    projected = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05,
-                               model_statistics=model, jacobian=J)
+    projected = band_of_replicates(replicates, base, 0.05, model=model, jacobian=J)
     assert projected.mean_square_null == pytest.approx(fresh.mean_square_null * 45 / 48, rel=0.1)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "bootstrap_band"]
+__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "Replicates", "bootstrap_replicates", "band_of_replicates", "bootstrap_band"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -284,25 +284,40 @@ def excess_rms(z, band: NullBand) -> float:
     return float(np.sqrt(max(float(np.mean(np.asarray(z) ** 2)) - band.mean_square_null, 0.0)))
 
 
-def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float,
-                   model_statistics=None, jacobian=None) -> "NullBand":
-    """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric bootstrap.
+@dataclass(frozen=True)
+class Replicates:
+    """Bootstrap replicates of one fitted model with the data's sample count and noise.
 
-    ``bootstrap`` replicates of n realisations of base's model (fresh germs from ``rng``) with
-    the measurement noise (variance ``noise`` (C,), one per measured channel of ``sim``) added,
-    their statistics standardised by their own scale (model error ratio ``ratio``), realisations
-    beyond ``spin`` (|beta|, rad; None where beta is not measured) left out as in the data, each replicate refitted to first order (:func:`refit_projection`).
-
-    ``model_statistics``: None compares every replicate with ``base.statistics_`` (a model whose
-    own sampling error is negligible: moment-matched germs of a linear model). A callable
-    ``model_statistics(rng, reps)`` -> (reps, 2, C, K) gives the model's statistics on fresh
-    germs for each of the ``reps`` replicates simulated together instead (its draws from ``rng``
-    after theirs, replicate after replicate), so that the band holds the model's own sampling (a
-    model evaluated on a few raw germs); ``jacobian`` (default ``base.jacobian_``) then is
-    d z / d parameters on the scale of that comparison.
+    Attributes
+    ----------
+    statistics : ndarray, shape (B, 2, C, K)
+        [mean, std] of every replicate (:func:`replicate_statistics`).
+    scale : ndarray, shape (B, 2, C, K)
+        Their own null-band scale at the model error ratio ``ratio``.
+    ratio : float
+        The model error ratio n / m of ``scale``.
     """
+
+    statistics: np.ndarray
+    scale: np.ndarray
+    ratio: float
+
+    def scale_at(self, ratio: float) -> np.ndarray:
+        """The replicates' scale at another model error ratio: :func:`statistic_scale` scales by
+        sqrt(1 + ratio), its floor included (the same array where ``ratio`` is the replicates')."""
+        if ratio == self.ratio:
+            return self.scale
+        return self.scale * np.sqrt((1.0 + ratio) / (1.0 + self.ratio))
+
+
+def bootstrap_replicates(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int) -> Replicates:
+    """``bootstrap`` replicates of n realisations of base's model (a :class:`.fit.StructureFit`;
+    fresh germs from ``rng``) with the measurement noise (variance ``noise`` (C,), one per measured
+    channel of ``sim``) added, their statistics and their own scale (model error ratio ``ratio``),
+    realisations beyond ``spin`` (|beta|, rad; None where beta is not measured) left out as in
+    the data."""
     per_call = max(1, 4000 // max(n, 1))
-    z = []
+    statistics, scales = [], []
     noise_buffer = None  # the draws of every call land in one array: fresh pages cost a third of the draws
     for start in range(0, bootstrap, per_call):
         reps = min(per_call, bootstrap - start)
@@ -324,7 +339,29 @@ def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, boo
             stats[whole], scale[whole] = replicate_statistics(xb if whole.all() else xb[:, whole], model_ratio=ratio)
         for r in np.flatnonzero(~whole):  # spun realisations left out of their replicate
             stats[r], scale[r] = (a[0] for a in replicate_statistics(xb[:, r, keep[r]][:, None], model_ratio=ratio))
-        model = base.statistics_ if model_statistics is None else model_statistics(rng, reps)
-        z.extend((stats - model) / scale)
-    z = refit_projection(np.array(z), base.jacobian_ if jacobian is None else jacobian)
-    return NullBand.from_replicates(z, scan_windows(index.size), level)
+        statistics.append(stats)
+        scales.append(scale)
+    return Replicates(np.concatenate(statistics), np.concatenate(scales), ratio)
+
+
+def band_of_replicates(replicates: Replicates, base, level: float, model=None, ratio: float | None = None, jacobian=None) -> NullBand:
+    """The null band of ``base`` from its bootstrap ``replicates``: z = (statistics - model) /
+    scale of every replicate, refitted to first order (:func:`refit_projection`).
+
+    ``model``: None compares every replicate with ``base.statistics_``; an array (B, 2, C, K)
+    gives each replicate's own model statistics (a model evaluated on fresh germs). ``ratio``:
+    the model error ratio of the comparison's scale (default the replicates'). ``jacobian``
+    (default ``base.jacobian_``): d z / d parameters on that scale.
+    """
+    scale = replicates.scale if ratio is None else replicates.scale_at(ratio)
+    z = (replicates.statistics - (base.statistics_ if model is None else model)) / scale
+    z = refit_projection(z, base.jacobian_ if jacobian is None else jacobian)
+    return NullBand.from_replicates(z, scan_windows(z.shape[-1]), level)
+
+
+def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float) -> NullBand:
+    """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric
+    bootstrap: :func:`bootstrap_replicates` compared with base's statistics (a model whose own
+    sampling error is negligible: moment-matched germs of a linear model), each replicate
+    refitted to first order (:func:`band_of_replicates`)."""
+    return band_of_replicates(bootstrap_replicates(sim, base, n, index, noise, spin, ratio, rng, bootstrap), base, level)

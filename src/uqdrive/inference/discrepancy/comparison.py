@@ -4,7 +4,7 @@ linear models' footing, the tie margin and penalty, the null band each fit is ju
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -13,7 +13,7 @@ from ...rng import rng_stream
 from ...settings import Spin
 from ...vehicle.channels import CHANNELS
 from ...vehicle.noise import estimate_noise_variance
-from .band import NullBand, bootstrap_band
+from .band import NullBand, Replicates, band_of_replicates, bootstrap_replicates
 from .fit import StructureFit
 
 __all__ = ["Measured", "prepare_measured", "speed_profile", "Compared", "NullBands", "ModelComparison", "criterion"]
@@ -121,7 +121,7 @@ class Compared:
 
 @dataclass(frozen=True)
 class NullBands:
-    """Null bands by parametric bootstrap of fitted models on one dataset (:func:`.band.bootstrap_band`).
+    """Null bands by parametric bootstrap of fitted models on one dataset (:func:`.band.bootstrap_replicates`).
 
     Attributes
     ----------
@@ -138,33 +138,43 @@ class NullBands:
     seed: int
     bootstrap: int
     level: float
+    _held: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def replicates(self, base, key: int = 0) -> Replicates:
+        """Bootstrap replicates of the fitted ``base`` with the data's sample count and noise
+        (:func:`.band.bootstrap_replicates`) from the stream of ``key``; the latest model's are
+        kept, so that its null band and its non-linear footing's share them."""
+        held = self._held.get("replicates")
+        if held is not None and held[0] is base and held[1] == key:
+            return held[2]
+        d = self.data
+        rng = rng_stream(self.seed, "discrepancy_bootstrap", *((key,) if key else ()))
+        replicates = bootstrap_replicates(d.sim, base, d.n, d.index, d.noise, d.spin, d.n / d.model_samples, rng, self.bootstrap)
+        self._held["replicates"] = (base, key, replicates)
+        return replicates
 
     def null(self, base, key: int = 0) -> NullBand:
         """Bootstrap replicates of the fitted ``base`` (the baseline, or a model with named
         effects) with the data's sample count and noise, each refitted to first order
         (:func:`.band.refit_projection`); ``key`` tells the bootstraps' random streams apart."""
-        d = self.data
-        rng = rng_stream(self.seed, "discrepancy_bootstrap", *((key,) if key else ()))
-        return bootstrap_band(d.sim, base, d.n, d.index, d.noise, d.spin, d.n / d.model_samples, rng, self.bootstrap, self.level)
+        return band_of_replicates(self.replicates(base, key), base, self.level)
 
     def footing(self, base) -> NullBand:
-        """The null band of the non-linear footing: bootstrap replicates of ``base`` as
-        :meth:`null`, each compared with ``base``'s model on ``nonlinear_samples`` fresh raw
-        germs (the linear model's sampling standing in for the non-linear model's), on the wide
-        scale. A non-linear model runs on one such set of germs, whose luck a band without it
-        counts as misfit (seen: the roll steer at its true size left a rest of 0.58 on
+        """The null band of the non-linear footing: the bootstrap replicates of ``base``'s
+        :meth:`null` band (the same draws: common random numbers, so that the two footings'
+        levels err together and a comparison across them does not pay for two bootstraps'
+        luck), each compared with ``base``'s model on ``nonlinear_samples`` fresh raw germs of
+        its own (the linear model's sampling standing in for the non-linear model's), on the
+        wide scale. A non-linear model runs on one such set of germs, whose luck a band without
+        it counts as misfit (seen: the roll steer at its true size left a rest of 0.58 on
         discover's germs, 0 to 0.67 on three other sets)."""
         d = self.data
         m, n_modes = d.nonlinear_samples, d.sim.germs.kle.shape[1]
-
-        def model(rng, reps):
-            sets = _GermSets(d.sim, [type(d.sim.germs).draw(rng, m, n_modes) for _ in range(reps)])
-            return np.array([StructureFit(sets.part(i), d.index, d.noise, d.spin).statistics(base.theta_, base.structure_) for i in range(reps)])
-
-        unit = (np.asarray(base.scale_, float) / d.scale_for(True)).ravel()
         rng = rng_stream(self.seed, "discrepancy_bootstrap", 99)
-        return bootstrap_band(d.sim, base, d.n, d.index, d.noise, d.spin, d.n / m, rng, self.bootstrap, self.level,
-                              model_statistics=model, jacobian=base.jacobian_ * unit[:, None])
+        sets = _GermSets(d.sim, [type(d.sim.germs).draw(rng, m, n_modes) for _ in range(self.bootstrap)])
+        model = np.array([StructureFit(sets.part(i), d.index, d.noise, d.spin).statistics(base.theta_, base.structure_) for i in range(self.bootstrap)])
+        unit = (np.asarray(base.scale_, float) / d.scale_for(True)).ravel()
+        return band_of_replicates(self.replicates(base), base, self.level, model=model, ratio=d.n / m, jacobian=base.jacobian_ * unit[:, None])
 
 
 #: Realisations of one simulation of the footing's germ sets (:class:`_GermSets`), as the bootstrap's.
