@@ -124,8 +124,8 @@ def ltv_table() -> str:
     return "\n".join(lines) + "\n"
 
 
-def reproduce_jobs_table() -> str:
-    r = _rec("reproduce_jobs")
+def reproduce_jobs_table(record: str = "reproduce_jobs") -> str:
+    r = _rec(record)
     lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | same verdict | numbers moved |", "|---|---|---|---:|---|---:|"]
     rule = {"discover": "discrepancy_discover", "cell": "discrepancy_channel_cell"}
     for x in r["rows"]:
@@ -140,6 +140,7 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
           "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
+          "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
           "bench_ltv": ltv_table}
 
 
@@ -181,6 +182,7 @@ def substitutions() -> dict[str, str]:
              bench_fw_profile=", ".join(f"the {k} {v} %" for k, v in fw["profile_after_percent"].items()))
     s["bench_memo_machine"] = _rec("discover_memo")["machine"]
     s["bench_rj_machine"] = _rec("reproduce_jobs")["machine"]
+    s["bench_rjf_machine"] = _rec("reproduce_jobs_footing")["machine"]
     pce = _rec("pce")
     pce2, pce3, mcrow = pce["rows"]
     s.update(bench_pce_reference_runs=f"{pce['reference_runs']:,}".replace(",", " "), bench_pce_setup=f"{pce['setup_ms']} ms",
