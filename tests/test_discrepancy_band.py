@@ -272,7 +272,7 @@ def _replicate_chi2(calls, n, index, spin, statistics, J):
     return np.sum(z**2, axis=1), np.mean(z**2)
 
 
-def test_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
+def test_the_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
     """5 replicates of n = 1500 realisations: at most 4000 realisations per simulation, so whole
     replicates 2 + 2 + 1. Without noise every replicate's z is exactly (its statistics - the
     model's) / its own scale from its n realisations (:func:`_replicate_chi2`), with the spun ones
@@ -280,7 +280,7 @@ def test_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
     2 all but 2 (the 2 kept), 3 all but 1 (then all are used), 4 one; without a spin threshold
     all are used. The band's replicate chi2 are the sums of those z^2 (rel 1e-9: the same sums
     in another order)."""
-    from uqdrive.inference.discrepancy.band import bootstrap_band
+    from uqdrive.inference.discrepancy.band import band_of_replicates, bootstrap_replicates
 
     n, B, index = 1500, 5, np.array([1, 2, 3, 4, 6, 7])  # the spin time 3 compared; times 0 and 5 not
     spun = [1500, 1501, 1502, *range(3000, 4498), *range(4500, 5999), 6007]
@@ -289,7 +289,7 @@ def test_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
                                  statistics_=np.stack([np.full((4, 6), 0.5), np.full((4, 6), 2.0)])))()
     for spin in (100.0, None):
         sim = _Recording(spun)
-        band = bootstrap_band(sim, base, n, index, np.zeros(4), spin, 0.5, np.random.default_rng(9), B, 0.05)
+        band = band_of_replicates(bootstrap_replicates(sim, base, n, index, np.zeros(4), spin, 0.5, np.random.default_rng(9), B), base, 0.05)
         assert [x.shape[1] for x in sim.calls] == [3000, 3000, 1500]
         chi2, mean_square = _replicate_chi2(sim.calls, n, index, spin, base.statistics_, J)
         np.testing.assert_allclose(band.chi2_null, chi2, rtol=1e-9)
@@ -300,23 +300,23 @@ def test_bootstrap_band_is_the_band_of_replicates_of_the_fitted_model():
     assert kept == [1500, 1497, 2, 1, 1499]  # the spins are where they were meant to be
     # n = 2500: two replicates would exceed 4000 realisations, so one per simulation
     sim = _Recording()
-    bootstrap_band(sim, base, 2500, index, np.zeros(4), None, 0.5, np.random.default_rng(9), 2, 0.05)
+    bootstrap_replicates(sim, base, 2500, index, np.zeros(4), None, 0.5, np.random.default_rng(9), 2)
     assert [x.shape[1] for x in sim.calls] == [2500, 2500]
 
 
-def test_bootstrap_band_adds_the_measurement_noise():
+def test_the_bootstrap_replicates_add_the_measurement_noise():
     """A model without spread (b = 0): each channel's realisations are its noise alone, variance
     v = 1e-4, 4, 1e-2, 0.25, so with the model's [mean, sqrt v] the z of the mean are t with n - 1
     = 99 degrees of freedom (E z^2 = 99/97) and those of the std about standard normal (delta
     method, its scale estimated from the same 100 draws: a little wider), so over 40 replicates x
     48 cells mean(z^2) is 1.0 within 0.3 (1.06 to 1.13 over ten seeds; its sd ~ 0.03). The noise
     left out, or with its sd squared, gives stds off by many of their scales."""
-    from uqdrive.inference.discrepancy.band import bootstrap_band
+    from uqdrive.inference.discrepancy.band import band_of_replicates, bootstrap_replicates
 
     v = np.array([1e-4, 4.0, 1e-2, 0.25])
     base = type("Base", (), dict(theta_=np.array([0.5, 0.0]), structure_=None, jacobian_=np.zeros((48, 0)),
                                  statistics_=np.stack([np.full((4, 6), 0.5), np.broadcast_to(np.sqrt(v)[:, None], (4, 6))])))()
-    band = bootstrap_band(_Recording(), base, 100, np.arange(1, 7), v, None, 0.0, np.random.default_rng(10), 40, 0.05)
+    band = band_of_replicates(bootstrap_replicates(_Recording(), base, 100, np.arange(1, 7), v, None, 0.0, np.random.default_rng(10), 40), base, 0.05)
     assert band.mean_square_null == pytest.approx(1.0, abs=0.3)
 
 
@@ -327,14 +327,14 @@ def test_a_band_with_the_models_own_sampling_holds_it():
     germs (``model``), and 1/3 against the model's fixed, exact statistics. Over 60 replicates x
     48 independent cells each mean is within 10 % (sd ~ 3 %). Replicates drawn at model ratio 0
     and compared at ratio 2 (:meth:`Replicates.scale_at`) give the band of replicates drawn at 2."""
-    from uqdrive.inference.discrepancy.band import band_of_replicates, bootstrap_band, bootstrap_replicates
+    from uqdrive.inference.discrepancy.band import band_of_replicates, bootstrap_replicates
 
     n, m, index = 200, 100, np.arange(1, 7)
     base = type("Base", (), dict(theta_=np.array([0.5, 2.0]), structure_=None, jacobian_=np.zeros((48, 0)),
                                  statistics_=np.stack([np.full((4, 6), 0.5), np.full((4, 6), 2.0)])))()
     model_sim, rng = _Recording(), np.random.default_rng(13)
     model = np.array([moment_statistics(model_sim.simulate(base.theta_, None, _Germs.draw(rng, m, 32)), index) for _ in range(60)])
-    fixed = bootstrap_band(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60, 0.05)
+    fixed = band_of_replicates(bootstrap_replicates(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60), base, 0.05)
     replicates = bootstrap_replicates(_Recording(), base, n, index, np.zeros(4), None, n / m, np.random.default_rng(11), 60)
     fresh = band_of_replicates(replicates, base, 0.05, model=model)
     assert fixed.mean_square_null == pytest.approx(1 / 3, rel=0.1)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "Replicates", "bootstrap_replicates", "band_of_replicates", "bootstrap_band"]
+__all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "Replicates", "bootstrap_replicates", "band_of_replicates"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
 STATISTICS = ("mean", "std")
@@ -358,10 +358,3 @@ def band_of_replicates(replicates: Replicates, base, level: float, model=None, r
     z = refit_projection(z, base.jacobian_ if jacobian is None else jacobian)
     return NullBand.from_replicates(z, scan_windows(z.shape[-1]), level)
 
-
-def bootstrap_band(sim, base, n: int, index, noise, spin, ratio: float, rng, bootstrap: int, level: float) -> NullBand:
-    """The null band of a fitted model ``base`` (a :class:`.fit.StructureFit`) by parametric
-    bootstrap: :func:`bootstrap_replicates` compared with base's statistics (a model whose own
-    sampling error is negligible: moment-matched germs of a linear model), each replicate
-    refitted to first order (:func:`band_of_replicates`)."""
-    return band_of_replicates(bootstrap_replicates(sim, base, n, index, noise, spin, ratio, rng, bootstrap), base, level)
