@@ -76,10 +76,13 @@ def test_named_effect_repairs_the_model_and_the_model_file_is_used(files, capsys
 
 
 def test_null_case_says_none(files, capsys):
+    """A case without a hidden effect is named none, with nothing to separate or sample; written
+    without figures (--no-figures), the folder holds the verdict and the model alone."""
     root, cfg, paths = files
     out = root / "null_out"
-    code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(out)], capsys)
+    code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(out), "--no-figures"], capsys)
     assert code == 0, cap.err
+    assert sorted(p.name for p in out.iterdir()) == ["model.yaml", "verdict.json"]  # --no-figures: no bands.png, localisation.png
     v = json.loads((out / "verdict.json").read_text())
     assert v["effect"] == "none" and v["ambiguous_with"] == [] and v["parameters"] == {} and v["separating_input"] == []
     assert "posterior" not in v  # sampled only for the config's effects (discrepancy.posterior.effects)
@@ -133,13 +136,29 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
 
     def fake(data, *, posterior=None, **_):
         seen["posterior"] = posterior
-        return SimpleNamespace(save=lambda out: None, summary=lambda out=None: "", document={}, model_fits=True)
+        return SimpleNamespace(save=lambda out, figures: seen.update(figures=figures), summary=lambda out=None: "", document={}, model_fits=True)
 
     monkeypatch.setattr(api, "discover", fake)
     root, cfg, paths = files
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / f"flag_{len(flag)}_{expected}"), *flag], capsys)
     assert code == 0, cap.err
-    assert seen == {"posterior": expected}
+    assert seen == {"posterior": expected, "figures": True}
+
+
+def test_no_figures_reaches_the_writer(files, capsys, monkeypatch):
+    """--no-figures: Verdict.save is asked for verdict.json and model.yaml alone (the writer's
+    side: test_null_case_says_none)."""
+    from types import SimpleNamespace
+
+    import uqdrive.cli.api as api
+
+    seen = {}
+    monkeypatch.setattr(api, "discover", lambda data, **_: SimpleNamespace(save=lambda out, figures: seen.update(figures=figures),
+                                                                         summary=lambda out=None: "", document={}, model_fits=True))
+    root, cfg, paths = files
+    code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / "no_figures"), "--no-figures"], capsys)
+    assert code == 0, cap.err
+    assert seen == {"figures": False}
 
 
 def test_progress_lines_name_each_stage_and_the_verdict(files, small):

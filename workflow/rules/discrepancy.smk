@@ -15,6 +15,11 @@ DISC_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering
 #: candidates decide which chassis cases are in the benchmark (studies.hidden_effects.benchmark_cases).
 CASE_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "discrepancy.benchmark", "discrepancy.candidates")
 
+#: The benchmark cases whose discover folders get bands.png and localisation.png: those the report
+#: shows (rule discrepancy_thesis_figures); the others' verdicts are what the summary reads, and
+#: drawing them would cost a second and matplotlib's import in each of their jobs.
+FIGURE_CASES = ("thesis_nlst",)
+
 wildcard_constraints:
     case="|".join(DISCREPANCY_CASES) or "none",
 
@@ -51,6 +56,7 @@ rule discrepancy_discover:
         directory(f"{DISC}/benchmark/discover/{{case}}"),
     params:
         **reads(*DISC_KEYS),
+        figures=lambda w: w.case in FIGURE_CASES,
     threads: 1
     priority: LONG_JOB
     resources:

@@ -201,11 +201,12 @@ class Verdict:
                 + f", gap {v['gap_before']:.3g} -> {v['gap_after']:.3g} ({v['evidence']['n_spun']} lost control)"
                 + (f"; untestable: {', '.join(untested)}" if untested else ""))
 
-    def save(self, out: str | Path) -> None:
-        """Write verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing)."""
+    def save(self, out: str | Path, figures: bool = True) -> None:
+        """Write verdict.json, model.yaml, bands.png and localisation.png (without ``figures``: the
+        first two) into ``out`` (all or nothing)."""
         from .discover import write_outputs
 
-        write_outputs(self.finder, self.to_dict(), Path(out))
+        write_outputs(self.finder, self.to_dict(), Path(out), figures)
 
 
 def identify(data: str | Path | xr.Dataset, *, config=None, vehicle=None, model: str | Path | None = None,

@@ -74,13 +74,14 @@ def candidates_for_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str
 
 
 def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
-                  log: Callable[[str], None] | None = None, model: Path | None = None) -> dict:
+                  log: Callable[[str], None] | None = None, model: Path | None = None, figures: bool = True) -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
 
     ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
     (True), never (False), or as config ``discrepancy.posterior`` says (None). ``log`` receives
     a progress line per stage (the workflow's log file). ``model``: a ``model.yaml`` written by
-    discover to start from (its effects refitted, further ones added on top).
+    discover to start from (its effects refitted, further ones added on top). ``figures``: draw
+    bands.png and localisation.png too (False: verdict.json and model.yaml only).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind. The data's speed (``v``, else the attribute
@@ -92,7 +93,7 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     candidates the channels cannot test (``lateral_kinematics`` without y).
     """
     finder, verdict = discover_dataset(config, read_ensemble(measured), str(measured), candidates, posterior, log, model)
-    write_outputs(finder, verdict, out)
+    write_outputs(finder, verdict, out, figures)
     return verdict
 
 
@@ -152,12 +153,21 @@ def baseline_warnings(finder: DiscrepancyFinder) -> list[str]:
     return [f"baseline fit: {w}" for w in out]
 
 
-def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
-    """verdict.json, model.yaml, bands.png and localisation.png into ``out`` (all or nothing; missing
-    parent folders are created, and removed again when the writing fails)."""
+def _draw_figures(finder: DiscrepancyFinder, verdict: dict, folder: Path) -> None:
+    """bands.png and localisation.png into ``folder`` (matplotlib is imported here: a run
+    without figures does not load it)."""
     from ..plots.discrepancy import bands_before_after, localisation_map
     from ..plots.figure import save_figure
 
+    save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"],
+                                   channels=finder.channels_), folder / "bands.png")
+    save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold, channels=finder.channels_), folder / "localisation.png")
+
+
+def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path, figures: bool = True) -> None:
+    """verdict.json, model.yaml, bands.png and localisation.png (without ``figures``: the first two)
+    into ``out`` (all or nothing; missing parent folders are created, and removed again when the
+    writing fails)."""
     out = Path(out)
     parent = out.parent if str(out.parent) else Path(".")
     created = [p for p in (parent, *parent.parents) if not p.exists()]
@@ -166,9 +176,8 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path) -> None:
     try:
         (tmp / "verdict.json").write_text(json.dumps(verdict, indent=2) + "\n")
         (tmp / "model.yaml").write_text(yaml.safe_dump(finder.model_document(), sort_keys=False))
-        save_figure(bands_before_after(finder.time_, finder.measured_, finder.baseline_.statistics_, finder.augmented_.statistics_, verdict["effect"],
-                                       channels=finder.channels_), tmp / "bands.png")
-        save_figure(localisation_map(finder.time_, finder.baseline_.z_, finder.band_.threshold, channels=finder.channels_), tmp / "localisation.png")
+        if figures:
+            _draw_figures(finder, verdict, tmp)
         if out.exists() and not out.is_dir():
             raise OutputError(f"output folder '{out}' became a regular file meanwhile; it is not replaced by a folder: choose another --out")
         if out.exists():

@@ -21,7 +21,6 @@ import numpy as np
 
 from ..io import DataError, atomic_path, check_run_count, check_spread, data_speed, present_channels, read_ensemble, speed_profile
 from ..inference.identify import DistributionEstimator, WeightContext, state_weights
-from ..plots.fit import fit_figure
 from ..vehicle.channels import ChannelChaosModel
 from ..vehicle.chaos import DISTRIBUTIONS, LSTChaosModel
 from ..vehicle.montecarlo import spin_mask
@@ -30,7 +29,7 @@ from ..vehicle.statistics import ensemble_statistics, kl_divergence_series, used
 from ..vehicle.single_track import STATES
 from ..settings import Settings, Spin, TimeGrid
 
-__all__ = ["identify_file", "identify_dataset", "fit_status", "fit_warnings", "fit_notes", "fit_figure", "write_outputs"]
+__all__ = ["identify_file", "identify_dataset", "fit_status", "fit_warnings", "fit_notes", "write_outputs"]
 
 UNCERTAIN = ("mu", "l_f", "F_w_mean")
 #: Below this many runs the sampling error of the runs' own distribution is named in the estimate's notes.
@@ -386,6 +385,8 @@ def _write_outputs(out: Path, stats, moments, summary: dict, overwrite: bool, fi
 def _figure(stats, moments, path, status=None):
     """fit.png of a chaos-model fit: measured statistics (xarray) against the model's moments, the
     fit's ``status`` in the title (saved to ``path``; returned as a Figure when ``path`` is None)."""
+    from ..plots.fit import fit_figure  # here: matplotlib is loaded by the commands that draw, not by discover's warnings
+
     model = None if moments is None else (moments.mean, moments.std)
     return fit_figure(stats["time"].values, stats["mean"].values, stats["std"].values, model, path,
                       channels=[str(c) for c in stats["state"].values], status=status)

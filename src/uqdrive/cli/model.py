@@ -208,7 +208,8 @@ def identify_with_model(config: Mapping[str, Any], measured, path: Path, out: Pa
     ``measured`` is a file or a validated xarray.Dataset; with ``out`` None nothing is written and
     the summary comes back with ``draw(path=None)``, which draws fit.png (a Figure without a path).
     """
-    from .identify import fit_figure, fit_notes, fit_status, fit_warnings, write_outputs
+    from ..plots.fit import fit_figure
+    from .identify import fit_notes, fit_status, fit_warnings, write_outputs
 
     structure, dist = load_model(path, config)
     ds = measured if isinstance(measured, xr.Dataset) else read_ensemble(measured)
