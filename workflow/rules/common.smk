@@ -14,8 +14,8 @@ if "normal" in STEERS:
     FIGURES += [f"{FIG}/fig_A{n}.png" for n in APPENDIX_A]
 
 
-#: Priority of the jobs that run half a minute or more (the benchmark discovers and the measured
-#: files they need, the posteriors, the wheel-slip calibration): they start before the short ones,
+#: Priority of the jobs that run half a minute or more (the benchmark discovers, the posteriors,
+#: the wheel-slip calibration) and of those a figure job waits on (the identifications): they start before the short ones,
 #: so that the DAG ends on short jobs filling both cores, not on one long job with the other core
 #: idle (longest first, as list scheduling on a few cores wants it). Snakemake's schedulers
 #: (ilp, greedy) take a ready job of higher priority first; its dependencies keep their own.

@@ -78,6 +78,7 @@ rule identification:
         **reads(*ID_KEYS, per_job=("experiment", ID_EXPERIMENT_KEYS)),
         stats_keys=lambda w: ID_INPUTS[w.experiment],
     threads: 1
+    priority: LONG_JOB  # the eight feed fig_identification: started last, they end the DAG on one core
     resources:
         mem_mb=2000,
         runtime=20,
