@@ -136,12 +136,20 @@ def reproduce_jobs_table(record: str = "reproduce_jobs") -> str:
     return "\n".join(lines) + "\n"
 
 
+def job_overhead_table() -> str:
+    r = _rec("job_overhead")
+    f = r["file"]
+    lines = [f"| {f['case']}, {f['runs']} runs x {f['times']} times | write (s) | read (s) | MB |", "|---|---:|---:|---:|"]
+    lines += [f"| {x['encoding']} | {x['write_s']:.3f} | {x['read_s']:.3f} | {x['mb']:.1f} |" for x in f["rows"]]
+    return "\n".join(lines) + "\n"
+
+
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
           "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
-          "bench_ltv": ltv_table}
+          "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -232,6 +240,10 @@ def substitutions() -> dict[str, str]:
              bench_ltv_compile=f"{lt['compile_s']:g} s", bench_ltv_cached_load=f"{lt['cached_load_s']:g} s",
              bench_ltv_import=f"{lt['numba_import_s']:g} s", bench_ltv_cells_machine=cells["machine"],
              bench_ltv_cells="; ".join(f"{x['data']} {x['before']:.1f} -> {x['after']:.1f} ({x['before'] / x['after']:.2f}x)" for x in cells["rows"]))
+    jo = _rec("job_overhead")
+    deflate, plain = jo["file"]["rows"]
+    s.update(bench_jo_machine=jo["machine"], bench_jo_starts="; ".join(f"{x['job']} {x['seconds']:g} s" for x in jo["starts"]),
+             bench_jo_kept=f"{100 * deflate['mb'] / plain['mb']:.0f} %", bench_jo_write=f"{deflate['write_s'] / plain['write_s']:.0f}x")
     sw = _rec("sweeps")["seconds"]
     s["bench_sweeps"] = ", ".join(f"{_clock(v)} for `{k}`" for k, v in sw.items())
     ts = _rec("test_suite")
