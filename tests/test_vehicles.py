@@ -278,7 +278,7 @@ def test_discover_creates_missing_parents_and_notes_the_data_speed(tiny, capsys,
                       "model_fits": True}
 
     monkeypatch.setattr(discover, "discover_dataset", fake)
-    monkeypatch.setattr(discover, "write_outputs", lambda finder, verdict, out: None)
+    monkeypatch.setattr(discover, "write_outputs", lambda finder, verdict, out, figures=True: None)
     out = tiny / "new" / "deeper" / "verdict"
     assert main(["discover", str(tiny / "v70.nc"), "--config", str(tiny / "c90.yaml"), "--out", str(out)]) == 0
     assert "replaces the config's vehicle.speed_kmh = 90 km/h" in capsys.readouterr().err

@@ -125,33 +125,35 @@ rule fig_lst_vs_nlst:
         "../scripts/fig_lst_vs_nlst.py"
 
 
-if APPENDIX_A:
+#: Every Fig. A of the noise levels (requested through FIGURES only where both models are configured).
+APPENDIX_A_ALL = range(1, 2 * N_LEVELS + 1)
 
-    rule fig_appendix_a:
-        # All of Figs A.1-A.2L in one job: each figure is ~0.2 s of drawing, a job of its own
-        # ~0.9 s of Python start and imports more.
-        input:
-            src("plots.data"),
-            lst=f"{OUT}/data/noise_stats_lst.nc",
-            nlst=f"{OUT}/data/noise_stats_nlst.nc",
-        output:
-            # One row per noise level, LST/NLST as the toggle the report makes of a two-valued label.
-            [report(f"{FIG}/fig_A{n}.png", caption="../report/fig_A.rst", category="Thesis appendix A Measured data",
-                    labels={"noise intensity A": str(NOISE_LEVELS[(n - 1) % N_LEVELS]), "model": appendix_a_model(n).upper()})
-             for n in APPENDIX_A],
-        params:
-            figures=[(appendix_a_model(n), (n - 1) % N_LEVELS) for n in APPENDIX_A],
-            **reads(band_sigmas="figures.band_sigmas"),
-        threads: 1
-        resources:
-            mem_mb=1000,
-            runtime=5,
-        group: "figures"
-        log:
-            f"{OUT}/logs/fig_appendix_a.log",
-        benchmark:
-            f"{OUT}/benchmarks/fig_appendix_a/fig_appendix_a.tsv",
-        conda:
-            "../envs/uqdrive.yaml"
-        script:
-            "../scripts/fig_appendix_a.py"
+
+rule fig_appendix_a:
+    # All of Figs A.1-A.2L in one job: a figure is a fraction of a second of drawing, a job of
+    # its own as much again of Python start and imports (benchmarks/bench_job_overhead.py).
+    input:
+        src("plots.data"),
+        lst=f"{OUT}/data/noise_stats_lst.nc",
+        nlst=f"{OUT}/data/noise_stats_nlst.nc",
+    output:
+        # One row per noise level, LST/NLST as the toggle the report makes of a two-valued label.
+        [report(f"{FIG}/fig_A{n}.png", caption="../report/fig_A.rst", category="Thesis appendix A Measured data",
+                labels={"noise intensity A": str(NOISE_LEVELS[(n - 1) % N_LEVELS]), "model": appendix_a_model(n).upper()})
+         for n in APPENDIX_A_ALL],
+    params:
+        figures=[(appendix_a_model(n), (n - 1) % N_LEVELS) for n in APPENDIX_A_ALL],
+        **reads(band_sigmas="figures.band_sigmas"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    group: "figures"
+    log:
+        f"{OUT}/logs/fig_appendix_a.log",
+    benchmark:
+        f"{OUT}/benchmarks/fig_appendix_a/fig_appendix_a.tsv",
+    conda:
+        "../envs/uqdrive.yaml"
+    script:
+        "../scripts/fig_appendix_a.py"

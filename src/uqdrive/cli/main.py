@@ -267,7 +267,7 @@ def _add_discover(sub) -> None:
                         "distributions and further effects added on top")
     p.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
                    help="draw bands.png and localisation.png (default); --no-figures writes verdict.json and model.yaml "
-                        "only (a batch of recordings: about a second less a run, matplotlib never loaded)")
+                        "only (a batch of recordings: matplotlib is never loaded)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))
     p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
