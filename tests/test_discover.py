@@ -123,11 +123,9 @@ def test_bad_input_is_refused_with_one_line_and_no_verdict(files, capsys, how):
     assert not out.exists() and not list(root.glob(f".{out.name}*"))
 
 
-@pytest.mark.parametrize("flag, expected", [([], None), (["--posterior"], True), (["--no-posterior"], False)])
-def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, expected):
-    """--posterior / --no-posterior override config discrepancy.posterior; without either the
-    config decides (None). The finder's reading of True/False/None is tested in
-    test_discrepancy_posterior; here the plumbing from the command line."""
+def _stub_discover(monkeypatch) -> dict:
+    """Replace uqdrive.cli.api.discover by a stub whose verdict records what the command line
+    hands on: ``posterior`` (at the call) and ``figures`` (at ``save``), into the dict returned."""
     from types import SimpleNamespace
 
     import uqdrive.cli.api as api
@@ -139,6 +137,15 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
         return SimpleNamespace(save=lambda out, figures: seen.update(figures=figures), summary=lambda out=None: "", document={}, model_fits=True)
 
     monkeypatch.setattr(api, "discover", fake)
+    return seen
+
+
+@pytest.mark.parametrize("flag, expected", [([], None), (["--posterior"], True), (["--no-posterior"], False)])
+def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, expected):
+    """--posterior / --no-posterior override config discrepancy.posterior; without either the
+    config decides (None). The finder's reading of True/False/None is tested in
+    test_discrepancy_posterior; here the plumbing from the command line."""
+    seen = _stub_discover(monkeypatch)
     root, cfg, paths = files
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / f"flag_{len(flag)}_{expected}"), *flag], capsys)
     assert code == 0, cap.err
@@ -148,16 +155,11 @@ def test_posterior_flag_reaches_the_finder(files, capsys, monkeypatch, flag, exp
 def test_no_figures_reaches_the_writer(files, capsys, monkeypatch):
     """--no-figures: Verdict.save is asked for verdict.json and model.yaml alone (the writer's
     side: test_null_case_says_none)."""
-    from types import SimpleNamespace
-
-    import uqdrive.cli.api as api
-
-    seen = {}
-    monkeypatch.setattr(api, "discover", lambda data, **_: SimpleNamespace(save=lambda out, figures: seen.update(figures=figures),
-                                                                         summary=lambda out=None: "", document={}, model_fits=True))
+    seen = _stub_discover(monkeypatch)
     root, cfg, paths = files
     code, cap = _run(["discover", str(paths["null"]), "--config", str(cfg), "--out", str(root / "no_figures"), "--no-figures"], capsys)
     assert code == 0, cap.err
+    seen.pop("posterior")  # test_posterior_flag_reaches_the_finder's
     assert seen == {"figures": False}
 
 

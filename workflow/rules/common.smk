@@ -6,7 +6,9 @@ from uqdrive.studies.sweep import SweepError, collect_targets, load_sweep
 
 FIG = f"{OUT}/figures"
 N_LEVELS = len(NOISE_LEVELS)
-APPENDIX_A = list(range(1, 2 * N_LEVELS + 1)) if {"lst", "nlst"} <= set(MODELS) else []
+#: Figs A.1-A.2L, one per model and noise level (rule fig_appendix_a); requested where both models are.
+APPENDIX_A_ALL = list(range(1, 2 * N_LEVELS + 1))
+APPENDIX_A = APPENDIX_A_ALL if {"lst", "nlst"} <= set(MODELS) else []
 FIGURES = [f"{FIG}/fig_2_3.png", f"{FIG}/fig_5_2.png", f"{FIG}/fig_7_1.png"]
 FIGURES += [f"{FIG}/fig_5_3.png", f"{FIG}/fig_5_4.png", f"{FIG}/fig_pce_convergence.png"] if "normal" in STEERS and "lst" in MODELS else []
 if "normal" in STEERS:

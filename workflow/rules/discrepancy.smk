@@ -11,10 +11,13 @@ DISC = f"{OUT}/discrepancy"
 #: What the reality generator and `discover` read: the car, its priors, the wind, the spin policy.
 DISC_KEYS = ("seed", "vehicle", "tyre", "uncertainty", "wind", "time", "steering", "montecarlo", "discrepancy")
 
-#: The benchmark cases whose discover folders get bands.png and localisation.png: those the report
-#: shows (rule discrepancy_thesis_figures); the others' verdicts are what the summary reads, and
-#: drawing them would cost a second and matplotlib's import in each of their jobs.
-FIGURE_CASES = ("thesis_nlst",)
+#: The benchmark case on the thesis' data, whose bands and localisation the report shows
+#: (rule discrepancy_thesis_figures).
+THESIS_CASE = "thesis_nlst"
+#: The benchmark cases whose discover folders get bands.png and localisation.png: the others'
+#: verdicts are what the summary reads, and drawing their figures would cost each job
+#: matplotlib's import and two figures nobody reads.
+FIGURE_CASES = (THESIS_CASE,)
 
 wildcard_constraints:
     case="|".join(DISCREPANCY_CASES) or "none",
@@ -109,7 +112,7 @@ rule discrepancy_summary:
 
 rule discrepancy_thesis_figures:
     input:
-        f"{DISC}/benchmark/discover/thesis_nlst",
+        f"{DISC}/benchmark/discover/{THESIS_CASE}",
     output:
         bands=report(f"{FIG}/fig_discrepancy_thesis_bands.png", caption="../report/discrepancy_thesis.rst", category="uqdrive discrepancy workflow",
                      labels={"figure": "bands", "case": "thesis NLST data"}),
@@ -190,5 +193,5 @@ rule discrepancy_channels:
 SCORECARD_PARTS.append("discrepancy")
 FIGURES += [f"{FIG}/fig_discrepancy_channel_sets.png"]
 FIGURES += [f"{FIG}/fig_discrepancy_confusion.png", f"{FIG}/fig_discrepancy_detection.png"]
-if "thesis_nlst" in DISCREPANCY_CASES:
+if THESIS_CASE in DISCREPANCY_CASES:
     FIGURES += [f"{FIG}/fig_discrepancy_thesis_bands.png", f"{FIG}/fig_discrepancy_thesis_localisation.png"]

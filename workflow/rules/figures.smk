@@ -125,10 +125,6 @@ rule fig_lst_vs_nlst:
         "../scripts/fig_lst_vs_nlst.py"
 
 
-#: Every Fig. A of the noise levels (requested through FIGURES only where both models are configured).
-APPENDIX_A_ALL = range(1, 2 * N_LEVELS + 1)
-
-
 rule fig_appendix_a:
     # All of Figs A.1-A.2L in one job: a figure is a fraction of a second of drawing, a job of
     # its own as much again of Python start and imports (benchmarks/bench_job_overhead.py).
