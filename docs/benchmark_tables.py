@@ -124,6 +124,14 @@ def ltv_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def load_loop_table() -> str:
+    r = _rec("load_loop")
+    lines = ["| tyre | loaded candidate | pairs | NumPy loop (s) | compiled loop (s) | ratio | same bits |", "|---|---|---|---:|---:|---:|---|"]
+    lines += [f"| {x['tyre']} | {x['structure']} | {x['pairs']} | {x['numpy_s']:.2f} | {x['compiled_s']:.2f} | {x['numpy_s'] / x['compiled_s']:.2f}x | "
+              f"{'yes' if x['same'] else 'no'} |" for x in r["rows"]]
+    return "\n".join(lines) + "\n"
+
+
 def reproduce_jobs_table(record: str = "reproduce_jobs") -> str:
     r = _rec(record)
     lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | same verdict | numbers moved |", "|---|---|---|---:|---|---:|"]
@@ -149,7 +157,8 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
           "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
-          "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table}
+          "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
+          "bench_load_loop": load_loop_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -234,6 +243,8 @@ def substitutions() -> dict[str, str]:
              bench_dd_tour_runs=str(dd["tour"]["runs"]), bench_dd_machine=dd["machine"], bench_dd_side_by_side=dd["side_by_side"])
     ch = _rec("chassis")
     s.update(bench_chassis_realisations=str(ch["realisations"]), bench_chassis_duration=f"{ch['duration_s']} s", bench_chassis_machine=ch["machine"])
+    ll = _rec("load_loop")
+    s.update(bench_ll_machine=ll["machine"], bench_ll_realisations=str(ll["realisations"]), bench_ll_duration=f"{ll['duration_s']:g} s")
     lt = _rec("ltv")
     cells = lt["cells"]
     s.update(bench_ltv_machine=lt["machine"], bench_ltv_duration=f"{lt['duration_s']:g} s", bench_ltv_steps=str(lt["steps"]),

@@ -23,7 +23,8 @@ moves load along the wheelbase: at held speed (v' = 0) the drive force that hold
 times the lateral one; along a speed profile v(t) the drive or brake force that follows it adds
 v' cos(beta) (braking in a turn: the front axle loaded by m |v'| h / L). T depends on the loads it
 makes; the loop is solved by Newton's method from the steady guess m v psi_dot cos(beta) (whose
-error is the transient m v beta_dot). The speed change acts along the velocity as in
+error is the transient m v beta_dot), compiled where it is arithmetic alone
+(:mod:`uqdrive.vehicle.dynamics.load_newton`, the same numbers). The speed change acts along the velocity as in
 :class:`uqdrive.vehicle.dynamics.rhs.SingleTrackRHS` (beta_dot gains -(v' / v) sin beta).
 
 The kinematics are the baseline's, so that a chassis effect adds its own term and nothing else:
@@ -80,6 +81,9 @@ from .single_track import VehicleParameters, curvature_argument, tyre_angle
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
 #: within 1.2e-5 of its range of the converged loop (three: 1e-8; none, the steady loads: 2e-2).
 LOAD_NEWTON_STEPS = 2
+#: Whether the loop runs compiled (:mod:`uqdrive.vehicle.dynamics.load_newton`) where it can: the same numbers
+#: as the NumPy loop, which False keeps (the reference its tests compare with).
+COMPILED_LOOP = True
 
 __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
 
@@ -160,6 +164,11 @@ class ExtendedSingleTrackRHS(AxleLoads):
         self._last_delta = self._last_cos = None
         self._filled: dict = {}
         self._sigma_or_inf = np.where(self.sigma > 0, self.sigma, np.inf) if self.relaxed else None
+        # the compiled loop where it is arithmetic alone: the linear tyre, or the Magic Formula at
+        # slip angles the loads leave alone (not its load-sensitive stiffness, not yielding wheels)
+        self._compiled_loop = (self.loaded and COMPILED_LOOP and all(np.ndim(a) == 0 for a in (p.c_Sf, p.c_Sr, self.C))
+                               and not (self.saturating and (self.sensitive or self.compliant)))
+        self._constants = None
 
     def _at(self, j: int):
         """Speed v (m/s), its rate (m/s^2), 1 / (m v) and a_lat / v at half step ``j``."""
@@ -286,9 +295,13 @@ class ExtendedSingleTrackRHS(AxleLoads):
         psi_dot = x[1]
         F_w = self.F_w_half[j]
         T = self.m * (v * psi_dot * beta.cos + v_dot * beta.sin - self.a_lat) - F_w
+        unit = self._load_free_curve(q_steady, lagged)
+        if self._compiled_loop:
+            P, capacity, factors = self._newton_loads(T, beta, q_steady if lagged is None else lagged, unit, delta, F_w, v_dot)
+            return self._at_loads(P, q_steady, delta, lagged, capacity if self.slipping else 1.0,
+                                  (factors[:2], factors[2:]) if self.sensitive else None, unit)
         floor = 1e-3 * self.static
         trig = self._trig(beta)
-        unit = self._load_free_curve(q_steady, lagged)
         for _ in range(LOAD_NEWTON_STEPS):
             P, dP = self._loads(T, trig, v_dot, F_w, True)
             _, d, F = self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P),
@@ -301,6 +314,30 @@ class ExtendedSingleTrackRHS(AxleLoads):
             T = T + (front * F[0] + F[1] - T) / (self._at_least(1.0 - gain, 0.05) if np.ndim(gain) else max(1.0 - gain, 0.05))
         P = self._loads(T, trig, v_dot, F_w, False)
         return self._at_loads(P, q_steady, delta, lagged, self.lateral_capacity(T, beta, v_dot, F_w, P), self.load_factors(T, beta, v_dot, F_w), unit)
+
+    def _newton_loads(self, T, beta, slip, unit, delta, F_w, v_dot):
+        """The loop of :meth:`_forces` by :func:`uqdrive.vehicle.dynamics.load_newton.newton_loads` (its
+        numbers): the loads (2, n), the lateral shares (2, n) and the load-sensitive tyre's factors
+        (4, n) of the converged T, which ``T`` (n,) holds after it."""
+        from .dynamics.load_newton import newton_loads  # numba: only where a chassis model transfers load
+
+        n = T.shape[0]
+        full = lambda a: np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))  # noqa: E731
+        if self._constants is None:
+            self._constants = np.stack([full(a) for a in self._constant_rows()])
+        needs_trig = self.pitching or self.slipping or self.sensitive
+        trig = np.stack([full(beta.tan), full(beta.cos), full(beta.sin)]) if needs_trig else np.zeros((3, n))
+        front = full(self._cos_of(delta)) if self.saturating else np.ones(n)
+        return newton_loads(T, self._constants, trig, front, np.ascontiguousarray(slip, float), np.zeros((0, n)) if unit is None else
+                            np.ascontiguousarray(unit, float), full(F_w), LOAD_NEWTON_STEPS, v_dot, self.L, self.B[0, 0], self.B[1, 0], self.C,
+                            pitching=self.pitching, transferring=self.transferring, slipping=self.slipping, sensitive=self.sensitive,
+                            yielding=self.compliant and not self.relaxed)
+
+    def _constant_rows(self):
+        """The per-realisation constants of :data:`uqdrive.vehicle.dynamics.load_newton.ROWS`, in its order."""
+        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share  # rows (1,) or (n,)
+        return (self.m, self.a_lat, self.h_x, self.static[0], self.static[1], arm[0], arm[1], self.p_Dz, self.mu, self.kappa, self.kappa_x,
+                drive[0], drive[1], brake[0], brake[1], self.p_D[0], self.q_K[0], self.h_s, self.reference[0], self.reference[1])
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force

@@ -1,0 +1,223 @@
+"""The loads-forces loop of the chassis right-hand side compiled: Newton's method on the tyres'
+lateral force T, per realisation in one numba loop, the numbers of the NumPy loop bit for bit.
+
+:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS._forces` solves T = F_f(P(T)) cos(delta)
++ F_r(P(T)) for the effective axle loads P that T makes (:class:`uqdrive.vehicle.axle_loads.AxleLoads`).
+Each step is some hundred operations on (2, n) arrays; at the chassis fits' few thousand
+realisations NumPy spends most of their time per call, not per element. The loop here performs
+the same operations per realisation in the same order (no fused multiply-add: numba contracts
+none without fastmath), so every number is NumPy's; it is used where the loop is arithmetic alone
+(the linear tyre, or the Magic Formula at slip angles the loads leave alone).
+
+numba is imported with this module, which the chassis right-hand side imports at its first loop;
+each combination of terms is compiled once (about 2 s) and cached on disk.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numba import njit
+
+__all__ = ["ROWS", "newton_loads"]
+
+#: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
+ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
+        "brake_f", "brake_r", "p_D", "q_K", "h_s", "reference_f", "reference_r")
+
+
+def _compiled(py_func):
+    """``py_func`` compiled at its first call, cached as :mod:`uqdrive.vehicle.dynamics.ltv_rk4`'s
+    loops are (in memory where no place to cache is writable); error_model "numpy": a division by
+    zero gives inf or nan as NumPy's does."""
+    try:
+        return njit(cache=True, nogil=True, error_model="numpy")(py_func)
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        return njit(nogil=True, error_model="numpy")(py_func)
+
+
+@njit(inline="always", error_model="numpy")
+def _at_least(x, c):
+    """np.maximum(x, c): c where x < c, else x (a NaN stays NaN)."""
+    return c if x < c else x
+
+
+@njit(inline="always", error_model="numpy")
+def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, held_speed, slope):
+    """AxleLoads._loads of realisation ``i`` at the tyres' force ``T``: P_f, P_r and, with
+    ``slope``, dP_f / dT, dP_r / dT (``has_slope`` False where NumPy's slope is the scalar 0)."""
+    s_f, s_r = K[3, i], K[4, i]
+    if not pitching:
+        raw_f, raw_r = s_f, s_r
+        F_zf, F_zr = s_f, s_r
+        d_shift = 0.0
+    else:
+        m = K[0, i]
+        a_y = (T + F_w) / m + K[1, i]
+        if held_speed:
+            a_x = -(tan_b * a_y)
+        else:
+            a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
+        shift = m * a_x * K[2, i] / L
+        raw_f, raw_r = s_f + -shift, s_r + shift
+        F_zf, F_zr = _at_least(raw_f, 0.0), _at_least(raw_r, 0.0)
+        d_shift = -tan_b * K[2, i] / L if slope else 0.0
+    if not transferring:
+        if not slope or not pitching:
+            return F_zf, F_zr, 0.0, 0.0, False
+        return F_zf, F_zr, (-d_shift if raw_f > 0 else 0.0), (d_shift if raw_r > 0 else 0.0), True
+    arm_f, arm_r, p_Dz = K[5, i], K[6, i], K[7, i]
+    dF_f, dF_r = arm_f * T, arm_r * T
+    F0_f, F0_r = 0.5 * s_f, 0.5 * s_r
+    half_f = half_r = 0.0
+    if slope and pitching:
+        half_f = 0.5 * -d_shift if raw_f > 0 else 0.0
+        half_r = 0.5 * d_shift if raw_r > 0 else 0.0
+    P_f = P_r = dP_f = dP_r = 0.0
+    for sign in (-1.0, 1.0):
+        w = _at_least(0.5 * F_zf + sign * dF_f, 0.0)
+        gain = 1.0 + p_Dz * (w - F0_f) / F0_f
+        P_f = P_f + w * _at_least(gain, 0.0)
+        if slope:
+            d_w = half_f + sign * arm_f
+            dP_f = dP_f + ((gain + p_Dz * w / F0_f) * d_w if (w > 0) and (gain > 0) else 0.0)
+        w = _at_least(0.5 * F_zr + sign * dF_r, 0.0)
+        gain = 1.0 + p_Dz * (w - F0_r) / F0_r
+        P_r = P_r + w * _at_least(gain, 0.0)
+        if slope:
+            d_w = half_r + sign * arm_r
+            dP_r = dP_r + ((gain + p_Dz * w / F0_r) * d_w if (w > 0) and (gain > 0) else 0.0)
+    return P_f, P_r, dP_f, dP_r, slope
+
+
+@njit(inline="always", error_model="numpy")
+def _capacity(T, i, K, P_f, P_r, tan_b, cos_b, sin_b, v_dot, F_w):
+    """AxleLoads.lateral_capacity of realisation ``i`` (the friction ellipse's shares)."""
+    m, mu = K[0, i], K[8, i]
+    a_y = (T + F_w) / m + K[1, i]
+    F_x = m * (v_dot * cos_b - tan_b * (a_y - v_dot * sin_b))
+    share_f, share_r = (K[11, i], K[12, i]) if F_x > 0 else (K[13, i], K[14, i])
+    used_f = K[10, i] * share_f * F_x / _at_least(mu * P_f, 1e-3 * K[3, i])
+    used_r = K[10, i] * share_r * F_x / _at_least(mu * P_r, 1e-3 * K[4, i])
+    return np.sqrt(_at_least(1.0 - used_f * used_f, 0.0)), np.sqrt(_at_least(1.0 - used_r * used_r, 0.0))
+
+
+@njit(inline="always", error_model="numpy")
+def _factors(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L):
+    """AxleLoads.load_factors of realisation ``i``: the peak's and the stiffness' factors per axle."""
+    m = K[0, i]
+    a_x = v_dot * cos_b - tan_b * ((T + F_w) / m + K[1, i] - v_dot * sin_b)
+    shift = m * a_x * K[17, i] / L
+    ref_f, ref_r = K[18, i], K[19, i]
+    dfz_f = (K[3, i] + -shift - ref_f) / ref_f
+    dfz_r = (K[4, i] + shift - ref_r) / ref_r
+    p_D, q_K = K[15, i], K[16, i]
+    return (_at_least(1.0 + p_D * dfz_f, 0.05), _at_least(1.0 + p_D * dfz_r, 0.05),
+            _at_least(1.0 + q_K * dfz_f, 0.05), _at_least(1.0 + q_K * dfz_r, 0.05))
+
+
+@functools.lru_cache(maxsize=None)
+def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool, held_speed: bool):
+    """The loop of ExtendedSingleTrackRHS._forces for one combination of terms (see :func:`newton_loads`).
+
+    The terms are constants of the compiled loop, not arguments: a branch on an argument inside
+    the loop over realisations keeps LLVM from vectorising it (4x slower). Each combination is
+    compiled at its first use and cached on disk (numba keys a closure's cache by its values)."""
+
+    def loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C):
+        n = T.shape[0]
+        for step in range(steps + 1):
+            slope = step < steps
+            for i in range(n):
+                t = T[i]
+                tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
+                P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, held_speed, slope)
+                c_f = c_r = 1.0
+                if slipping:
+                    c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
+                f0_f = f0_r = f1_f = f1_r = 1.0
+                if sensitive:
+                    f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
+                if not slope:  # the loads of the converged T: the caller's _at_loads takes them
+                    P[0, i], P[1, i] = P_f, P_r
+                    capacity[0, i], capacity[1, i] = c_f, c_r
+                    factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
+                    continue
+                mu = K[8, i]
+                peak_f, peak_r = P_f * mu, P_r * mu
+                if slipping:
+                    peak_f, peak_r = peak_f * c_f, peak_r * c_r
+                b_f, b_r = B_f, B_r
+                if sensitive:
+                    peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
+                    b_f, b_r = B_f * (f1_f / f0_f), B_r * (f1_r / f0_r)
+                q_f, q_r = slip[0, i], slip[1, i]
+                if saturating:
+                    F_f, F_r = peak_f * unit[0, i], peak_r * unit[1, i]
+                else:
+                    if yielding:  # linear tyre, the front wheels yielding to their force: q0 / (1 + kappa c)
+                        q_f = q_f / _at_least(1.0 + K[9, i] * (peak_f * b_f * C), 0.05)
+                    F_f, F_r = peak_f * b_f * C * q_f, peak_r * b_r * C * q_r
+                dF_f = F_f / _at_least(P_f, 1e-3 * K[3, i])
+                dF_r = F_r / _at_least(P_r, 1e-3 * K[4, i])
+                if yielding:
+                    dF_f /= 1.0 + K[9, i] * P_f * mu * B_f * C
+                fr = front[i]
+                if has_slope:
+                    gain = fr * dF_f * dP_f + dF_r * dP_r
+                    T[i] = t + (fr * F_f + F_r - t) / _at_least(1.0 - gain, 0.05)
+                else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
+                    T[i] = t + (fr * F_f + F_r - t) / 1.0
+
+    return _compiled(loop)
+
+
+def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, C: float, *,
+                 pitching: bool, transferring: bool, slipping: bool, sensitive: bool, yielding: bool):
+    """Newton's method on the tyres' lateral force T (N) of the chassis right-hand side, and the
+    loads of its result.
+
+    Per realisation the operations of the loop in
+    :meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS._forces` with
+    :meth:`~uqdrive.vehicle.axle_loads.AxleLoads._loads`, ``lateral_capacity``, ``load_factors`` and
+    ``_at_loads`` (Rajamani eq. (2.27), Gillespie eq. (2-4), Pacejka (4.E13)), in their order:
+    ``steps`` steps T <- T + (front F_f + F_r - T) / max(1 - d(front F_f + F_r)/dT, 0.05), then the
+    loads at the last T.
+
+    Parameters
+    ----------
+    T : ndarray, shape (n,)
+        The steady guess (N), overwritten by the loop's result.
+    K : ndarray, shape (len(ROWS), n)
+        Per-realisation constants, rows :data:`ROWS` (kg, m/s^2, m, N, N, m/m, m/m, -, -, rad/N, -, -, -, -, -, -, -, m, N, N).
+    trig : ndarray, shape (3, n)
+        tan, cos and sin of the side slip beta (-).
+    front : ndarray, shape (n,)
+        cos of the front wheel angle (Magic Formula) or 1 (linear tyre) (-).
+    slip : ndarray, shape (2, n)
+        Slip angles (rad) whose force the loads scale: the lagged ones of a relaxing tyre, else the steady ones.
+    unit : ndarray, shape (2, n)
+        The Magic Formula's force per unit peak at ``slip`` (-); ignored for the linear tyre (``unit`` of zero rows).
+    F_w : ndarray, shape (n,)
+        Side wind (N) at the half step.
+    steps : int
+        Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
+    v_dot, L, B_f, B_r, C : float
+        Speed rate (m/s^2), wheelbase (m), stiffness factors (-) and shape factor (-).
+    pitching, transferring, slipping, sensitive, yielding : bool
+        Longitudinal transfer, lateral transfer (or load-sensitive peak), combined slip,
+        load-sensitive tyre, front wheels yielding to their steady force (linear tyre only).
+
+    Returns
+    -------
+    P, capacity, factors : ndarray, shapes (2, n), (2, n), (4, n)
+        The effective axle loads (N), the lateral shares the longitudinal force leaves (-), and
+        the peak's and stiffness' factors (front, rear each) (-) at the returned T.
+    """
+    n = T.shape[0]
+    P, capacity, factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))
+    loop = _kernel(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
+    loop(T, K, trig[0], trig[1], trig[2], front, slip, unit, F_w, P, capacity, factors, int(steps), float(v_dot), float(L), float(B_f),
+         float(B_r), float(C))
+    return P, capacity, factors
