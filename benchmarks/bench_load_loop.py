@@ -16,12 +16,9 @@ import json
 
 import numpy as np
 
-from bench_chassis import jacobian_pairs
+from bench_chassis import jacobian_pairs, slalom_simulator
 from timing import best_of
-from uqdrive.config import load_config
-from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
-from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 
 #: The loaded chassis candidates at sizes a four-wheel car shows.
@@ -55,11 +52,7 @@ def main(argv=None):
     ap.add_argument("--json", default=None, help="write the record here (docs/measurements/benchmarks_load_loop.json)")
     ap.add_argument("--machine", default="this machine")
     args = ap.parse_args(argv)
-    config = load_config(None)
-    config["vehicle"].update(cg_height=0.55, track_width=1.6)
-    t = np.arange(1001) * 0.01
-    sim = AugmentedSimulator.drawn(Settings.from_config(config), t, np.deg2rad(3.0) * np.sin(2 * np.pi * t / 4.0), 19.4, args.samples,
-                                   np.random.default_rng(7), stride=2)
+    sim = slalom_simulator(args.samples)
     rows = []
     print("| tyre | structure | pairs | NumPy loop (s) | compiled loop (s) | ratio | same bits |")
     print("|---|---|---|---|---|---|---|")

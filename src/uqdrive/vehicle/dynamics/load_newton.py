@@ -44,6 +44,21 @@ def _at_least(x, c):
 
 
 @njit(inline="always", error_model="numpy")
+def _wheel_pair(F_z, dF, F0, p_Dz, half, arm, slope):
+    """One axle's effective load P and dP / dT: its inner and outer wheel (F_z / 2 -+ dF, a lifted
+    wheel carrying nothing, no peak below zero), each at its peak per unit load (Pacejka (4.E13))."""
+    P = dP = 0.0
+    for sign in (-1.0, 1.0):
+        w = _at_least(0.5 * F_z + sign * dF, 0.0)
+        gain = 1.0 + p_Dz * (w - F0) / F0
+        P = P + w * _at_least(gain, 0.0)
+        if slope:
+            d_w = half + sign * arm
+            dP = dP + ((gain + p_Dz * w / F0) * d_w if (w > 0) and (gain > 0) else 0.0)
+    return P, dP
+
+
+@njit(inline="always", error_model="numpy")
 def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, held_speed, slope):
     """AxleLoads._loads of realisation ``i`` at the tyres' force ``T``: P_f, P_r and, with
     ``slope``, dP_f / dT, dP_r / dT (``has_slope`` False where NumPy's slope is the scalar 0)."""
@@ -74,20 +89,8 @@ def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, 
     if slope and pitching:
         half_f = 0.5 * -d_shift if raw_f > 0 else 0.0
         half_r = 0.5 * d_shift if raw_r > 0 else 0.0
-    P_f = P_r = dP_f = dP_r = 0.0
-    for sign in (-1.0, 1.0):
-        w = _at_least(0.5 * F_zf + sign * dF_f, 0.0)
-        gain = 1.0 + p_Dz * (w - F0_f) / F0_f
-        P_f = P_f + w * _at_least(gain, 0.0)
-        if slope:
-            d_w = half_f + sign * arm_f
-            dP_f = dP_f + ((gain + p_Dz * w / F0_f) * d_w if (w > 0) and (gain > 0) else 0.0)
-        w = _at_least(0.5 * F_zr + sign * dF_r, 0.0)
-        gain = 1.0 + p_Dz * (w - F0_r) / F0_r
-        P_r = P_r + w * _at_least(gain, 0.0)
-        if slope:
-            d_w = half_r + sign * arm_r
-            dP_r = dP_r + ((gain + p_Dz * w / F0_r) * d_w if (w > 0) and (gain > 0) else 0.0)
+    P_f, dP_f = _wheel_pair(F_zf, dF_f, F0_f, p_Dz, half_f, arm_f, slope)
+    P_r, dP_r = _wheel_pair(F_zr, dF_r, F0_r, p_Dz, half_r, arm_r, slope)
     return P_f, P_r, dP_f, dP_r, slope
 
 
