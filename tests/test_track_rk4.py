@@ -291,9 +291,9 @@ def test_a_pass_after_a_larger_or_smaller_one_gives_a_fresh_simulators_numbers(c
 @pytest.mark.parametrize("modes", [5, 10])
 def test_the_gust_table_is_the_product_in_its_time_major_layout(sim, modes):
     """A pass's gust table (J, n) is f_half' c' as BLAS writes it: with the configured wind's
-    five modes the bits of the transposed product c f_half and, for a part of the
-    realisations, the columns of the whole table (the side-by-side sets of a footing's band
-    need both); with ten modes the kernel may round either way: within 1e-15 of the largest gust."""
+    five modes a part of the realisations gets the columns of the whole table, bit for bit (the
+    side-by-side sets of a footing's band need it); the transposed product c f_half within 1e-15
+    of the largest gust (whether its bits agree depends on the CPU's BLAS kernel)."""
     rng = np.random.default_rng(modes)
     f_half, coeffs = rng.standard_normal((modes, 801)), 300.0 * rng.standard_normal((400, modes))
     t_half = np.arange(801) * 0.005
@@ -302,7 +302,6 @@ def test_the_gust_table_is_the_product_in_its_time_major_layout(sim, modes):
     table = fresh._gusts(coeffs, f_half, t_half)
     assert table.shape == (801, 400) and table.flags.c_contiguous
     product = np.ascontiguousarray((coeffs @ f_half).T)
-    if modes <= 7:
-        assert np.array_equal(table, product)
+    if modes <= 7:  # a part of the realisations gets the columns of the whole table, bit for bit
         assert np.array_equal(fresh._gusts(coeffs[40:80], f_half, t_half), table[:, 40:80])
     np.testing.assert_allclose(table, product, rtol=0, atol=1e-15 * np.abs(product).max())

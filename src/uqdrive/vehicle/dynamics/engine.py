@@ -247,8 +247,9 @@ class EnsembleSimulator:
     def _gusts(self, coeffs, f_half, t_half):
         """Gust forces (J, n) of the realisations' mode coefficients ``coeffs`` (n, n_c) on the
         half steps: the product ``f_half.T @ coeffs.T``, which BLAS writes in that layout (the
-        transpose of ``coeffs @ f_half`` and, up to seven modes, the same bits; computing that and
-        copying its transpose cost six times as much at 4000 realisations). It depends on the germs and the
+        transpose of ``coeffs @ f_half`` to rounding, its bits on some CPUs' kernels; computing
+        that and copying its transpose cost six times as much at 4000 realisations); a part of
+        the realisations gets the columns of the whole table, bit for bit, up to seven modes. It depends on the germs and the
         gust scale, not on theta, so a fit's simulations share it: the most recent
         :data:`GUST_PRODUCTS` are kept (with the copies of this simulator on other germs or
         inputs), each computed as the first call did, so the numbers are those of a fresh product."""
