@@ -319,12 +319,13 @@ class ExtendedSingleTrackRHS(AxleLoads):
         """The loop of :meth:`_forces` by :func:`uqdrive.vehicle.dynamics.load_newton.newton_loads` (its
         numbers): the loads (2, n), the lateral shares (2, n) and the load-sensitive tyre's factors
         (4, n) of the converged T, which ``T`` (n,) holds after it."""
-        from .dynamics.load_newton import newton_loads  # numba: only where a chassis model transfers load
+        from .dynamics.load_newton import ROWS, newton_loads  # numba: only where a chassis model transfers load
 
         n = T.shape[0]
         full = lambda a: np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))  # noqa: E731
         if self._constants is None:
-            self._constants = np.stack([full(a) for a in self._constant_rows()])
+            rows = self._constant_rows()
+            self._constants = np.stack([full(rows[name]) for name in ROWS])
         needs_trig = self.pitching or self.slipping or self.sensitive
         trig = np.stack([full(beta.tan), full(beta.cos), full(beta.sin)]) if needs_trig else np.zeros((3, n))
         front = full(self._cos_of(delta)) if self.saturating else np.ones(n)
@@ -333,11 +334,13 @@ class ExtendedSingleTrackRHS(AxleLoads):
                             pitching=self.pitching, transferring=self.transferring, slipping=self.slipping, sensitive=self.sensitive,
                             yielding=self.compliant and not self.relaxed)
 
-    def _constant_rows(self):
-        """The per-realisation constants of :data:`uqdrive.vehicle.dynamics.load_newton.ROWS`, in its order."""
-        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share  # rows (1,) or (n,)
-        return (self.m, self.a_lat, self.h_x, self.static[0], self.static[1], arm[0], arm[1], self.p_Dz, self.mu, self.kappa, self.kappa_x,
-                drive[0], drive[1], brake[0], brake[1], self.p_D[0], self.q_K[0], self.h_s, self.reference[0], self.reference[1])
+    def _constant_rows(self) -> dict:
+        """The per-realisation constants :data:`uqdrive.vehicle.dynamics.load_newton.ROWS` names (scalars, (1,) or (n,))."""
+        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share
+        return {"m": self.m, "a_lat": self.a_lat, "h_x": self.h_x, "static_f": self.static[0], "static_r": self.static[1], "arm_f": arm[0],
+                "arm_r": arm[1], "p_Dz": self.p_Dz, "mu": self.mu, "kappa": self.kappa, "kappa_x": self.kappa_x, "drive_f": drive[0],
+                "drive_r": drive[1], "brake_f": brake[0], "brake_r": brake[1], "p_D": self.p_D[0], "q_K": self.q_K[0], "h_s": self.h_s,
+                "reference_f": self.reference[0], "reference_r": self.reference[1]}
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force

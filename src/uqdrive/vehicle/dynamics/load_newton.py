@@ -20,21 +20,16 @@ import functools
 import numpy as np
 from numba import njit
 
+from .jit import compiled
+
 __all__ = ["ROWS", "newton_loads"]
 
 #: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
 ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
         "brake_f", "brake_r", "p_D", "q_K", "h_s", "reference_f", "reference_r")
-
-
-def _compiled(py_func):
-    """``py_func`` compiled at its first call, cached as :mod:`uqdrive.vehicle.dynamics.ltv_rk4`'s
-    loops are (in memory where no place to cache is writable); error_model "numpy": a division by
-    zero gives inf or nan as NumPy's does."""
-    try:
-        return njit(cache=True, nogil=True, error_model="numpy")(py_func)
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        return njit(nogil=True, error_model="numpy")(py_func)
+# their indices (constants of the compiled loops)
+(M, A_LAT, H_X, STATIC_F, STATIC_R, ARM_F, ARM_R, P_DZ, MU, KAPPA, KAPPA_X, DRIVE_F, DRIVE_R, BRAKE_F, BRAKE_R, P_D, Q_K, H_S,
+ REFERENCE_F, REFERENCE_R) = range(len(ROWS))
 
 
 @njit(inline="always", error_model="numpy")
@@ -62,27 +57,27 @@ def _wheel_pair(F_z, dF, F0, p_Dz, half, arm, slope):
 def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, held_speed, slope):
     """AxleLoads._loads of realisation ``i`` at the tyres' force ``T``: P_f, P_r and, with
     ``slope``, dP_f / dT, dP_r / dT (``has_slope`` False where NumPy's slope is the scalar 0)."""
-    s_f, s_r = K[3, i], K[4, i]
+    s_f, s_r = K[STATIC_F, i], K[STATIC_R, i]
     if not pitching:
         raw_f, raw_r = s_f, s_r
         F_zf, F_zr = s_f, s_r
         d_shift = 0.0
     else:
-        m = K[0, i]
-        a_y = (T + F_w) / m + K[1, i]
+        m = K[M, i]
+        a_y = (T + F_w) / m + K[A_LAT, i]
         if held_speed:
             a_x = -(tan_b * a_y)
         else:
             a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
-        shift = m * a_x * K[2, i] / L
+        shift = m * a_x * K[H_X, i] / L
         raw_f, raw_r = s_f + -shift, s_r + shift
         F_zf, F_zr = _at_least(raw_f, 0.0), _at_least(raw_r, 0.0)
-        d_shift = -tan_b * K[2, i] / L if slope else 0.0
+        d_shift = -tan_b * K[H_X, i] / L if slope else 0.0
     if not transferring:
         if not slope or not pitching:
             return F_zf, F_zr, 0.0, 0.0, False
         return F_zf, F_zr, (-d_shift if raw_f > 0 else 0.0), (d_shift if raw_r > 0 else 0.0), True
-    arm_f, arm_r, p_Dz = K[5, i], K[6, i], K[7, i]
+    arm_f, arm_r, p_Dz = K[ARM_F, i], K[ARM_R, i], K[P_DZ, i]
     dF_f, dF_r = arm_f * T, arm_r * T
     F0_f, F0_r = 0.5 * s_f, 0.5 * s_r
     half_f = half_r = 0.0
@@ -97,25 +92,25 @@ def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, 
 @njit(inline="always", error_model="numpy")
 def _capacity(T, i, K, P_f, P_r, tan_b, cos_b, sin_b, v_dot, F_w):
     """AxleLoads.lateral_capacity of realisation ``i`` (the friction ellipse's shares)."""
-    m, mu = K[0, i], K[8, i]
-    a_y = (T + F_w) / m + K[1, i]
+    m, mu = K[M, i], K[MU, i]
+    a_y = (T + F_w) / m + K[A_LAT, i]
     F_x = m * (v_dot * cos_b - tan_b * (a_y - v_dot * sin_b))
-    share_f, share_r = (K[11, i], K[12, i]) if F_x > 0 else (K[13, i], K[14, i])
-    used_f = K[10, i] * share_f * F_x / _at_least(mu * P_f, 1e-3 * K[3, i])
-    used_r = K[10, i] * share_r * F_x / _at_least(mu * P_r, 1e-3 * K[4, i])
+    share_f, share_r = (K[DRIVE_F, i], K[DRIVE_R, i]) if F_x > 0 else (K[BRAKE_F, i], K[BRAKE_R, i])
+    used_f = K[KAPPA_X, i] * share_f * F_x / _at_least(mu * P_f, 1e-3 * K[STATIC_F, i])
+    used_r = K[KAPPA_X, i] * share_r * F_x / _at_least(mu * P_r, 1e-3 * K[STATIC_R, i])
     return np.sqrt(_at_least(1.0 - used_f * used_f, 0.0)), np.sqrt(_at_least(1.0 - used_r * used_r, 0.0))
 
 
 @njit(inline="always", error_model="numpy")
 def _factors(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L):
     """AxleLoads.load_factors of realisation ``i``: the peak's and the stiffness' factors per axle."""
-    m = K[0, i]
-    a_x = v_dot * cos_b - tan_b * ((T + F_w) / m + K[1, i] - v_dot * sin_b)
-    shift = m * a_x * K[17, i] / L
-    ref_f, ref_r = K[18, i], K[19, i]
-    dfz_f = (K[3, i] + -shift - ref_f) / ref_f
-    dfz_r = (K[4, i] + shift - ref_r) / ref_r
-    p_D, q_K = K[15, i], K[16, i]
+    m = K[M, i]
+    a_x = v_dot * cos_b - tan_b * ((T + F_w) / m + K[A_LAT, i] - v_dot * sin_b)
+    shift = m * a_x * K[H_S, i] / L
+    ref_f, ref_r = K[REFERENCE_F, i], K[REFERENCE_R, i]
+    dfz_f = (K[STATIC_F, i] + -shift - ref_f) / ref_f
+    dfz_r = (K[STATIC_R, i] + shift - ref_r) / ref_r
+    p_D, q_K = K[P_D, i], K[Q_K, i]
     return (_at_least(1.0 + p_D * dfz_f, 0.05), _at_least(1.0 + p_D * dfz_r, 0.05),
             _at_least(1.0 + q_K * dfz_f, 0.05), _at_least(1.0 + q_K * dfz_r, 0.05))
 
@@ -147,7 +142,7 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
                     capacity[0, i], capacity[1, i] = c_f, c_r
                     factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
                     continue
-                mu = K[8, i]
+                mu = K[MU, i]
                 peak_f, peak_r = P_f * mu, P_r * mu
                 if slipping:
                     peak_f, peak_r = peak_f * c_f, peak_r * c_r
@@ -160,12 +155,12 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
                     F_f, F_r = peak_f * unit[0, i], peak_r * unit[1, i]
                 else:
                     if yielding:  # linear tyre, the front wheels yielding to their force: q0 / (1 + kappa c)
-                        q_f = q_f / _at_least(1.0 + K[9, i] * (peak_f * b_f * C), 0.05)
+                        q_f = q_f / _at_least(1.0 + K[KAPPA, i] * (peak_f * b_f * C), 0.05)
                     F_f, F_r = peak_f * b_f * C * q_f, peak_r * b_r * C * q_r
-                dF_f = F_f / _at_least(P_f, 1e-3 * K[3, i])
-                dF_r = F_r / _at_least(P_r, 1e-3 * K[4, i])
+                dF_f = F_f / _at_least(P_f, 1e-3 * K[STATIC_F, i])
+                dF_r = F_r / _at_least(P_r, 1e-3 * K[STATIC_R, i])
                 if yielding:
-                    dF_f /= 1.0 + K[9, i] * P_f * mu * B_f * C
+                    dF_f /= 1.0 + K[KAPPA, i] * P_f * mu * B_f * C
                 fr = front[i]
                 if has_slope:
                     gain = fr * dF_f * dP_f + dF_r * dP_r
@@ -173,7 +168,7 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
                 else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
                     T[i] = t + (fr * F_f + F_r - t) / 1.0
 
-    return _compiled(loop)
+    return compiled(loop)
 
 
 def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, C: float, *,

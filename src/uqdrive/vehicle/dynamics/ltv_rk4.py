@@ -11,20 +11,9 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import compiled
+
 __all__ = ["rk4_linear_track"]
-
-
-def _compiled(py_func):
-    """``py_func`` compiled at its first call, the machine code cached beside the module (or in
-    the user's cache); with no writable place numba refuses to cache: then compiled anew per process.
-
-    error_model "numpy": a division by zero gives inf or nan as NumPy's does, and the loop carries
-    no branch to raise it (a branch there keeps LLVM from vectorising the loop).
-    """
-    try:
-        return njit(cache=True, nogil=True, error_model="numpy")(py_func)
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        return njit(nogil=True, error_model="numpy")(py_func)
 
 
 @njit(error_model="numpy")
@@ -127,7 +116,7 @@ def _exact_course_pass(out, h, n_steps, record_every, has_lat, yaw_gust, C, delt
 # heading and the course kinematics compiled into separate loops: branches on them inside the
 # loop over realisations keep LLVM from vectorising it (8-40x slower); the other two do not
 # (each compiled at its first call)
-_rates_pass, _heading_pass, _exact_course_pass = (_compiled(f) for f in (_rates_pass, _heading_pass, _exact_course_pass))
+_rates_pass, _heading_pass, _exact_course_pass = (compiled(f) for f in (_rates_pass, _heading_pass, _exact_course_pass))
 
 
 def rk4_linear_track(h: float, n_steps: int, record_every: int, *, heading: bool, exact: bool, P, a12, a13, W1, Q, R, S, inv_m, M_term,
