@@ -132,6 +132,17 @@ def load_loop_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def fused_rates_table() -> str:
+    r = _rec("fused_rates")
+    lines = ["| case | NumPy operations | compiled arithmetic | ratio | same numbers |", "|---|---:|---:|---:|---|"]
+    for x in r["rows"]:
+        call = x["case"].startswith("rhs")
+        scale, unit = (1e6, " us") if call else (1.0, " CPU-s")
+        lines.append(f"| {x['case']} | {x['numpy_s'] * scale:.1f}{unit} | {x['compiled_s'] * scale:.1f}{unit} | {x['ratio']:.2f}x | "
+                     f"{'yes' if x['same'] else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 def reproduce_jobs_table(record: str = "reproduce_jobs") -> str:
     r = _rec(record)
     lines = ["| job (rule: case) | verdict | CPU-s old / new | ratio | same verdict | numbers moved |", "|---|---|---|---:|---|---:|"]
@@ -158,7 +169,7 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
           "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
-          "bench_load_loop": load_loop_table}
+          "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -245,6 +256,7 @@ def substitutions() -> dict[str, str]:
     s.update(bench_chassis_realisations=str(ch["realisations"]), bench_chassis_duration=f"{ch['duration_s']} s", bench_chassis_machine=ch["machine"])
     ll = _rec("load_loop")
     s.update(bench_ll_machine=ll["machine"], bench_ll_realisations=str(ll["realisations"]), bench_ll_duration=f"{ll['duration_s']:g} s")
+    s["bench_fr_machine"] = _rec("fused_rates")["machine"]
     lt = _rec("ltv")
     cells = lt["cells"]
     s.update(bench_ltv_machine=lt["machine"], bench_ltv_duration=f"{lt['duration_s']:g} s", bench_ltv_steps=str(lt["steps"]),

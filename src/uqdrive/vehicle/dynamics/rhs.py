@@ -29,6 +29,10 @@ import numpy as np
 from ..axle_loads import half_angle_sin_cos_into
 from ..single_track import VehicleParameters, tyre_angle
 
+#: The Magic-Formula rates by :class:`.fused_rates.FusedRates` (the arithmetic compiled, the same
+#: numbers); False: the NumPy operations below alone (the reference the tests compare with).
+FUSED = True
+
 __all__ = ["slip_angles", "Balance", "HalfStepInputs", "GustInputs", "SingleTrackRHS", "nlst_rhs"]
 
 
@@ -237,6 +241,14 @@ class SingleTrackRHS:
         # the tyre's angle C atan(u) stays below C pi / 2: its sine by the half-angle tangent
         # while that is clear of pi (tan(angle / 2) is infinite at pi)
         self._half_angle_tyre = bool(np.all(np.asarray(self.C) * 0.5 * np.pi < 3.0))
+        self._fused = None
+        if FUSED and self._fusable():
+            from .fused_rates import FusedRates
+
+            self._fused = FusedRates(self.lever, self.peak, self.Bs[:, 0], self.C, self.E, self.balance.l_f, self.balance.l_r, p.M_c,
+                                     self.balance.yaw_factor, self.balance.quotient, course_weight if self._course else None, heading)
+        #: Whether the rates are :class:`.fused_rates.FusedRates`' (the same numbers as the NumPy operations).
+        self.fused = self._fused is not None
 
     @classmethod
     def of_structure(cls, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None,
@@ -258,6 +270,14 @@ class SingleTrackRHS:
         mass = self.m * v if self.balance.quotient else self.inv_m / v  # (1 / m) / v: the augmented model's rounding along a profile
         return v, mass, (self.a_lat / v if self._lateral else None), (None if self.v_dot_half is None else self.v_dot_half[j])
 
+    def _fusable(self) -> bool:
+        """Whether :class:`.fused_rates.FusedRates` computes these rates: the Magic Formula with the
+        half-angle sine, one B per axle, one C, real float64 constants (a complex step takes NumPy's path)."""
+        real = all(np.asarray(a).dtype == np.float64 for a in (self.lever, self.peak, self.Bs, self.E, self.C, self.balance.yaw_factor,
+                                                                 self.mass_factor, self.k, self.a_lat))
+        return (self.saturating and self._half_angle_tyre and real and self.Bs.shape == (2, 1) and np.ndim(self.C) == 0
+                and np.ndim(self.E) <= 1 and self.lever.shape == (2, self.n) and self.peak.shape == (2, self.n))
+
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of the states ``x`` (n_states, n) at half step ``j`` into ``out``."""
         self._rates(x, out, *self.inputs.at(j), *self._at(j))
@@ -271,6 +291,9 @@ class SingleTrackRHS:
         return out
 
     def _rates(self, x, out, delta, cos_delta, F_w, M_w, v, mass_factor, a_v, v_dot) -> None:
+        if self._fused is not None and x.dtype == np.float64:
+            self._fused(x, out, delta, cos_delta, F_w, M_w, v, mass_factor, a_v, v_dot)
+            return
         psi_dot, beta = x[self._rows[0]], x[self._rows[1]]
         sin_b, cos_b, q, F = self._sin_b, self._cos_b, self._q, self._F
         half_angle_sin_cos_into(beta, sin_b, cos_b, self._t, self._tmp)
