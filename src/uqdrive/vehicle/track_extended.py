@@ -319,10 +319,11 @@ class ExtendedSingleTrackRHS(AxleLoads):
         """The loop of :meth:`_forces` by :func:`uqdrive.vehicle.dynamics.load_newton.newton_loads` (its
         numbers): the loads (2, n), the lateral shares (2, n) and the load-sensitive tyre's factors
         (4, n) of the converged T, which ``T`` (n,) holds after it."""
+        from .dynamics.jit import realisations
         from .dynamics.load_newton import ROWS, newton_loads  # numba: only where a chassis model transfers load
 
         n = T.shape[0]
-        full = lambda a: np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))  # noqa: E731
+        full = lambda a: realisations(a, n)  # noqa: E731
         if self._constants is None:
             rows = self._constant_rows()
             self._constants = np.stack([full(rows[name]) for name in ROWS])

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from .jit import compiled
+from .jit import compiled, realisations
 
 __all__ = ["FusedRates", "per_realisation"]
 
@@ -100,7 +100,7 @@ def _balances(t, peak, cos_delta, l_f, l_r, F_w, M_c, M_w, has_M_w, yaw_factor, 
     (rhs.Balance.rates: ``quotient`` divides by the factors, else multiplies; a bank's a_v, the
     speed change's -(v_dot / v) sin beta, each where its ``has_`` flag is set); with ``heading``,
     psi_dot into ``psi_out`` and psi + k beta (``course``, else psi) into ``y_out``. The flags
-    hold for the whole loop: LLVM moves their branches out of it."""
+    hold for the whole loop (runtime arguments: one compiled loop serves every combination)."""
     for i in range(t.shape[1]):
         F_f = _half_angle_sine(t[0, i]) * peak[0, i]
         F_r = _half_angle_sine(t[1, i]) * peak[1, i]
@@ -134,9 +134,7 @@ def _number(a):
 def per_realisation(a, n: int):
     """``a`` for the compiled loops: a number as a float, an array as a contiguous float64 array
     of shape (n,) (broadcast: the same values)."""
-    if np.ndim(a) == 0:
-        return float(a)
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))
+    return float(a) if np.ndim(a) == 0 else realisations(a, n)
 
 
 class FusedRates:

@@ -1,12 +1,14 @@
-"""How the compiled loops of the dynamics (:mod:`.ltv_rk4`, :mod:`.load_newton`) are compiled:
-numba's njit, cached on disk where a place is writable.
+"""How the compiled loops of the dynamics (:mod:`.ltv_rk4`, :mod:`.load_newton`, :mod:`.fused_rates`)
+are compiled (numba's njit, cached on disk where a place is writable) and how they are given a
+value per realisation.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
-__all__ = ["compiled"]
+__all__ = ["compiled", "realisations"]
 
 
 def compiled(py_func):
@@ -20,3 +22,10 @@ def compiled(py_func):
         return njit(cache=True, nogil=True, error_model="numpy")(py_func)
     except RuntimeError:  # "cannot cache function ...: no locator available"
         return njit(nogil=True, error_model="numpy")(py_func)
+
+
+def realisations(a, n: int):
+    """``a`` (a number or an array broadcasting to (n,)) as a C-contiguous float64 array of shape
+    (n,), the same values: what a compiled loop indexes per realisation (an array that already is
+    one is passed through, read-only where the broadcast made it so)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))

@@ -247,8 +247,6 @@ class SingleTrackRHS:
 
             self._fused = FusedRates(self.lever, self.peak, self.Bs[:, 0], self.C, self.E, self.balance.l_f, self.balance.l_r, p.M_c,
                                      self.balance.yaw_factor, self.balance.quotient, course_weight if self._course else None, heading)
-        #: Whether the rates are :class:`.fused_rates.FusedRates`' (the same numbers as the NumPy operations).
-        self.fused = self._fused is not None
 
     @classmethod
     def of_structure(cls, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None,
@@ -270,13 +268,17 @@ class SingleTrackRHS:
         mass = self.m * v if self.balance.quotient else self.inv_m / v  # (1 / m) / v: the augmented model's rounding along a profile
         return v, mass, (self.a_lat / v if self._lateral else None), (None if self.v_dot_half is None else self.v_dot_half[j])
 
+    @property
+    def fused(self) -> bool:
+        """Whether the rates are :class:`.fused_rates.FusedRates`' (the same numbers as the NumPy operations)."""
+        return self._fused is not None
+
     def _fusable(self) -> bool:
         """Whether :class:`.fused_rates.FusedRates` computes these rates: the Magic Formula with the
         half-angle sine, one B per axle, one C, real float64 constants (a complex step takes NumPy's path)."""
         real = all(np.asarray(a).dtype == np.float64 for a in (self.lever, self.peak, self.Bs, self.E, self.C, self.balance.yaw_factor,
                                                                  self.mass_factor, self.k, self.a_lat))
-        return (self.saturating and self._half_angle_tyre and real and self.Bs.shape == (2, 1) and np.ndim(self.C) == 0
-                and np.ndim(self.E) <= 1 and self.lever.shape == (2, self.n) and self.peak.shape == (2, self.n))
+        return self.saturating and self._half_angle_tyre and real and self.Bs.shape == (2, 1) and np.ndim(self.C) == 0 and np.ndim(self.E) <= 1
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of the states ``x`` (n_states, n) at half step ``j`` into ``out``."""
