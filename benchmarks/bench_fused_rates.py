@@ -14,13 +14,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 
 import numpy as np
 
-from timing import best_of, without
+from timing import per_call, report_compiled, without
 from uqdrive.config import load_config
 from uqdrive.settings import Settings
 from uqdrive.vehicle.dynamics import rhs as rhs_module
@@ -41,17 +40,7 @@ def _rhs(n: int, fused: bool):
 
 
 def _calls(n: int, fused: bool, repeats: int, calls: int = 2000):
-    rhs, x = _rhs(n, fused)
-    out = np.empty_like(x)
-    rhs(x, 3, out)  # compiles or loads the loops
-
-    def run():
-        for _ in range(calls):
-            rhs(x, 3, out)
-        return out.copy()
-
-    seconds, rates = best_of(run, repeats)
-    return seconds / calls, rates
+    return per_call(*_rhs(n, fused), repeats, calls)
 
 
 def _discover(runs, fused: bool):
@@ -74,7 +63,6 @@ def main(argv=None):
     ap.add_argument("--machine", default=f"{platform.machine()} machine, Python {platform.python_version()}", help="the record's machine, in words")
     args = ap.parse_args(argv)
     rows = []
-    print(f"{'case':<34}{'numpy':>12}{'compiled':>12}{'ratio':>8}  same bits")
     for n in (300, 2400):
         (old, a), (new, b) = _calls(n, False, args.repeats), _calls(n, True, args.repeats)
         rows.append({"case": f"rhs call, {n} realisations", "numpy_s": old, "compiled_s": new, "ratio": old / new,
@@ -87,13 +75,7 @@ def main(argv=None):
         (old, va), (new, vb) = _discover(runs, False), _discover(runs, True)
         rows.append({"case": "discover, README tour (CPU s)", "numpy_s": old, "compiled_s": new, "ratio": old / new,
                      "same": without(va) == without(vb)})
-    for r in rows:
-        unit = 1e6 if r["case"].startswith("rhs") else 1.0
-        print(f"{r['case']:<34}{r['numpy_s'] * unit:>12.2f}{r['compiled_s'] * unit:>12.2f}{r['ratio']:>8.2f}  {r['same']}")
-    if args.json:
-        record = {"command": "python benchmarks/bench_fused_rates.py", "machine": args.machine, "repeats": args.repeats, "rows": rows}
-        with open(args.json, "w") as fh:
-            json.dump(record, fh, indent=1)
+    report_compiled(rows, args, "python benchmarks/bench_fused_rates.py", 34)
     return 0
 
 

@@ -26,3 +26,35 @@ def without(v, keys=CLOCK_KEYS):
     if isinstance(v, dict):
         return {k: without(x, keys) for k, x in v.items() if k not in keys}
     return [without(x, keys) for x in v] if isinstance(v, list) else v
+
+
+def report_compiled(rows, args, command: str, width: int) -> None:
+    """Print the rows of a compiled-against-NumPy benchmark (per call in us, a discover in CPU s)
+    and write its record to ``args.json`` where given."""
+    import json
+
+    print(f"{'case':<{width}}{'numpy':>12}{'compiled':>12}{'ratio':>8}  same bits")
+    for r in rows:
+        unit = 1e6 if r["case"].startswith("rhs") else 1.0
+        print(f"{r['case']:<{width}}{r['numpy_s'] * unit:>12.2f}{r['compiled_s'] * unit:>12.2f}{r['ratio']:>8.2f}  {r['same']}")
+    if args.json:
+        record = {"command": command, "machine": args.machine, "repeats": args.repeats, "rows": rows}
+        with open(args.json, "w") as fh:
+            json.dump(record, fh, indent=1)
+
+
+def per_call(rhs, x, repeats: int, calls: int):
+    """Seconds per call of a right-hand side ``rhs(x, j, out)`` at half step 3, best of ``repeats``
+    x ``calls`` after one call that compiles or loads its loops, and the rates it wrote."""
+    import numpy as np
+
+    out = np.empty_like(x)
+    rhs(x, 3, out)
+
+    def run():
+        for _ in range(calls):
+            rhs(x, 3, out)
+        return out.copy()
+
+    seconds, rates = best_of(run, repeats)
+    return seconds / calls, rates

@@ -132,8 +132,8 @@ def load_loop_table() -> str:
     return "\n".join(lines) + "\n"
 
 
-def fused_rates_table() -> str:
-    r = _rec("fused_rates")
+def fused_rates_table(record: str = "fused_rates") -> str:
+    r = _rec(record)
     lines = ["| case | NumPy operations | compiled arithmetic | ratio | same numbers |", "|---|---:|---:|---:|---|"]
     for x in r["rows"]:
         call = x["case"].startswith("rhs")
@@ -169,7 +169,8 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_discover_default": discover_default_table, "bench_chassis": chassis_table, "bench_reproduce_jobs": reproduce_jobs_table,
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
           "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
-          "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table}
+          "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table,
+          "bench_fused_chassis": lambda: fused_rates_table("fused_chassis")}
 
 
 def substitutions() -> dict[str, str]:
@@ -257,6 +258,7 @@ def substitutions() -> dict[str, str]:
     ll = _rec("load_loop")
     s.update(bench_ll_machine=ll["machine"], bench_ll_realisations=str(ll["realisations"]), bench_ll_duration=f"{ll['duration_s']:g} s")
     s["bench_fr_machine"] = _rec("fused_rates")["machine"]
+    s["bench_fc_machine"] = _rec("fused_chassis")["machine"]
     lt = _rec("ltv")
     cells = lt["cells"]
     s.update(bench_ltv_machine=lt["machine"], bench_ltv_duration=f"{lt['duration_s']:g} s", bench_ltv_steps=str(lt["steps"]),

@@ -174,6 +174,14 @@ class AxleLoads:
                 dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, self._full(0.0, w))
         return (P, dP) if slope else P
 
+    def constant_rows(self) -> dict:
+        """The per-realisation constants :data:`uqdrive.vehicle.dynamics.load_newton.ROWS` names (scalars, (1,) or (n,))."""
+        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share
+        return {"m": self.m, "a_lat": self.a_lat, "h_x": self.h_x, "static_f": self.static[0], "static_r": self.static[1], "arm_f": arm[0],
+                "arm_r": arm[1], "p_Dz": self.p_Dz, "mu": self.mu, "kappa": self.kappa, "kappa_x": self.kappa_x, "drive_f": drive[0],
+                "drive_r": drive[1], "brake_f": brake[0], "brake_r": brake[1], "p_D": self.p_D[0], "q_K": self.q_K[0], "h_s": self.h_s,
+                "reference_f": self.reference[0], "reference_r": self.reference[1]}
+
     def lateral_capacity(self, tyres, beta, v_dot, F_w, P):
         """Share (2, n) of each axle's lateral force the longitudinal force leaves (1 without
         combined slip): sqrt(max(1 - (kappa F_x,i / (mu P_i))^2, 0)), F_x = m a_x (N) with the body's

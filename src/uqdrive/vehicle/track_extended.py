@@ -10,7 +10,8 @@ and yaw and lateral balances this one shares (:func:`uqdrive.vehicle.dynamics.rh
 come from the half angle's tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`: within an ulp of NumPy's, at a
 third of the cost, NumPy vectorising tan and not the float64 sine), and a state's trigonometry
 and the tyres' per-unit-peak force are computed once for every term and every step of the loads'
-loop that needs them.
+loop that needs them; on the Magic Formula the arithmetic between them runs compiled where it can
+(:mod:`uqdrive.vehicle.dynamics.fused_chassis`, the same numbers; ``FUSED`` False keeps NumPy's).
 
 The loads follow the force the tyres carry, as a real car's do: the roll moment of their lateral
 force T = F_f cos(delta) + F_r about the centre of gravity moves h T / t across the track, and the
@@ -84,6 +85,7 @@ LOAD_NEWTON_STEPS = 2
 #: Whether the loop runs compiled (:mod:`uqdrive.vehicle.dynamics.load_newton`) where it can: the same numbers
 #: as the NumPy loop, which False keeps (the reference its tests compare with).
 COMPILED_LOOP = True
+FUSED = True  # the compiled Magic-Formula rates where they serve (False: the NumPy path, the reference of their tests)
 
 __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
 
@@ -168,7 +170,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         # slip angles the loads leave alone (not its load-sensitive stiffness, not yielding wheels)
         self._compiled_loop = (self.loaded and COMPILED_LOOP and all(np.ndim(a) == 0 for a in (p.c_Sf, p.c_Sr, self.C))
                                and not (self.saturating and (self.sensitive or self.compliant)))
-        self._constants = None
+        self._constants, self._fused = None, None if FUSED else False  # the compiled rates, built at the first call
 
     def _at(self, j: int):
         """Speed v (m/s), its rate (m/s^2), 1 / (m v) and a_lat / v at half step ``j``."""
@@ -176,6 +178,11 @@ class ExtendedSingleTrackRHS(AxleLoads):
             return self.v, 0.0, self.inv_mv, self.a_v
         v = float(self.speed_half[0][j])
         return v, float(self.speed_half[1][j]), self.balance.mass_factor(self.m, v), self.a_lat / v
+
+    @property
+    def fused(self) -> bool:
+        """Whether the rates run compiled (:mod:`uqdrive.vehicle.dynamics.fused_chassis`); known after the first call."""
+        return bool(self._fused)
 
     @property
     def n_states(self) -> int:
@@ -325,7 +332,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         n = T.shape[0]
         full = lambda a: realisations(a, n)  # noqa: E731
         if self._constants is None:
-            rows = self._constant_rows()
+            rows = self.constant_rows()
             self._constants = np.stack([full(rows[name]) for name in ROWS])
         needs_trig = self.pitching or self.slipping or self.sensitive
         trig = np.stack([full(beta.tan), full(beta.cos), full(beta.sin)]) if needs_trig else np.zeros((3, n))
@@ -334,14 +341,6 @@ class ExtendedSingleTrackRHS(AxleLoads):
                             np.ascontiguousarray(unit, float), full(F_w), LOAD_NEWTON_STEPS, v_dot, self.L, self.B[0, 0], self.B[1, 0], self.C,
                             pitching=self.pitching, transferring=self.transferring, slipping=self.slipping, sensitive=self.sensitive,
                             yielding=self.compliant and not self.relaxed)
-
-    def _constant_rows(self) -> dict:
-        """The per-realisation constants :data:`uqdrive.vehicle.dynamics.load_newton.ROWS` names (scalars, (1,) or (n,))."""
-        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share
-        return {"m": self.m, "a_lat": self.a_lat, "h_x": self.h_x, "static_f": self.static[0], "static_r": self.static[1], "arm_f": arm[0],
-                "arm_r": arm[1], "p_Dz": self.p_Dz, "mu": self.mu, "kappa": self.kappa, "kappa_x": self.kappa_x, "drive_f": drive[0],
-                "drive_r": drive[1], "brake_f": brake[0], "brake_r": brake[1], "p_D": self.p_D[0], "q_K": self.q_K[0], "h_s": self.h_s,
-                "reference_f": self.reference[0], "reference_r": self.reference[1]}
 
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
@@ -365,6 +364,14 @@ class ExtendedSingleTrackRHS(AxleLoads):
 
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
+        if self._fused is None:
+            from .dynamics.fused_chassis import fused_chassis_rates
+
+            self._fused = fused_chassis_rates(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
+        if self._fused:
+            delta = self.delta_half[j]
+            self._fused(x, out, delta, np.cos(delta) if np.ndim(delta) == 0 else None, self.F_w_half[j], self.M_w, *self._at(j), self.speed_half is not None)
+            return
         psi, psi_dot, beta = x[0], x[1], x[2]
         side_slip = SideSlip(beta)
         v, v_dot, inv_mv, a_v = self._at(j)

@@ -7,7 +7,7 @@ arrays around six transcendental ones. The transcendentals stay NumPy's (its SIM
 arctangent; numba's are scalar libm calls, slower and rounded otherwise); the arithmetic between
 them runs here, per realisation, in NumPy's order (numba contracts no multiply-add without
 fastmath), so every number is the NumPy path's. Arguments that may be a number or an array (n,)
-are read by ``_item``; each combination of their types is compiled once (~1 s) and cached on disk.
+are read by ``item``; each combination of their types is compiled once (~1 s) and cached on disk.
 """
 
 from __future__ import annotations
@@ -18,14 +18,15 @@ from numba.extending import overload
 
 from .jit import compiled, realisations
 
-__all__ = ["FusedRates", "per_realisation"]
+__all__ = ["FusedRates", "curvature_from_atan", "half_angle_sine", "half_tyre_angle", "item", "per_realisation", "side_slip_at"]
 
 
-def _item(a, i):  # pragma: no cover - replaced by the overload inside compiled code
+def item(a, i):  # pragma: no cover - replaced by the overload inside compiled code
+    """Realisation ``i``'s value of ``a``, a number (the same for all) or an array (n,), in compiled code."""
     return a if np.ndim(a) == 0 else a[i]
 
 
-@overload(_item, inline="always")
+@overload(item, inline="always")
 def _item_compiled(a, i):
     if isinstance(a, types.Array):
         return lambda a, i: a[i]
@@ -33,7 +34,7 @@ def _item_compiled(a, i):
 
 
 @njit(inline="always", error_model="numpy")
-def _half_angle_sine(t):
+def half_angle_sine(t):
     """sin of the angle whose half-angle tangent is ``t`` (axle_loads.half_angle_sin_cos_into's order)."""
     inv = t * t
     inv = inv + 1.0
@@ -42,25 +43,32 @@ def _half_angle_sine(t):
     return s * inv
 
 
+@njit(inline="always", error_model="numpy")
+def side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q):
+    """Realisation ``i`` of :func:`_slip_argument`; returns its sin and cos of beta."""
+    ti = t[i]
+    inv = ti * ti
+    c = 1.0 - inv
+    inv = inv + 1.0
+    inv = 1.0 / inv
+    c = c * inv
+    s = ti * 2.0
+    s = s * inv
+    sin_b[i] = s
+    cos_b[i] = c
+    w = s * v
+    den = c * v
+    q[0, i] = (lever[0, i] * psi_dot[i] + w) / den
+    q[1, i] = (lever[1, i] * psi_dot[i] + w) / den
+    return s, c
+
+
 @compiled
 def _slip_argument(t, sin_b, cos_b, lever, psi_dot, v, q):
     """From t = tan(beta / 2): sin and cos of beta (half_angle_sin_cos_into) into ``sin_b``,
     ``cos_b`` and the slip angles' arctan argument (lever psi_dot + v sin beta) / (v cos beta) (rhs.slip_angles) into ``q`` (2, n)."""
     for i in range(t.shape[0]):
-        ti = t[i]
-        inv = ti * ti
-        c = 1.0 - inv
-        inv = inv + 1.0
-        inv = 1.0 / inv
-        c = c * inv
-        s = ti * 2.0
-        s = s * inv
-        sin_b[i] = s
-        cos_b[i] = c
-        w = s * v
-        den = c * v
-        q[0, i] = (lever[0, i] * psi_dot[i] + w) / den
-        q[1, i] = (lever[1, i] * psi_dot[i] + w) / den
+        side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q)
 
 
 @compiled
@@ -68,16 +76,16 @@ def _stiffness_argument(q, delta, B_f, B_r, bx):
     """B alpha (2, n) into ``bx`` from q = atan(argument): alpha = -q, the front's plus delta."""
     for i in range(q.shape[1]):
         a_f = -q[0, i]
-        a_f = a_f + _item(delta, i)
+        a_f = a_f + item(delta, i)
         bx[0, i] = B_f * a_f
         bx[1, i] = B_r * -q[1, i]
 
 
 @compiled
-def _curvature_argument(bx, E, F):
+def curvature_from_atan(bx, E, F):
     """u = B x - E (B x - atan(B x)) into ``F``, which holds atan(B x) (single_track.curvature_argument)."""
     for i in range(bx.shape[1]):
-        e = _item(E, i)
+        e = item(E, i)
         for r in range(2):
             u = bx[r, i] - F[r, i]
             u = u * e
@@ -85,7 +93,7 @@ def _curvature_argument(bx, E, F):
 
 
 @compiled
-def _half_tyre_angle(F, C, t):
+def half_tyre_angle(F, C, t):
     """Half the tyre's angle C atan(u) into ``t`` (2, n), ``F`` holding atan(u)."""
     for i in range(F.shape[1]):
         for r in range(2):
@@ -102,28 +110,28 @@ def _balances(t, peak, cos_delta, l_f, l_r, F_w, M_c, M_w, has_M_w, yaw_factor, 
     psi_dot into ``psi_out`` and psi + k beta (``course``, else psi) into ``y_out``. The flags
     hold for the whole loop (runtime arguments: one compiled loop serves every combination)."""
     for i in range(t.shape[1]):
-        F_f = _half_angle_sine(t[0, i]) * peak[0, i]
-        F_r = _half_angle_sine(t[1, i]) * peak[1, i]
-        front = F_f * _item(cos_delta, i)
-        F_wi = _item(F_w, i)
-        yaw = _item(l_f, i) * front
-        yaw = yaw - _item(l_r, i) * F_r
-        yaw = yaw + (_item(M_w, i) if has_M_w else F_wi * M_c)
-        yaw = yaw / _item(yaw_factor, i) if quotient else yaw * _item(yaw_factor, i)
+        F_f = half_angle_sine(t[0, i]) * peak[0, i]
+        F_r = half_angle_sine(t[1, i]) * peak[1, i]
+        front = F_f * item(cos_delta, i)
+        F_wi = item(F_w, i)
+        yaw = item(l_f, i) * front
+        yaw = yaw - item(l_r, i) * F_r
+        yaw = yaw + (item(M_w, i) if has_M_w else F_wi * M_c)
+        yaw = yaw / item(yaw_factor, i) if quotient else yaw * item(yaw_factor, i)
         slip = front + F_r
         slip = slip + F_wi
         slip = slip * cos_b[i]
-        slip = slip / _item(mass_factor, i) if quotient else slip * _item(mass_factor, i)
+        slip = slip / item(mass_factor, i) if quotient else slip * item(mass_factor, i)
         slip = slip - psi_dot[i]
         if has_a_v:
-            slip = slip + _item(a_v, i)
+            slip = slip + item(a_v, i)
         if has_v_dot:
             slip = slip - v_dot_v * sin_b[i]
         yaw_out[i] = yaw
         slip_out[i] = slip
         if heading:
             psi_out[i] = psi_dot[i]
-            y_out[i] = beta[i] * _item(k, i) + psi[i] if course else psi[i]
+            y_out[i] = beta[i] * item(k, i) + psi[i] if course else psi[i]
 
 
 def _number(a):
@@ -188,9 +196,9 @@ class FusedRates:
         np.arctan(q, q)
         _stiffness_argument(q, _number(delta), self.B_f, self.B_r, bx)
         np.arctan(bx, F)
-        _curvature_argument(bx, self.E, F)
+        curvature_from_atan(bx, self.E, F)
         np.arctan(F, F)
-        _half_tyre_angle(F, self.C, bx)
+        half_tyre_angle(F, self.C, bx)
         np.tan(bx, bx)
         heading = self.heading
         rows = x if heading else out  # psi and the course's rows: unused without the heading

@@ -1,0 +1,282 @@
+"""The chassis right-hand side's arithmetic between its transcendental calls, compiled: the
+Magic-Formula rates of :class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS` with tyre
+relaxation, roll steer and the loads' loop in some fifteen calls instead of ~70, bit for bit.
+
+As :mod:`.fused_rates` does for the single-track model: NumPy's SIMD tangents and arctangents stay,
+the arithmetic between them runs per realisation in the chassis path's order (no multiply-add
+contraction without fastmath), and the loads' Newton loop is :func:`.load_newton.newton_loads`.
+Served: the Magic Formula on wheels that do not yield to their force (no compliance steer) with
+a load-free stiffness (no load-sensitive tyre); the right-hand side keeps NumPy's path elsewhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
+from .jit import compiled, realisations
+from .load_newton import ROWS, newton_loads
+
+__all__ = ["FusedChassisRates", "fused_chassis_rates"]
+
+
+@compiled
+def _side_slip(t, sin_b, cos_b, lever, psi_dot, v, q, loaded, T, m, v_dot, a_lat, F_w, wheel, delta, eps, half_wheel):
+    """From t = tan(beta / 2): sin and cos of beta (axle_loads.half_angle_sin_cos) and the slip
+    angles' arctan argument (lever psi_dot + v sin beta) / (v cos beta) into ``q`` (2, n); where
+    ``loaded``, the loads' steady guess T = m (v psi_dot cos beta + v' sin beta - a_lat) - F_w; where
+    ``wheel``, half the wheel angle delta - eps (``eps`` the roll steer) into ``half_wheel``."""
+    for i in range(t.shape[0]):
+        s, c = side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q)
+        if loaded:
+            g = v * psi_dot[i]
+            g = g * c
+            g = g + v_dot * s
+            g = g - item(a_lat, i)
+            g = item(m, i) * g
+            T[i] = g - F_w[i]
+        if wheel:
+            d = item(delta, i)
+            if eps.shape[0]:
+                d = d - eps[i]
+            half_wheel[i] = d * 0.5
+
+
+@compiled
+def _slip_angles(q, delta, eps, lag, sigma, B_f, B_r, steady, slip, bx, wheel, half_wheel, cos_delta):
+    """From q = atan(argument): the steady slip angles -q, the front's plus delta minus the roll
+    steer ``eps`` (none where it has no rows), into ``steady``; the ones the tyres' force follows
+    (the lagged states ``lag`` where sigma > 0, else the steady) into ``slip`` and B times them into
+    ``bx``; where ``wheel``, cos of the wheel angle from its half angle's tangent into ``cos_delta``."""
+    rolling, relaxed = eps.shape[0] > 0, lag.shape[0] > 0
+    for i in range(q.shape[1]):
+        a_f = -q[0, i]
+        a_f = a_f + item(delta, i)
+        if rolling:
+            a_f = a_f - eps[i]
+        a_r = -q[1, i]
+        steady[0, i] = a_f
+        steady[1, i] = a_r
+        if relaxed and item(sigma, i) > 0:
+            a_f, a_r = lag[0, i], lag[1, i]
+        slip[0, i] = a_f
+        slip[1, i] = a_r
+        bx[0, i] = B_f * a_f
+        bx[1, i] = B_r * a_r
+        if wheel:
+            t = half_wheel[i]
+            t2 = t * t
+            inv = t2 + 1.0
+            inv = 1.0 / inv
+            cos_delta[i] = (1.0 - t2) * inv
+
+
+@compiled
+def _unit_forces(t, unit):
+    """The force per unit peak sin(angle) (2, n) into ``unit`` from t = tan(angle / 2)."""
+    for i in range(t.shape[1]):
+        for r in range(2):
+            unit[r, i] = half_angle_sine(t[r, i])
+
+
+@compiled
+def _rates(unit, from_tangent, P, mu, capacity, cos_delta, x, out, steady, sigma, v, cos_b, sin_b, i_roll, omega, gain, zeta,
+           l_f, l_r, F_w, M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k):
+    """The axle forces P mu capacity sin(angle) (``unit``: the sine, or with ``from_tangent`` the
+    half angle's tangent) and dx/dt into ``out``: the lagged slip angles' (alpha_ss - alpha) v cos(beta)
+    / sigma (rows 4-5 where ``steady`` has rows), the roll steer's mode (rows ``i_roll``, ``i_roll`` + 1
+    where ``i_roll`` > 0), psi_dot, the yaw and lateral balances (rhs.Balance.rates with a_lat / v and
+    -(v' / v) sin beta), and the course angle psi + k beta (row 3, its sine taken after). Returns
+    whether the course may not take the half-angle sine: some |angle| not below 3 rad (NaN included)."""
+    relaxed, capped = steady.shape[0] > 0, capacity.shape[0] > 0
+    far = False
+    for i in range(x.shape[1]):
+        mu_i = item(mu, i)
+        u_f, u_r = unit[0, i], unit[1, i]
+        if from_tangent:
+            u_f, u_r = half_angle_sine(u_f), half_angle_sine(u_r)
+        pk_f = P[0, i] * mu_i
+        pk_r = P[1, i] * mu_i
+        if capped:
+            pk_f = pk_f * capacity[0, i]
+            pk_r = pk_r * capacity[1, i]
+        F_f = pk_f * u_f
+        F_r = pk_r * u_r
+        if relaxed:
+            s = item(sigma, i)
+            s = s if s > 0 else np.inf
+            c = v * cos_b[i]
+            for r in range(2):
+                d = steady[r, i] - x[4 + r, i]
+                d = d * c
+                out[4 + r, i] = d / s
+        front = F_f * item(cos_delta, i)
+        if i_roll > 0:
+            w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
+            out[i_roll, i] = rate
+            a = front + F_r
+            a = item(gain, i) * a
+            a = a - eps
+            ww = w * w
+            a = ww * a
+            b = 2.0 * item(zeta, i)
+            b = b * w
+            b = b * rate
+            out[i_roll + 1, i] = a - b
+        psi_dot = x[1, i]
+        out[0, i] = psi_dot
+        F_wi = F_w[i]
+        yaw = item(l_f, i) * front
+        yaw = yaw - item(l_r, i) * F_r
+        yaw = yaw + (item(M_w, i) if has_M_w else F_wi * item(M_c, i))
+        out[1, i] = yaw * item(yaw_factor, i)
+        lateral = front + F_r
+        lateral = lateral + F_wi
+        lateral = lateral * cos_b[i]
+        lateral = lateral * item(inv_mv, i)
+        lateral = lateral - psi_dot
+        lateral = lateral + item(a_v, i)
+        if has_v_dot:
+            lateral = lateral - v_dot_v * sin_b[i]
+        out[2, i] = lateral
+        course = x[0, i] + item(k, i) * x[2, i]
+        out[3, i] = course
+        if not abs(course) < 3.0:
+            far = True
+    return far
+
+
+@compiled
+def _scaled_sine(t, v, out):
+    """v sin(angle) into ``out`` (n,) from t = tan(angle / 2) (axle_loads.half_angle_sin_cos)."""
+    for i in range(t.shape[0]):
+        out[i] = v * half_angle_sine(t[i])
+
+
+class FusedChassisRates:
+    """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
+    chassis model on wheels that do not yield and a load-free stiffness, the same numbers: its
+    constants and work arrays for ``n`` realisations.
+
+    Parameters
+    ----------
+    n : int
+        Realisations.
+    lever, static : ndarray, shape (2, n)
+        [l_f, -l_r] (m) and the static axle loads (N).
+    mu, E : float or ndarray, shape (n,)
+        Friction (-) and the curvature factor (-).
+    B, C : tuple of two floats, float
+        The front and rear stiffness factors and the shape factor (-).
+    balance : uqdrive.vehicle.dynamics.rhs.Balance
+        The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
+    sigma : float or ndarray, shape (n,), or None
+        Relaxation length (m, 0: none) where the tyres relax.
+    roll : tuple (i_roll, omega, gain, zeta) or None
+        The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
+    course_weight : float or ndarray, shape (n,)
+        k of psi + k beta (-).
+    loads : dict or None
+        Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
+        steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
+        between calls (``K``, ``steps``, ``L`` and the flags ``pitching``, ``transferring``, ``slipping``).
+    """
+
+    def __init__(self, n: int, lever, static, mu, E, B, C, balance, sigma, roll, course_weight, loads):
+        self.n = n
+        self.lever = np.ascontiguousarray(lever, float)
+        self.static = np.ascontiguousarray(np.broadcast_to(static, (2, n)), float)
+        # the constants as arrays (n,) whether or not they vary: one compiled loop for every structure
+        # (numbers and arrays would compile one per combination of their kinds, ~2 s each on a cold cache)
+        self.mu, self.E, self.B_f, self.B_r, self.C = realisations(mu, n), realisations(E, n), float(B[0]), float(B[1]), float(C)
+        self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
+        self.yaw_factor = realisations(balance.yaw_factor, n)
+        self.relaxed = sigma is not None
+        self.sigma = realisations(0.0 if sigma is None else sigma, n)
+        self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
+        self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
+        self.k = realisations(course_weight, n)
+        self.loads = loads
+        self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
+        self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads all three)
+        self.t, self.half_wheel, self.cos_delta, self.T = (np.empty(n) for _ in range(4))
+        self.q, self.steady, self.slip, self.bx, self.F, self.unit = (np.empty((2, n)) for _ in range(6))
+        self.none, self.no_roll = np.empty((0, n)), np.empty(0)  # an absent term's rows
+
+    def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
+        """dx/dt of ``x`` into ``out`` (n_states, n), float64, from one half step's wheel angle ``delta``
+        (rad, a number or (n,)) with its cosine where it is a number (else None), side wind ``F_w``
+        (n,) (N), wind moment ``M_w`` (n,) (N m; None: M_c F_w), speed ``v`` (m/s) and its rate (m/s^2),
+        1 / (m v) and a_lat / v; ``profile``: the speed follows a profile (beta_dot's -(v' / v) sin beta)."""
+        n, trig, t, q, bx, F = self.n, self.trig, self.t, self.q, self.bx, self.F
+        if x.shape[1] != n or out.shape != x.shape:  # the compiled loops index without bounds checks
+            raise ValueError(f"states of shape {x.shape} (out {out.shape}) for rates built for {n} realisations")
+        beta = x[2]
+        rolling, loaded = self.i_roll > 0, self.loads is not None
+        eps = x[self.i_roll] if rolling else self.no_roll
+        wheel = cos_delta is None or rolling
+        delta = float(delta) if np.ndim(delta) == 0 else delta
+        F_w = realisations(F_w, n)
+        np.multiply(beta, 0.5, t)
+        np.tan(t, t)
+        _side_slip(t, trig[2], trig[1], self.lever, x[1], v, q, loaded, self.T, self.m, v_dot, self.a_lat, F_w, wheel, delta, eps,
+                   self.half_wheel)
+        np.arctan(q, q)
+        if wheel:
+            np.tan(self.half_wheel, self.half_wheel)
+        _slip_angles(q, delta, eps, x[4:6] if self.relaxed else self.none, self.sigma, self.B_f, self.B_r, self.steady, self.slip, bx,
+                     wheel, self.half_wheel, self.cos_delta)
+        np.arctan(bx, F)
+        curvature_from_atan(bx, self.E, F)
+        np.arctan(F, F)
+        half_tyre_angle(F, self.C, bx)
+        np.tan(bx, bx)
+        cos_delta = self.cos_delta if wheel else float(cos_delta)
+        P, capacity, unit = self.static, self.none, bx
+        if loaded:
+            unit = self.unit
+            _unit_forces(bx, unit)
+            a = self.loads
+            if a["pitching"] or a["slipping"]:
+                np.tan(beta, trig[0])
+            front = realisations(cos_delta, n)
+            P, capacity, _ = newton_loads(self.T, a["K"], trig, front, self.slip, unit, F_w, a["steps"], v_dot, a["L"], self.B_f, self.B_r,
+                                          self.C, pitching=a["pitching"], transferring=a["transferring"], slipping=a["slipping"],
+                                          sensitive=False, yielding=False)
+            capacity = capacity if a["slipping"] else self.none
+        far = _rates(unit, not loaded, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
+                     trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,
+                     0.0 if M_w is None else realisations(M_w, n), M_w is not None, self.yaw_factor, inv_mv, a_v,
+                     v_dot / v, profile, self.k)
+        course = out[3]
+        if far:
+            np.sin(course, course)
+            course *= v
+        else:
+            np.multiply(course, 0.5, t)
+            np.tan(t, t)
+            _scaled_sine(t, v, course)
+
+
+def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
+    """:class:`FusedChassisRates` of the chassis right-hand side ``rhs``
+    (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
+    (n_states, n), or None where it does not serve: the linear tyre, compliance steer, the
+    load-sensitive tyre, a loads' loop not compiled (``compiled_loop``), per-realisation stiffness
+    or shape factors, per-axle relaxation or roll constants, anything but float64."""
+    n = x.shape[1]
+    if not rhs.saturating or rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
+        return None
+    per_run = (rhs.mu, rhs.E, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f,
+               rhs.balance.l_r, rhs.balance.M_c, rhs.balance.yaw_factor)
+    if (np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
+            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+        return None
+    loads = None
+    if rhs.loaded:
+        rows = rhs.constant_rows()
+        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": np.stack([realisations(rows[name], n) for name in ROWS]), "steps": steps,
+                 "L": float(rhs.L), "pitching": rhs.pitching, "transferring": rhs.transferring, "slipping": rhs.slipping}
+    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
+    return FusedChassisRates(n, rhs.lever, rhs.static, rhs.mu, rhs.E, rhs.B[:, 0], rhs.C, rhs.balance, rhs.sigma if rhs.relaxed else None,
+                             roll, rhs.k, loads)

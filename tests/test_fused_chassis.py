@@ -1,0 +1,135 @@
+"""The chassis right-hand side's compiled arithmetic (vehicle/dynamics/fused_chassis.py) gives the
+NumPy path's numbers bit for bit, on every term it serves with and without its neighbours, and
+the chassis models it does not serve take the NumPy path."""
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from uqdrive.config import load_config
+from uqdrive.numerics.integrate import rk4_fixed_step_into
+from uqdrive.settings import Settings
+from uqdrive.vehicle import track_extended
+from uqdrive.vehicle.effects import ModelStructure, effect
+from uqdrive.vehicle.single_track import VehicleParameters
+
+SETTINGS = Settings.from_config(load_config(None))
+V, J = 70.0 / 3.6, 41  # m/s; half steps of the tabulated inputs
+H, T_W = 0.55, 1.6
+VALUES = {"lateral_load_transfer": [0.6, -0.4], "longitudinal_load_transfer": [0.55], "combined_slip": [0.8, 0.4],
+          "tyre_relaxation": [0.4], "roll_steer": [0.5, 1.7, 0.4], "road_bank": [0.3], "lateral_kinematics": [0.7],
+          "compliance_steer": [0.4], "load_sensitive_tyre": [0.5, -0.2]}
+CHASSIS = ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "longitudinal_load_transfer", "combined_slip")
+#: Each chassis term alone, in pairs and the loads' three together, with the terms of the
+#: kinematics (a bank, the course weight) on the side.
+SETS = [()] + [(c,) for c in CHASSIS] + list(itertools.combinations(CHASSIS, 2)) + [CHASSIS[2:], CHASSIS]
+
+
+def _structure(terms, per_run=None):
+    """The Magic-Formula model with ``terms``; ``per_run`` (a seeded Generator): the relaxation
+    length (a quarter of them 0), roll steer, course weight and bank drawn per realisation."""
+    s = effect("tyre_saturation").augment(ModelStructure(), [0.97])
+    for name in terms:
+        s = effect(name).augment(s, VALUES[name])
+    if per_run is not None:
+        n = 53
+        more = {"course_weight": per_run.uniform(0.2, 1.0, n), "lateral_acceleration": per_run.normal(0.3, 0.1, n)}
+        if "tyre_relaxation" in terms:
+            more["relaxation_length"] = np.where(per_run.random(n) < 0.25, 0.0, per_run.uniform(0.2, 0.6, n))
+        if "roll_steer" in terms:
+            more["roll_steer"] = per_run.uniform(0.2, 0.8, n)
+        s = replace(s, **more)
+    return s
+
+
+def _rhs(fused: bool, s, n=53, speed=False, per_run=False, seed=7):
+    """A chassis right-hand side of n realisations from one seed: with ``per_run`` the steering per
+    realisation, E per realisation and the wind's yaw moment a constant M_w (else one steering table,
+    one E and M_c F_w); ``speed``, a braking speed profile."""
+    rng = np.random.default_rng(seed)
+    p = VehicleParameters.from_settings(SETTINGS, mu=rng.uniform(0.6, 1.0, n), l_f=rng.uniform(1.4, 1.7, n), m_load=rng.normal(100, 30, n), v_c=V)
+    delta = np.deg2rad(5.0) * np.sin(np.linspace(0.0, 3.0, J))
+    if per_run:
+        delta = delta[:, None] * rng.uniform(0.5, 1.5, n)
+    speed_half = (np.linspace(V, V - 4.0, J), np.full(J, -3.0)) if speed else None
+    E = rng.uniform(0.5, 1.0, n) if per_run else 0.97
+    track_extended.FUSED = fused
+    try:
+        return track_extended.ExtendedSingleTrackRHS(p, s, E, delta, rng.uniform(-300.0, 300.0, (J, n)), not per_run, rng.normal(0.0, 2.0, n),
+                                                     H, T_W, speed_half=speed_half)
+    finally:
+        track_extended.FUSED = True
+
+
+def _states(rhs, rng, n=53):
+    """States with large yaw rates and side slips (tyres past their peak, wheels lifting) and
+    courses either side of the half-angle sine's 3 rad bound."""
+    return np.vstack([rng.normal(0, 1.5, n), rng.normal(0, 0.6, n), rng.normal(0, 0.15, n), rng.normal(0, 1, n)]
+                     + [rng.normal(0, 0.05, n) for _ in range(rhs.n_states - 4)])
+
+
+def _rates(rhs, x, steps=(0, 1, 2)):
+    out = np.empty((len(steps), rhs.n_states, x.shape[1]))
+    for k, j in enumerate(steps):
+        rhs(x, j, out[k])
+    return out
+
+
+@pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
+@pytest.mark.parametrize("speed", [False, True], ids=["held", "braking"])
+@pytest.mark.parametrize("terms", SETS, ids=lambda t: "+".join(t) or "tyre")
+def test_the_compiled_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed, per_run):
+    """Each term alone, in pairs and together, at held speed and braking, with numbers or per-realisation
+    inputs and constants (relaxation lengths of zero among them): the same doubles at three half
+    steps, the compiled path taken."""
+    extra = ("road_bank", "lateral_kinematics") if per_run else ()
+    s = _structure(terms + extra, np.random.default_rng(2) if per_run else None)
+    reference, fused = _rhs(False, s, speed=speed, per_run=per_run), _rhs(True, s, speed=speed, per_run=per_run)
+    x = _states(reference, np.random.default_rng(3))
+    expected = _rates(reference, x)
+    got = _rates(fused, x)
+    assert fused.fused and not reference.fused
+    assert np.all(np.isfinite(expected))
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_the_course_takes_numpys_sine_where_an_angle_is_past_3_rad_or_nan():
+    """The course row's two sines (the half angle's within 3 rad, NumPy's beyond): all within the
+    bound, one past it, one NaN state (its own rates NaN, the rest as NumPy's)."""
+    s = _structure(("tyre_relaxation", "lateral_load_transfer"))
+    reference, fused = _rhs(False, s), _rhs(True, s)
+    x = _states(reference, np.random.default_rng(4))
+    for psi in (0.5, 3.5, np.nan):
+        x[0] = np.clip(x[0], -2.5, 2.5)
+        x[0, 7] = psi
+        np.testing.assert_array_equal(_rates(fused, x), _rates(reference, x))
+
+
+def test_an_ensemble_integrated_with_the_compiled_chassis_rates_is_the_numpy_ensemble_bit_for_bit():
+    """Relaxation, roll steer and the loads' loop over 20 RK4 steps from rest along the steering table."""
+    s = _structure(("tyre_relaxation", "roll_steer", "lateral_load_transfer"))
+    runs = [rk4_fixed_step_into(_rhs(fused, s, speed=True, per_run=True), np.zeros((8, 53)), 0.01, 20, 1) for fused in (False, True)]
+    assert np.abs(runs[0][-1, 1]).max() > 1e-3  # the car turned
+    np.testing.assert_array_equal(runs[1], runs[0])
+
+
+@pytest.mark.parametrize("case", ["linear tyre", "compliance steer", "load-sensitive tyre", "loop in NumPy", "per-run B", "switched off"])
+def test_chassis_models_the_compiled_rates_do_not_serve_take_the_numpy_path(case, monkeypatch):
+    """Yielding wheels (their own Newton loop through the tyre's sine), the load-sensitive stiffness,
+    the linear tyre, a loads' loop kept in NumPy, per-realisation stiffness factors and the switch
+    keep the NumPy path, with its numbers."""
+    terms = {"compliance steer": ("compliance_steer",), "load-sensitive tyre": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
+    s = _structure(terms)
+    if case == "linear tyre":
+        s = replace(s, tyre="linear")
+    if case == "loop in NumPy":
+        s = _structure(("lateral_load_transfer",))
+        monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
+    rhs = _rhs(case != "switched off", s)
+    if case == "per-run B":
+        rhs.B = np.array([[10.0], [11.0]]) * np.ones(53)
+    x = _states(rhs, np.random.default_rng(5))
+    _rates(rhs, x, (1,))
+    assert not rhs.fused
