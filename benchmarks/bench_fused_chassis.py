@@ -15,11 +15,10 @@ from __future__ import annotations
 
 import argparse
 import platform
-import time
 
 import numpy as np
 
-from timing import per_call, report_compiled, without
+from timing import discover_cpu, per_call, report_compiled, without
 from uqdrive.config import load_config
 from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
@@ -67,18 +66,6 @@ def _four_wheel_case(name: str):
     return generate(config, case, amplitude_for(config, car, case, steady_limit(config, car)), car), config
 
 
-def _discover(runs, config, fused: bool):
-    import uqdrive
-
-    track_extended.FUSED = fused
-    try:
-        t0 = time.process_time()
-        verdict = uqdrive.discover(runs, config=config, candidates="all", posterior=False)
-        return time.process_time() - t0, verdict.to_dict()
-    finally:
-        track_extended.FUSED = True
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -95,8 +82,9 @@ def main(argv=None):
                          "same": bool(np.array_equal(a, b))})
     if not args.no_discover:
         runs, config = _four_wheel_case(args.case)
-        _discover(runs.isel(sample=slice(0, 60)), config, True)  # warm-up: imports, numba's cache
-        (old, va), (new, vb) = _discover(runs, config, False), _discover(runs, config, True)
+        kw = dict(config=config, candidates="all", posterior=False)
+        discover_cpu(track_extended, True, runs.isel(sample=slice(0, 60)), **kw)  # warm-up: imports, numba's cache
+        (old, va), (new, vb) = discover_cpu(track_extended, False, runs, **kw), discover_cpu(track_extended, True, runs, **kw)
         rows.append({"case": f"discover, {args.case}, every candidate (CPU s)", "numpy_s": old, "compiled_s": new, "ratio": old / new,
                      "same": without(va) == without(vb)})
     report_compiled(rows, args, "python benchmarks/bench_fused_chassis.py", 52)

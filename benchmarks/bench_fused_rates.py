@@ -15,11 +15,10 @@ from __future__ import annotations
 
 import argparse
 import platform
-import time
 
 import numpy as np
 
-from timing import per_call, report_compiled, without
+from timing import discover_cpu, per_call, report_compiled, without
 from uqdrive.config import load_config
 from uqdrive.settings import Settings
 from uqdrive.vehicle.dynamics import rhs as rhs_module
@@ -43,18 +42,6 @@ def _calls(n: int, fused: bool, repeats: int, calls: int = 2000):
     return per_call(*_rhs(n, fused), repeats, calls)
 
 
-def _discover(runs, fused: bool):
-    import uqdrive
-
-    rhs_module.FUSED = fused
-    try:
-        t0 = time.process_time()
-        verdict = uqdrive.discover(runs)
-        return time.process_time() - t0, verdict.to_dict()
-    finally:
-        rhs_module.FUSED = True
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -71,8 +58,8 @@ def main(argv=None):
         import uqdrive
 
         runs = uqdrive.simulate("nlst", samples=200)
-        _discover(runs, True)  # warm-up: imports, numba's cache
-        (old, va), (new, vb) = _discover(runs, False), _discover(runs, True)
+        discover_cpu(rhs_module, True, runs)  # warm-up: imports, numba's cache
+        (old, va), (new, vb) = discover_cpu(rhs_module, False, runs), discover_cpu(rhs_module, True, runs)
         rows.append({"case": "discover, README tour (CPU s)", "numpy_s": old, "compiled_s": new, "ratio": old / new,
                      "same": without(va) == without(vb)})
     report_compiled(rows, args, "python benchmarks/bench_fused_rates.py", 34)

@@ -58,3 +58,17 @@ def per_call(rhs, x, repeats: int, calls: int):
 
     seconds, rates = best_of(run, repeats)
     return seconds / calls, rates
+
+
+def discover_cpu(module, fused: bool, runs, **kwargs):
+    """CPU seconds of ``uqdrive.discover(runs, **kwargs)`` with ``module.FUSED`` set to ``fused``
+    (restored to True after) and the verdict as a dict."""
+    import uqdrive
+
+    module.FUSED = fused
+    try:
+        t0 = time.process_time()
+        verdict = uqdrive.discover(runs, **kwargs)
+        return time.process_time() - t0, verdict.to_dict()
+    finally:
+        module.FUSED = True

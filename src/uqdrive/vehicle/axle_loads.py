@@ -174,13 +174,20 @@ class AxleLoads:
                 dP = dP + np.where((w > 0) & (gain > 0), (gain + self.p_Dz * w / F0) * d_w, self._full(0.0, w))
         return (P, dP) if slope else P
 
-    def constant_rows(self) -> dict:
-        """The per-realisation constants :data:`uqdrive.vehicle.dynamics.load_newton.ROWS` names (scalars, (1,) or (n,))."""
-        arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share
-        return {"m": self.m, "a_lat": self.a_lat, "h_x": self.h_x, "static_f": self.static[0], "static_r": self.static[1], "arm_f": arm[0],
-                "arm_r": arm[1], "p_Dz": self.p_Dz, "mu": self.mu, "kappa": self.kappa, "kappa_x": self.kappa_x, "drive_f": drive[0],
-                "drive_r": drive[1], "brake_f": brake[0], "brake_r": brake[1], "p_D": self.p_D[0], "q_K": self.q_K[0], "h_s": self.h_s,
-                "reference_f": self.reference[0], "reference_r": self.reference[1]}
+    def load_constants(self, n: int):
+        """The per-realisation constants of the compiled loads' loop, rows :data:`uqdrive.vehicle.dynamics.load_newton.ROWS`
+        (len(ROWS), n), stacked at the first call and kept (the chassis right-hand side's constants do not change)."""
+        if self._constants is None:
+            from .dynamics.jit import realisations
+            from .dynamics.load_newton import ROWS  # numba: only where a chassis model transfers load
+
+            arm, drive, brake = self.lateral_arm, self.drive_share, self.brake_share
+            rows = {"m": self.m, "a_lat": self.a_lat, "h_x": self.h_x, "static_f": self.static[0], "static_r": self.static[1], "arm_f": arm[0],
+                    "arm_r": arm[1], "p_Dz": self.p_Dz, "mu": self.mu, "kappa": self.kappa, "kappa_x": self.kappa_x, "drive_f": drive[0],
+                    "drive_r": drive[1], "brake_f": brake[0], "brake_r": brake[1], "p_D": self.p_D[0], "q_K": self.q_K[0], "h_s": self.h_s,
+                    "reference_f": self.reference[0], "reference_r": self.reference[1]}
+            self._constants = np.stack([realisations(rows[name], n) for name in ROWS])
+        return self._constants
 
     def lateral_capacity(self, tyres, beta, v_dot, F_w, P):
         """Share (2, n) of each axle's lateral force the longitudinal force leaves (1 without

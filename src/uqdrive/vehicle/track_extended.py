@@ -327,17 +327,14 @@ class ExtendedSingleTrackRHS(AxleLoads):
         numbers): the loads (2, n), the lateral shares (2, n) and the load-sensitive tyre's factors
         (4, n) of the converged T, which ``T`` (n,) holds after it."""
         from .dynamics.jit import realisations
-        from .dynamics.load_newton import ROWS, newton_loads  # numba: only where a chassis model transfers load
+        from .dynamics.load_newton import newton_loads  # numba: only where a chassis model transfers load
 
         n = T.shape[0]
         full = lambda a: realisations(a, n)  # noqa: E731
-        if self._constants is None:
-            rows = self.constant_rows()
-            self._constants = np.stack([full(rows[name]) for name in ROWS])
         needs_trig = self.pitching or self.slipping or self.sensitive
         trig = np.stack([full(beta.tan), full(beta.cos), full(beta.sin)]) if needs_trig else np.zeros((3, n))
         front = full(self._cos_of(delta)) if self.saturating else np.ones(n)
-        return newton_loads(T, self._constants, trig, front, np.ascontiguousarray(slip, float), np.zeros((0, n)) if unit is None else
+        return newton_loads(T, self.load_constants(n), trig, front, np.ascontiguousarray(slip, float), np.zeros((0, n)) if unit is None else
                             np.ascontiguousarray(unit, float), full(F_w), LOAD_NEWTON_STEPS, v_dot, self.L, self.B[0, 0], self.B[1, 0], self.C,
                             pitching=self.pitching, transferring=self.transferring, slipping=self.slipping, sensitive=self.sensitive,
                             yielding=self.compliant and not self.relaxed)

@@ -15,7 +15,7 @@ import numpy as np
 
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
 from .jit import compiled, realisations
-from .load_newton import ROWS, newton_loads
+from .load_newton import newton_loads
 
 __all__ = ["FusedChassisRates", "fused_chassis_rates"]
 
@@ -185,7 +185,7 @@ class FusedChassisRates:
     def __init__(self, n: int, lever, static, mu, E, B, C, balance, sigma, roll, course_weight, loads):
         self.n = n
         self.lever = np.ascontiguousarray(lever, float)
-        self.static = np.ascontiguousarray(np.broadcast_to(static, (2, n)), float)
+        self.static = np.ascontiguousarray(static, float)
         # the constants as arrays (n,) whether or not they vary: one compiled loop for every structure
         # (numbers and arrays would compile one per combination of their kinds, ~2 s each on a cold cache)
         self.mu, self.E, self.B_f, self.B_r, self.C = realisations(mu, n), realisations(E, n), float(B[0]), float(B[1]), float(C)
@@ -274,8 +274,7 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
         return None
     loads = None
     if rhs.loaded:
-        rows = rhs.constant_rows()
-        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": np.stack([realisations(rows[name], n) for name in ROWS]), "steps": steps,
+        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps,
                  "L": float(rhs.L), "pitching": rhs.pitching, "transferring": rhs.transferring, "slipping": rhs.slipping}
     roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
     return FusedChassisRates(n, rhs.lever, rhs.static, rhs.mu, rhs.E, rhs.B[:, 0], rhs.C, rhs.balance, rhs.sigma if rhs.relaxed else None,
