@@ -1,6 +1,6 @@
-"""The chassis right-hand side's compiled arithmetic (vehicle/dynamics/fused_chassis.py) gives the
-NumPy path's numbers bit for bit, on every term it serves with and without its neighbours, and
-the chassis models it does not serve take the NumPy path."""
+"""The chassis right-hand side's compiled arithmetic (vehicle/dynamics/fused_chassis.py, on the
+linear tyre fused_linear.py) gives the NumPy path's numbers bit for bit, on every term it serves
+with and without its neighbours, and the chassis models it does not serve take the NumPy path."""
 
 import itertools
 from dataclasses import replace
@@ -25,12 +25,19 @@ CHASSIS = ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "longitudin
 #: Each chassis term alone, in pairs and the loads' three together, with the terms of the
 #: kinematics (a bank, the course weight) on the side.
 SETS = [()] + [(c,) for c in CHASSIS] + list(itertools.combinations(CHASSIS, 2)) + [CHASSIS[2:], CHASSIS]
+#: On the linear tyre: relaxation, roll steer and compliance steer alone, in pairs and together,
+#: and each term that moves the loads alone, beside relaxation or compliance steer, and with all.
+LINEAR = ("tyre_relaxation", "roll_steer", "compliance_steer")
+LOADS = ("lateral_load_transfer", "longitudinal_load_transfer", "combined_slip", "load_sensitive_tyre")
+LINEAR_SETS = ([()] + [(c,) for c in LINEAR + LOADS] + list(itertools.combinations(LINEAR, 2))
+               + [(c, load) for load in LOADS for c in ("tyre_relaxation", "compliance_steer")] + [LINEAR, LINEAR + LOADS])
 
 
-def _structure(terms, per_run=None):
-    """The Magic-Formula model with ``terms``; ``per_run`` (a seeded Generator): the relaxation
-    length (a quarter of them 0), roll steer, course weight and bank drawn per realisation."""
-    s = effect("tyre_saturation").augment(ModelStructure(), [0.97])
+def _structure(terms, per_run=None, linear=False):
+    """The Magic-Formula model (``linear``: the LST's) with ``terms``; ``per_run`` (a seeded
+    Generator): the relaxation length (a quarter of them 0), roll steer, course weight and bank
+    drawn per realisation."""
+    s = ModelStructure() if linear else effect("tyre_saturation").augment(ModelStructure(), [0.97])
     for name in terms:
         s = effect(name).augment(s, VALUES[name])
     if per_run is not None:
@@ -40,6 +47,8 @@ def _structure(terms, per_run=None):
             more["relaxation_length"] = np.where(per_run.random(n) < 0.25, 0.0, per_run.uniform(0.2, 0.6, n))
         if "roll_steer" in terms:
             more["roll_steer"] = per_run.uniform(0.2, 0.8, n)
+        if "compliance_steer" in terms:
+            more["compliance_steer"] = per_run.uniform(-8.0, 0.6, n)  # about half of them at the yield's floor on the linear tyre
         s = replace(s, **more)
     return s
 
@@ -58,7 +67,7 @@ def _rhs(fused: bool, s, n=53, speed=False, per_run=False, seed=7):
     track_extended.FUSED = fused
     try:
         return track_extended.ExtendedSingleTrackRHS(p, s, E, delta, rng.uniform(-300.0, 300.0, (J, n)), not per_run, rng.normal(0.0, 2.0, n),
-                                                     H, T_W, speed_half=speed_half)
+                                                     H, T_W, speed_half=speed_half, tyre_load_height=H)
     finally:
         track_extended.FUSED = True
 
@@ -95,6 +104,37 @@ def test_the_compiled_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed
     np.testing.assert_array_equal(got, expected)
 
 
+@pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
+@pytest.mark.parametrize("speed", [False, True], ids=["held", "braking"])
+@pytest.mark.parametrize("terms", LINEAR_SETS, ids=lambda t: "+".join(t) or "tyre")
+def test_the_compiled_linear_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed, per_run):
+    """On the linear tyre (the LST's kinematics, its course linear, with per-realisation inputs the
+    exact course of lateral_kinematics and a bank): each term alone, in pairs and together, on
+    static loads and on loads that follow the tyres' force, the same doubles at three half steps,
+    the compiled path taken."""
+    extra = ("road_bank", "lateral_kinematics") if per_run else ()
+    s = _structure(terms + extra, np.random.default_rng(2) if per_run else None, linear=True)
+    reference, fused = _rhs(False, s, speed=speed, per_run=per_run), _rhs(True, s, speed=speed, per_run=per_run)
+    x = _states(reference, np.random.default_rng(3))
+    x[0] = np.clip(x[0], -2.5, 2.5)  # the exact course within the half-angle sine's bound
+    expected, got = _rates(reference, x), _rates(fused, x)
+    assert fused.fused and not reference.fused
+    assert np.all(np.isfinite(expected))
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_the_linear_tyres_exact_course_takes_numpys_sine_past_3_rad():
+    """lateral_kinematics' y_dot = v sin(psi + k beta) on the linear tyre: the half angle's sine
+    within 3 rad, NumPy's for a course past it or NaN, as the NumPy path."""
+    s = _structure(("compliance_steer", "lateral_kinematics"), linear=True)
+    reference, fused = _rhs(False, s), _rhs(True, s)
+    x = _states(reference, np.random.default_rng(4))
+    for psi in (0.5, 3.5, np.nan):
+        x[0] = np.clip(x[0], -2.5, 2.5)
+        x[0, 7] = psi
+        np.testing.assert_array_equal(_rates(fused, x), _rates(reference, x))
+
+
 def test_the_course_takes_numpys_sine_where_an_angle_is_past_3_rad_or_nan():
     """The course row's two sines (the half angle's within 3 rad, NumPy's beyond): all within the
     bound, one past it, one NaN state (its own rates NaN, the rest as NumPy's)."""
@@ -108,27 +148,34 @@ def test_the_course_takes_numpys_sine_where_an_angle_is_past_3_rad_or_nan():
 
 
 def test_an_ensemble_integrated_with_the_compiled_chassis_rates_is_the_numpy_ensemble_bit_for_bit():
-    """Relaxation, roll steer and the loads' loop over 20 RK4 steps from rest along the steering table."""
-    s = _structure(("tyre_relaxation", "roll_steer", "lateral_load_transfer"))
-    runs = [rk4_fixed_step_into(_rhs(fused, s, speed=True, per_run=True), np.zeros((8, 53)), 0.01, 20, 1) for fused in (False, True)]
-    assert np.abs(runs[0][-1, 1]).max() > 1e-3  # the car turned
-    np.testing.assert_array_equal(runs[1], runs[0])
+    """Relaxation, roll steer and the loads' loop (on the linear tyre with compliance steer) over 20
+    RK4 steps from rest along the steering table."""
+    for s in (_structure(("tyre_relaxation", "roll_steer", "lateral_load_transfer")),
+              _structure(LINEAR + ("lateral_load_transfer",), linear=True)):
+        runs = [rk4_fixed_step_into(_rhs(fused, s, speed=True, per_run=True), np.zeros((8, 53)), 0.01, 20, 1) for fused in (False, True)]
+        assert np.abs(runs[0][-1, 1]).max() > 1e-3  # the car turned
+        np.testing.assert_array_equal(runs[1], runs[0])
 
 
-@pytest.mark.parametrize("case", ["linear tyre", "compliance steer", "load-sensitive tyre", "loop in NumPy", "per-run B", "switched off"])
+@pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer", "load-sensitive tyre", "loop in NumPy", "per-run B",
+                                  "per-run B, linear tyre", "switched off"])
 def test_chassis_models_the_compiled_rates_do_not_serve_take_the_numpy_path(case, monkeypatch):
     """Yielding wheels (their own Newton loop through the tyre's sine), the load-sensitive stiffness,
-    the linear tyre, a loads' loop kept in NumPy, per-realisation stiffness factors and the switch
+    a loads' loop kept in NumPy (on either tyre), per-realisation stiffness factors and the switch
     keep the NumPy path, with its numbers."""
     terms = {"compliance steer": ("compliance_steer",), "load-sensitive tyre": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
     s = _structure(terms)
-    if case == "linear tyre":
-        s = replace(s, tyre="linear")
+    if case == "linear tyre, loop in NumPy":
+        s = _structure(("lateral_load_transfer",), linear=True)
+        monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
     if case == "loop in NumPy":
         s = _structure(("lateral_load_transfer",))
         monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
     rhs = _rhs(case != "switched off", s)
     if case == "per-run B":
+        rhs.B = np.array([[10.0], [11.0]]) * np.ones(53)
+    if case == "per-run B, linear tyre":
+        rhs = _rhs(True, _structure(("roll_steer",), linear=True))
         rhs.B = np.array([[10.0], [11.0]]) * np.ones(53)
     x = _states(rhs, np.random.default_rng(5))
     _rates(rhs, x, (1,))

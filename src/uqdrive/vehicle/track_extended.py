@@ -367,7 +367,8 @@ class ExtendedSingleTrackRHS(AxleLoads):
             self._fused = fused_chassis_rates(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
         if self._fused:
             delta = self.delta_half[j]
-            self._fused(x, out, delta, np.cos(delta) if np.ndim(delta) == 0 else None, self.F_w_half[j], self.M_w, *self._at(j), self.speed_half is not None)
+            cos_delta = np.cos(delta) if self.saturating and np.ndim(delta) == 0 else None
+            self._fused(x, out, delta, cos_delta, self.F_w_half[j], self.M_w, *self._at(j), self.speed_half is not None)
             return
         psi, psi_dot, beta = x[0], x[1], x[2]
         side_slip = SideSlip(beta)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .fused_linear import fused_linear_chassis_rates
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
 from .jit import compiled, realisations
 from .load_newton import newton_loads
@@ -261,11 +262,14 @@ class FusedChassisRates:
 def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
-    (n_states, n), or None where it does not serve: the linear tyre, compliance steer, the
-    load-sensitive tyre, a loads' loop not compiled (``compiled_loop``), per-realisation stiffness
-    or shape factors, per-axle relaxation or roll constants, anything but float64."""
+    (n_states, n), on the linear tyre :func:`.fused_linear.fused_linear_chassis_rates`; None
+    where neither serves: compliance steer, the load-sensitive tyre, a loads' loop not compiled
+    (``compiled_loop``), per-realisation stiffness or shape factors, per-axle relaxation or roll
+    constants, anything but float64."""
     n = x.shape[1]
-    if not rhs.saturating or rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
+    if not rhs.saturating:
+        return fused_linear_chassis_rates(rhs, x, steps, compiled_loop)
+    if rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
         return None
     per_run = (rhs.mu, rhs.E, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f,
                rhs.balance.l_r, rhs.balance.M_c, rhs.balance.yaw_factor)

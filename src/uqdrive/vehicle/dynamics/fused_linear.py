@@ -1,0 +1,282 @@
+"""The chassis right-hand side on the linear tyre, compiled: the rates of
+:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS` on the LST's kinematics in one loop, bit for bit.
+
+On the linear tyre the chassis rates are arithmetic alone (small slip angles, F = c alpha, the
+course psi + k beta), some 35 NumPy calls on (n,) and (2, n) arrays whose per-call cost is most of
+a step at the few hundred realisations of a discover fit. Here they run as one loop per
+realisation in the NumPy path's order (no multiply-add contraction without fastmath), so every
+number is the NumPy path's. Served: tyre relaxation, roll steer and compliance steer, on static
+loads or on loads that follow the tyres' force (load transfer, combined slip, the load-sensitive
+tyre: the loop is :func:`.load_newton.newton_loads`, between two loops here).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from ..axle_loads import course_sine
+from numba import njit
+
+from .fused_rates import item
+from .jit import compiled, realisations
+from .load_newton import newton_loads
+
+__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates"]
+
+
+@njit(inline="always", error_model="numpy")
+def _steady_slip_at(x, i, lever, v, delta, i_roll):
+    """Realisation ``i``'s steady slip angles -(beta + lever psi_dot / v), the front's plus delta
+    minus the roll steer (rows ``i_roll``; 0: none) (track_extended.ExtendedSingleTrackRHS.steady_slip)."""
+    psi_dot, beta = x[1, i], x[2, i]
+    a_f = lever[0, i] * psi_dot
+    a_f = a_f / v
+    a_f = beta + a_f
+    a_f = -a_f
+    a_r = lever[1, i] * psi_dot
+    a_r = a_r / v
+    a_r = beta + a_r
+    a_r = -a_r
+    a_f = a_f + item(delta, i)
+    if i_roll > 0:
+        a_f = a_f - x[i_roll, i]
+    return a_f, a_r
+
+
+@compiled
+def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a_lat, F_w, T, slip):
+    """From t = tan(beta / 2): cos and sin of beta (axle_loads.half_angle_sin_cos) into rows 1 and
+    2 of ``trig``, the loads' steady guess T = m (v psi_dot cos beta + v' sin beta - a_lat) - F_w
+    into ``T`` and the slip angles whose force the loads scale (the lagged states where sigma > 0,
+    else the steady ones) into ``slip`` (2, n)."""
+    for i in range(t.shape[0]):
+        ti = t[i]
+        inv = ti * ti
+        c = 1.0 - inv
+        inv = inv + 1.0
+        inv = 1.0 / inv
+        c = c * inv
+        s = ti * 2.0
+        s = s * inv
+        trig[1, i] = c
+        trig[2, i] = s
+        g = v * x[1, i]
+        g = g * c
+        g = g + v_dot * s
+        g = g - item(a_lat, i)
+        g = item(m, i) * g
+        T[i] = g - F_w[i]
+        a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
+        if relaxed and item(sigma, i) > 0:
+            a_f, a_r = x[4, i], x[5, i]
+        slip[0, i] = a_f
+        slip[1, i] = a_r
+
+
+@functools.lru_cache(maxsize=None)
+def _linear_kernel(relaxed: bool, i_roll: int):
+    """The loop of the LST's chassis rates (track_extended.ExtendedSingleTrackRHS.__call__ on the
+    linear tyre) for tyres that relax or not and the roll steer's first state row ``i_roll`` (0:
+    none), constants of the compiled loop: as arguments, a state row and the branches on them keep
+    LLVM from vectorising it (3-5x slower at 2400 realisations). Each combination is compiled at its
+    first use and cached on disk (numba keys a closure's cache by its values).
+
+    The loop writes dx/dt into ``out``: the slip angles -(beta + lever psi_dot / v), the front's
+    plus delta minus the roll steer; the axle forces ((mu P capacity f_D) B f_K / f_D) C alpha on the
+    loads ``P`` (2, n), with the lateral shares ``capacity`` and the load-sensitive tyre's
+    ``factors`` [f_D; f_K] (4, n) where they have rows (``stiffness`` [B_f, B_r, C], applied in the
+    path's order), of the lagged slip where sigma > 0, the front wheels yielding to their force
+    where ``compliant`` (alpha_f / max(1 + kappa c_f, 0.05) without relaxation, the steady front
+    slip minus kappa F_f with it); the lagged states' (alpha_ss - alpha) v / sigma, the roll mode,
+    psi_dot, the balances and the course psi + k beta (row 3; ``scaled``: v times it, else the
+    caller takes its sine)."""
+    rolling = i_roll > 0
+
+    def rates(x, out, lever, P, capacity, factors, mu, stiffness, v, delta, sigma, kappa, compliant, omega, gain, zeta, l_f, l_r, F_w,
+              M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k, scaled):
+        B_f, B_r, C = stiffness[0], stiffness[1], stiffness[2]
+        capped, factored = capacity.shape[0] > 0, factors.shape[0] > 0
+        for i in range(x.shape[1]):
+            psi_dot, beta = x[1, i], x[2, i]
+            a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
+            mu_i = item(mu, i)
+            c_f = P[0, i] * mu_i
+            c_r = P[1, i] * mu_i
+            b_f, b_r = B_f, B_r
+            if capped:
+                c_f = c_f * capacity[0, i]
+                c_r = c_r * capacity[1, i]
+            if factored:
+                c_f = c_f * factors[0, i]
+                c_r = c_r * factors[1, i]
+                b_f = b_f * (factors[2, i] / factors[0, i])
+                b_r = b_r * (factors[3, i] / factors[1, i])
+            c_f = c_f * b_f
+            c_f = c_f * C
+            c_r = c_r * b_r
+            c_r = c_r * C
+            lagging = relaxed and item(sigma, i) > 0
+            s_f, s_r = (x[4, i], x[5, i]) if lagging else (a_f, a_r)
+            if compliant and not relaxed:
+                den = item(kappa, i) * c_f
+                den = 1.0 + den
+                den = 0.05 if den < 0.05 else den
+                s_f = a_f / den
+                a_f = s_f
+            F_f = c_f * s_f
+            F_r = c_r * s_r
+            if compliant and relaxed:
+                a_f = a_f - item(kappa, i) * F_f
+            if relaxed:
+                s = item(sigma, i)
+                s = s if s > 0 else np.inf
+                d = a_f - x[4, i]
+                d = d * v
+                out[4, i] = d / s
+                d = a_r - x[5, i]
+                d = d * v
+                out[5, i] = d / s
+            if rolling:
+                w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
+                out[i_roll, i] = rate
+                a = F_f + F_r
+                a = item(gain, i) * a
+                a = a - eps
+                ww = w * w
+                a = ww * a
+                b = 2.0 * item(zeta, i)
+                b = b * w
+                b = b * rate
+                out[i_roll + 1, i] = a - b
+            out[0, i] = psi_dot
+            F_wi = F_w[i]
+            yaw = item(l_f, i) * F_f
+            yaw = yaw - item(l_r, i) * F_r
+            yaw = yaw + (item(M_w, i) if has_M_w else F_wi * item(M_c, i))
+            out[1, i] = yaw * item(yaw_factor, i)
+            lateral = F_f + F_r
+            lateral = lateral + F_wi
+            lateral = lateral * item(inv_mv, i)
+            lateral = lateral - psi_dot
+            lateral = lateral + item(a_v, i)
+            if has_v_dot:
+                lateral = lateral - v_dot_v * beta
+            out[2, i] = lateral
+            course = x[0, i] + item(k, i) * beta
+            out[3, i] = v * course if scaled else course
+
+    return compiled(rates)
+
+
+class FusedLinearChassisRates:
+    """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a chassis model on
+    the linear tyre, the same numbers: its constants and work arrays for ``n`` realisations.
+
+    Parameters
+    ----------
+    n : int
+        Realisations.
+    lever, static : ndarray, shape (2, n)
+        [l_f, -l_r] (m) and the static axle loads (N).
+    mu : float or ndarray, shape (n,)
+        Friction (-).
+    B, C : tuple of two floats, float
+        The front and rear stiffness factors and the shape factor (-).
+    balance : uqdrive.vehicle.dynamics.rhs.Balance
+        The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
+    sigma : float or ndarray, shape (n,), or None
+        Relaxation length (m, 0: none) where the tyres relax.
+    kappa : float or ndarray, shape (n,), or None
+        Compliance steer (rad/N) where the front wheels yield to their force.
+    roll : tuple (i_roll, omega, gain, zeta) or None
+        The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
+    course_weight : float or ndarray, shape (n,)
+        k of psi + k beta (-).
+    course_sine : bool
+        y_dot = v sin(psi + k beta) (``course_exact``), else v (psi + k beta).
+    loads : dict or None
+        Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
+        steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
+        between calls (``K``, ``steps``, ``L`` and the flags ``pitching``, ``transferring``,
+        ``slipping``, ``sensitive``).
+    """
+
+    def __init__(self, n: int, lever, static, mu, B, C, balance, sigma, kappa, roll, course_weight, course_sine: bool, loads=None):
+        self.n = n
+        self.lever = np.ascontiguousarray(lever, float)
+        self.static = np.ascontiguousarray(static, float)
+        # constants as arrays (n,) whether or not they vary: one compiled loop for every structure
+        self.mu, self.stiffness = realisations(mu, n), np.array([B[0], B[1], C], float)
+        self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
+        self.yaw_factor = realisations(balance.yaw_factor, n)
+        self.relaxed, self.compliant = sigma is not None, kappa is not None
+        self.sigma = realisations(0.0 if sigma is None else sigma, n)
+        self.kappa = realisations(0.0 if kappa is None else kappa, n)
+        self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
+        self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
+        self.k, self.course_sine = realisations(course_weight, n), bool(course_sine)
+        self.kernel = _linear_kernel(self.relaxed, int(self.i_roll))
+        self.loads = loads
+        self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
+        self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
+        self.t, self.T, self.slip, self.ones = np.empty(n), np.empty(n), np.empty((2, n)), np.ones(n)
+        self.none = np.empty((0, n))  # an absent term's rows
+
+    def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
+        """dx/dt of ``x`` into ``out`` (n_states, n), float64, from one half step's wheel angle
+        ``delta`` (rad, a float or (n,); ``cos_delta`` unused: the LST's front force is F_f), side
+        wind ``F_w`` (n,) (N), wind moment ``M_w`` (n,) (N m; None: M_c F_w), speed ``v`` (m/s) and
+        its rate (m/s^2), 1 / (m v) and a_lat / v; ``profile``: the speed follows a profile
+        (beta_dot's -(v' / v) beta)."""
+        n = self.n
+        if x.shape[1] != n or out.shape != x.shape:  # the compiled loops index without bounds checks
+            raise ValueError(f"states of shape {x.shape} (out {out.shape}) for rates built for {n} realisations")
+        F_w = realisations(F_w, n)
+        P, capacity, factors = self.static, self.none, self.none
+        if self.loads is not None:
+            a, trig, t = self.loads, self.trig, self.t
+            np.multiply(x[2], 0.5, t)
+            np.tan(t, t)
+            _load_guess(t, trig, x, self.lever, v, delta, self.i_roll, self.sigma, self.relaxed, self.m, v_dot, self.a_lat, F_w, self.T,
+                        self.slip)
+            if a["pitching"] or a["slipping"] or a["sensitive"]:
+                np.tan(x[2], trig[0])
+            P, capacity, factors = newton_loads(self.T, a["K"], trig, self.ones, self.slip, self.none, F_w, a["steps"], v_dot, a["L"],
+                                                self.stiffness[0], self.stiffness[1], self.stiffness[2], pitching=a["pitching"],
+                                                transferring=a["transferring"], slipping=a["slipping"], sensitive=a["sensitive"],
+                                                yielding=self.compliant and not self.relaxed)
+            capacity = capacity if a["slipping"] else self.none
+            factors = factors if a["sensitive"] else self.none
+        exact = self.course_sine
+        self.kernel(x, out, self.lever, P, capacity, factors, self.mu, self.stiffness, v, delta, self.sigma, self.kappa, self.compliant,
+                    self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c, 0.0 if M_w is None else realisations(M_w, n),
+                    M_w is not None, self.yaw_factor, inv_mv, a_v, v_dot / v, profile, self.k, not exact)
+        if exact:
+            course = out[3]
+            course[:] = course_sine(course)  # the half-angle sine within 3 rad, NumPy's beyond
+            course *= v
+
+
+def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
+    """:class:`FusedLinearChassisRates` of the chassis right-hand side ``rhs``
+    (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x`` (n_states, n),
+    or None where it does not serve: the Magic Formula, a loads' loop not compiled
+    (``compiled_loop``), per-realisation stiffness or shape factors, per-axle constants, anything but
+    float64. ``steps``: the loads' Newton steps."""
+    n = x.shape[1]
+    if rhs.saturating or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
+        return None
+    per_run = (rhs.mu, rhs.sigma, rhs.kappa, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f,
+               rhs.balance.l_r, rhs.balance.M_c, rhs.balance.yaw_factor)
+    if (np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
+            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+        return None
+    loads = None
+    if rhs.loaded:
+        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps, "L": float(rhs.L), "pitching": rhs.pitching,
+                 "transferring": rhs.transferring, "slipping": rhs.slipping, "sensitive": rhs.sensitive}
+    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
+    return FusedLinearChassisRates(n, rhs.lever, rhs.static, rhs.mu, rhs.B[:, 0], rhs.C, rhs.balance, rhs.sigma if rhs.relaxed else None,
+                                   rhs.kappa if rhs.compliant else None, roll, rhs.k, rhs.course_sine, loads)
