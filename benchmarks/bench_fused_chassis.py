@@ -99,7 +99,7 @@ def main(argv=None):
         (old, va), (new, vb) = discover_cpu(track_extended, False, runs, **kw), discover_cpu(track_extended, True, runs, **kw)
         rows.append({"case": f"discover, {case}, every candidate (CPU s)", "numpy_s": old, "compiled_s": new, "ratio": old / new,
                      "same": without(va) == without(vb)})
-    report_compiled(rows, args, "python benchmarks/bench_fused_chassis.py", 62)
+    report_compiled(rows, args, "python benchmarks/bench_fused_chassis.py", 72)
     return 0
 
 

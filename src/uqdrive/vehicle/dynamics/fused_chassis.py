@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fused_linear import fused_linear_chassis_rates
+from .fused_linear import ChassisConstants, chassis_arguments, fused_linear_chassis_rates, roll_mode_at
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
 from .jit import compiled, realisations
 from .load_newton import newton_loads
@@ -113,17 +113,7 @@ def _rates(unit, from_tangent, P, mu, capacity, cos_delta, x, out, steady, sigma
                 out[4 + r, i] = d / s
         front = F_f * item(cos_delta, i)
         if i_roll > 0:
-            w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
-            out[i_roll, i] = rate
-            a = front + F_r
-            a = item(gain, i) * a
-            a = a - eps
-            ww = w * w
-            a = ww * a
-            b = 2.0 * item(zeta, i)
-            b = b * w
-            b = b * rate
-            out[i_roll + 1, i] = a - b
+            roll_mode_at(x, out, i, i_roll, omega, gain, zeta, front + F_r)
         psi_dot = x[1, i]
         out[0, i] = psi_dot
         F_wi = F_w[i]
@@ -154,55 +144,28 @@ def _scaled_sine(t, v, out):
         out[i] = v * half_angle_sine(t[i])
 
 
-class FusedChassisRates:
+class FusedChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
     chassis model on wheels that do not yield and a load-free stiffness, the same numbers: its
     constants and work arrays for ``n`` realisations.
 
     Parameters
     ----------
-    n : int
-        Realisations.
-    lever, static : ndarray, shape (2, n)
-        [l_f, -l_r] (m) and the static axle loads (N).
-    mu, E : float or ndarray, shape (n,)
-        Friction (-) and the curvature factor (-).
+    E : float or ndarray, shape (n,)
+        The curvature factor (-).
     B, C : tuple of two floats, float
         The front and rear stiffness factors and the shape factor (-).
-    balance : uqdrive.vehicle.dynamics.rhs.Balance
-        The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
-    sigma : float or ndarray, shape (n,), or None
-        Relaxation length (m, 0: none) where the tyres relax.
-    roll : tuple (i_roll, omega, gain, zeta) or None
-        The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
-    course_weight : float or ndarray, shape (n,)
-        k of psi + k beta (-).
-    loads : dict or None
-        Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
-        steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
-        between calls (``K``, ``steps``, ``L`` and the flags ``pitching``, ``transferring``, ``slipping``).
+    **constants
+        Those of :class:`.fused_linear.ChassisConstants`.
     """
 
-    def __init__(self, n: int, lever, static, mu, E, B, C, balance, sigma, roll, course_weight, loads):
-        self.n = n
-        self.lever = np.ascontiguousarray(lever, float)
-        self.static = np.ascontiguousarray(static, float)
-        # the constants as arrays (n,) whether or not they vary: one compiled loop for every structure
-        # (numbers and arrays would compile one per combination of their kinds, ~2 s each on a cold cache)
-        self.mu, self.E, self.B_f, self.B_r, self.C = realisations(mu, n), realisations(E, n), float(B[0]), float(B[1]), float(C)
-        self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
-        self.yaw_factor = realisations(balance.yaw_factor, n)
-        self.relaxed = sigma is not None
-        self.sigma = realisations(0.0 if sigma is None else sigma, n)
-        self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
-        self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
-        self.k = realisations(course_weight, n)
-        self.loads = loads
-        self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
-        self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads all three)
-        self.t, self.half_wheel, self.cos_delta, self.T = (np.empty(n) for _ in range(4))
-        self.q, self.steady, self.slip, self.bx, self.F, self.unit = (np.empty((2, n)) for _ in range(6))
-        self.none, self.no_roll = np.empty((0, n)), np.empty(0)  # an absent term's rows
+    def __init__(self, E, B, C, **constants):
+        super().__init__(**constants)
+        n = self.n
+        self.E, self.B_f, self.B_r, self.C = realisations(E, n), float(B[0]), float(B[1]), float(C)
+        self.half_wheel, self.cos_delta = np.empty(n), np.empty(n)
+        self.q, self.steady, self.bx, self.F, self.unit = (np.empty((2, n)) for _ in range(5))
+        self.no_roll = np.empty(0)  # no roll steer's row
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
         """dx/dt of ``x`` into ``out`` (n_states, n), float64, from one half step's wheel angle ``delta``
@@ -266,20 +229,11 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     where neither serves: compliance steer, the load-sensitive tyre, a loads' loop not compiled
     (``compiled_loop``), per-realisation stiffness or shape factors, per-axle relaxation or roll
     constants, anything but float64."""
-    n = x.shape[1]
     if not rhs.saturating:
         return fused_linear_chassis_rates(rhs, x, steps, compiled_loop)
-    if rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
+    if rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop):
         return None
-    per_run = (rhs.mu, rhs.E, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f,
-               rhs.balance.l_r, rhs.balance.M_c, rhs.balance.yaw_factor)
-    if (np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
-            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+    constants = chassis_arguments(rhs, x, steps, (rhs.E,))
+    if constants is None:
         return None
-    loads = None
-    if rhs.loaded:
-        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps,
-                 "L": float(rhs.L), "pitching": rhs.pitching, "transferring": rhs.transferring, "slipping": rhs.slipping}
-    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
-    return FusedChassisRates(n, rhs.lever, rhs.static, rhs.mu, rhs.E, rhs.B[:, 0], rhs.C, rhs.balance, rhs.sigma if rhs.relaxed else None,
-                             roll, rhs.k, loads)
+    return FusedChassisRates(rhs.E, rhs.B[:, 0], rhs.C, **constants)

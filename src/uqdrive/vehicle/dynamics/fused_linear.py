@@ -19,11 +19,11 @@ import numpy as np
 from ..axle_loads import course_sine
 from numba import njit
 
-from .fused_rates import item
+from .fused_rates import half_angle_pair, item
 from .jit import compiled, realisations
 from .load_newton import newton_loads
 
-__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates"]
+__all__ = ["ChassisConstants", "FusedLinearChassisRates", "chassis_arguments", "fused_linear_chassis_rates", "roll_mode_at"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -45,6 +45,22 @@ def _steady_slip_at(x, i, lever, v, delta, i_roll):
     return a_f, a_r
 
 
+@njit(inline="always", error_model="numpy")
+def roll_mode_at(x, out, i, i_roll, omega, gain, zeta, lateral):
+    """Realisation ``i`` of the roll steer's states (rows ``i_roll``, ``i_roll`` + 1): eps' = rate,
+    rate' = omega^2 (gain T - eps) - 2 zeta omega rate, T = ``lateral`` the tyres' force (N)."""
+    w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
+    out[i_roll, i] = rate
+    a = item(gain, i) * lateral
+    a = a - eps
+    ww = w * w
+    a = ww * a
+    b = 2.0 * item(zeta, i)
+    b = b * w
+    b = b * rate
+    out[i_roll + 1, i] = a - b
+
+
 @compiled
 def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a_lat, F_w, T, slip):
     """From t = tan(beta / 2): cos and sin of beta (axle_loads.half_angle_sin_cos) into rows 1 and
@@ -52,14 +68,7 @@ def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a
     into ``T`` and the slip angles whose force the loads scale (the lagged states where sigma > 0,
     else the steady ones) into ``slip`` (2, n)."""
     for i in range(t.shape[0]):
-        ti = t[i]
-        inv = ti * ti
-        c = 1.0 - inv
-        inv = inv + 1.0
-        inv = 1.0 / inv
-        c = c * inv
-        s = ti * 2.0
-        s = s * inv
+        s, c = half_angle_pair(t[i])
         trig[1, i] = c
         trig[2, i] = s
         g = v * x[1, i]
@@ -99,7 +108,7 @@ def _linear_kernel(relaxed: bool, i_roll: int):
         B_f, B_r, C = stiffness[0], stiffness[1], stiffness[2]
         capped, factored = capacity.shape[0] > 0, factors.shape[0] > 0
         for i in range(x.shape[1]):
-            psi_dot, beta = x[1, i], x[2, i]
+            psi_dot, beta, x0 = x[1, i], x[2, i], x[0, i]
             a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
             mu_i = item(mu, i)
             c_f = P[0, i] * mu_i
@@ -139,17 +148,9 @@ def _linear_kernel(relaxed: bool, i_roll: int):
                 d = d * v
                 out[5, i] = d / s
             if rolling:
-                w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
-                out[i_roll, i] = rate
-                a = F_f + F_r
-                a = item(gain, i) * a
-                a = a - eps
-                ww = w * w
-                a = ww * a
-                b = 2.0 * item(zeta, i)
-                b = b * w
-                b = b * rate
-                out[i_roll + 1, i] = a - b
+                roll_mode_at(x, out, i, i_roll, omega, gain, zeta, F_f + F_r)
+            # the balances written out, not fused_chassis' (an inlined helper taking cos beta as 1.0
+            # kept LLVM from vectorising this loop: 2.4x slower at 2400 realisations)
             out[0, i] = psi_dot
             F_wi = F_w[i]
             yaw = item(l_f, i) * F_f
@@ -164,15 +165,16 @@ def _linear_kernel(relaxed: bool, i_roll: int):
             if has_v_dot:
                 lateral = lateral - v_dot_v * beta
             out[2, i] = lateral
-            course = x[0, i] + item(k, i) * beta
+            course = x0 + item(k, i) * beta
             out[3, i] = v * course if scaled else course
 
     return compiled(rates)
 
 
-class FusedLinearChassisRates:
-    """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a chassis model on
-    the linear tyre, the same numbers: its constants and work arrays for ``n`` realisations.
+class ChassisConstants:
+    """The constants the compiled chassis rates read per realisation, each an array (n,) whether or
+    not it varies (one compiled loop for every structure: numbers and arrays would compile one per
+    combination of their kinds, ~2 s each on a cold cache), and the loads' work arrays.
 
     Parameters
     ----------
@@ -182,20 +184,14 @@ class FusedLinearChassisRates:
         [l_f, -l_r] (m) and the static axle loads (N).
     mu : float or ndarray, shape (n,)
         Friction (-).
-    B, C : tuple of two floats, float
-        The front and rear stiffness factors and the shape factor (-).
     balance : uqdrive.vehicle.dynamics.rhs.Balance
         The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
     sigma : float or ndarray, shape (n,), or None
         Relaxation length (m, 0: none) where the tyres relax.
-    kappa : float or ndarray, shape (n,), or None
-        Compliance steer (rad/N) where the front wheels yield to their force.
     roll : tuple (i_roll, omega, gain, zeta) or None
         The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
     course_weight : float or ndarray, shape (n,)
         k of psi + k beta (-).
-    course_sine : bool
-        y_dot = v sin(psi + k beta) (``course_exact``), else v (psi + k beta).
     loads : dict or None
         Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
         steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
@@ -203,26 +199,69 @@ class FusedLinearChassisRates:
         ``slipping``, ``sensitive``).
     """
 
-    def __init__(self, n: int, lever, static, mu, B, C, balance, sigma, kappa, roll, course_weight, course_sine: bool, loads=None):
+    def __init__(self, n: int, lever, static, mu, balance, sigma, roll, course_weight, loads):
         self.n = n
         self.lever = np.ascontiguousarray(lever, float)
         self.static = np.ascontiguousarray(static, float)
-        # constants as arrays (n,) whether or not they vary: one compiled loop for every structure
-        self.mu, self.stiffness = realisations(mu, n), np.array([B[0], B[1], C], float)
+        self.mu = realisations(mu, n)
         self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
         self.yaw_factor = realisations(balance.yaw_factor, n)
-        self.relaxed, self.compliant = sigma is not None, kappa is not None
+        self.relaxed = sigma is not None
         self.sigma = realisations(0.0 if sigma is None else sigma, n)
-        self.kappa = realisations(0.0 if kappa is None else kappa, n)
         self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
         self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
-        self.k, self.course_sine = realisations(course_weight, n), bool(course_sine)
-        self.kernel = _linear_kernel(self.relaxed, int(self.i_roll))
+        self.k = realisations(course_weight, n)
         self.loads = loads
         self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
         self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
-        self.t, self.T, self.slip, self.ones = np.empty(n), np.empty(n), np.empty((2, n)), np.ones(n)
+        self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
         self.none = np.empty((0, n))  # an absent term's rows
+
+
+def chassis_arguments(rhs, x, steps: int, per_run=()):
+    """The arguments of :class:`ChassisConstants` that a chassis right-hand side ``rhs`` gives
+    (``roll`` and ``loads`` built from it), or None where a compiled loop cannot read them: per-realisation
+    stiffness or shape factors, per-axle constants (also among ``per_run``), anything but float64."""
+    n = x.shape[1]
+    per_run = (rhs.mu, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f, rhs.balance.l_r,
+               rhs.balance.M_c, rhs.balance.yaw_factor, *per_run)
+    if (x.dtype != np.float64 or np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
+            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+        return None
+    loads = None
+    if rhs.loaded:
+        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps, "L": float(rhs.L), "pitching": rhs.pitching,
+                 "transferring": rhs.transferring, "slipping": rhs.slipping, "sensitive": rhs.sensitive}
+    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
+    return {"n": n, "lever": rhs.lever, "static": rhs.static, "mu": rhs.mu, "balance": rhs.balance,
+            "sigma": rhs.sigma if rhs.relaxed else None, "roll": roll, "course_weight": rhs.k, "loads": loads}
+
+
+class FusedLinearChassisRates(ChassisConstants):
+    """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a chassis model on
+    the linear tyre, the same numbers: its constants and work arrays for ``n`` realisations.
+
+    Parameters
+    ----------
+    B, C : tuple of two floats, float
+        The front and rear stiffness factors and the shape factor (-).
+    kappa : float or ndarray, shape (n,), or None
+        Compliance steer where the front wheels yield to their force: front wheel angle (rad) per newton of the front axle's force.
+    course_sine : bool
+        y_dot = v sin(psi + k beta) (``course_exact``), else v (psi + k beta).
+    **constants
+        Those of :class:`ChassisConstants`.
+    """
+
+    def __init__(self, B, C, kappa, course_sine: bool, **constants):
+        super().__init__(**constants)
+        n = self.n
+        self.stiffness = np.array([B[0], B[1], C], float)
+        self.compliant = kappa is not None
+        self.kappa = realisations(0.0 if kappa is None else kappa, n)
+        self.course_sine = bool(course_sine)
+        self.kernel = _linear_kernel(self.relaxed, int(self.i_roll))
+        self.ones = np.ones(n)
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
         """dx/dt of ``x`` into ``out`` (n_states, n), float64, from one half step's wheel angle
@@ -263,20 +302,10 @@ def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedLinearChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x`` (n_states, n),
     or None where it does not serve: the Magic Formula, a loads' loop not compiled
-    (``compiled_loop``), per-realisation stiffness or shape factors, per-axle constants, anything but
-    float64. ``steps``: the loads' Newton steps."""
-    n = x.shape[1]
-    if rhs.saturating or (rhs.loaded and not compiled_loop) or x.dtype != np.float64:
+    (``compiled_loop``), constants :func:`chassis_arguments` refuses. ``steps``: the loads' Newton steps."""
+    if rhs.saturating or (rhs.loaded and not compiled_loop):
         return None
-    per_run = (rhs.mu, rhs.sigma, rhs.kappa, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f,
-               rhs.balance.l_r, rhs.balance.M_c, rhs.balance.yaw_factor)
-    if (np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
-            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+    constants = chassis_arguments(rhs, x, steps, (rhs.kappa,))
+    if constants is None:
         return None
-    loads = None
-    if rhs.loaded:
-        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps, "L": float(rhs.L), "pitching": rhs.pitching,
-                 "transferring": rhs.transferring, "slipping": rhs.slipping, "sensitive": rhs.sensitive}
-    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
-    return FusedLinearChassisRates(n, rhs.lever, rhs.static, rhs.mu, rhs.B[:, 0], rhs.C, rhs.balance, rhs.sigma if rhs.relaxed else None,
-                                   rhs.kappa if rhs.compliant else None, roll, rhs.k, rhs.course_sine, loads)
+    return FusedLinearChassisRates(rhs.B[:, 0], rhs.C, rhs.kappa if rhs.compliant else None, rhs.course_sine, **constants)

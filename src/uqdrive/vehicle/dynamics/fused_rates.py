@@ -18,7 +18,7 @@ from numba.extending import overload
 
 from .jit import compiled, realisations
 
-__all__ = ["FusedRates", "curvature_from_atan", "half_angle_sine", "half_tyre_angle", "item", "per_realisation", "side_slip_at"]
+__all__ = ["FusedRates", "curvature_from_atan", "half_angle_pair", "half_angle_sine", "half_tyre_angle", "item", "per_realisation", "side_slip_at"]
 
 
 def item(a, i):  # pragma: no cover - replaced by the overload inside compiled code
@@ -44,16 +44,22 @@ def half_angle_sine(t):
 
 
 @njit(inline="always", error_model="numpy")
-def side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q):
-    """Realisation ``i`` of :func:`_slip_argument`; returns its sin and cos of beta."""
-    ti = t[i]
-    inv = ti * ti
+def half_angle_pair(t):
+    """sin and cos of the angle whose half-angle tangent is ``t`` (axle_loads.half_angle_sin_cos_into's order)."""
+    inv = t * t
     c = 1.0 - inv
     inv = inv + 1.0
     inv = 1.0 / inv
     c = c * inv
-    s = ti * 2.0
+    s = t * 2.0
     s = s * inv
+    return s, c
+
+
+@njit(inline="always", error_model="numpy")
+def side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q):
+    """Realisation ``i`` of :func:`_slip_argument`; returns its sin and cos of beta."""
+    s, c = half_angle_pair(t[i])
     sin_b[i] = s
     cos_b[i] = c
     w = s * v
