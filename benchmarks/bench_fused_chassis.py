@@ -6,7 +6,7 @@
    discover's batch sizes (300 realisations: a fit's model; 2400: a Jacobian's), best of
    ``--repeats`` x 300 calls, and whether the numbers are equal.
 2. ``discover`` with every candidate on each ``--case`` (default both): a four-wheel case
-   (fw_step_030 of docs/four_wheel.md: 1000 runs of the independent four-wheel car, no posterior)
+   (fw_step_030 of docs/four_wheel.md: 500 runs of the independent four-wheel car, no posterior)
    and ``tour``, the README tour's 200 NLST runs (its chassis candidates on the linear tyre, with
    the posterior); CPU seconds of each variant (the NumPy one first, after an untimed warm-up that
    compiles the loops), and whether the two verdicts are equal number for number (their clock
