@@ -10,8 +10,9 @@ and yaw and lateral balances this one shares (:func:`uqdrive.vehicle.dynamics.rh
 come from the half angle's tangent (:func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`: within an ulp of NumPy's, at a
 third of the cost, NumPy vectorising tan and not the float64 sine), and a state's trigonometry
 and the tyres' per-unit-peak force are computed once for every term and every step of the loads'
-loop that needs them; on the Magic Formula the arithmetic between them runs compiled where it can
-(:mod:`uqdrive.vehicle.dynamics.fused_chassis`, the same numbers; ``FUSED`` False keeps NumPy's).
+loop that needs them; the arithmetic between them runs compiled where it can
+(:mod:`uqdrive.vehicle.dynamics.fused_chassis`, on the linear tyre
+:mod:`uqdrive.vehicle.dynamics.fused_linear`, the same numbers; ``FUSED`` False keeps NumPy's).
 
 The loads follow the force the tyres carry, as a real car's do: the roll moment of their lateral
 force T = F_f cos(delta) + F_r about the centre of gravity moves h T / t across the track, and the
@@ -85,7 +86,7 @@ LOAD_NEWTON_STEPS = 2
 #: Whether the loop runs compiled (:mod:`uqdrive.vehicle.dynamics.load_newton`) where it can: the same numbers
 #: as the NumPy loop, which False keeps (the reference its tests compare with).
 COMPILED_LOOP = True
-FUSED = True  # the compiled Magic-Formula rates where they serve (False: the NumPy path, the reference of their tests)
+FUSED = True  # the compiled rates where they serve (False: the NumPy path, the reference of their tests)
 
 __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
 
@@ -362,9 +363,10 @@ class ExtendedSingleTrackRHS(AxleLoads):
     def __call__(self, x, j: int, out) -> None:
         """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
         if self._fused is None:
-            from .dynamics.fused_chassis import fused_chassis_rates
+            from .dynamics import fused_chassis, fused_linear  # numba: only where a chassis model is integrated
 
-            self._fused = fused_chassis_rates(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
+            build = fused_chassis.fused_chassis_rates if self.saturating else fused_linear.fused_linear_chassis_rates
+            self._fused = build(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
         if self._fused:
             delta = self.delta_half[j]
             cos_delta = np.cos(delta) if self.saturating and np.ndim(delta) == 0 else None

@@ -7,18 +7,49 @@ the arithmetic between them runs per realisation in the chassis path's order (no
 contraction without fastmath), and the loads' Newton loop is :func:`.load_newton.newton_loads`.
 Served: the Magic Formula on wheels that do not yield to their force (no compliance steer) with
 a load-free stiffness (no load-sensitive tyre); the right-hand side keeps NumPy's path elsewhere.
+The constants, the roll mode and the loads' steady guess are shared with the linear tyre's loop
+(:mod:`.fused_linear`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .fused_linear import ChassisConstants, chassis_arguments, fused_linear_chassis_rates, roll_mode_at
+from numba import njit
+
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
 from .jit import compiled, realisations
 from .load_newton import newton_loads
 
-__all__ = ["FusedChassisRates", "fused_chassis_rates"]
+__all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "roll_mode_at"]
+
+
+@njit(inline="always", error_model="numpy")
+def roll_mode_at(x, out, i, i_roll, omega, gain, zeta, lateral):
+    """Realisation ``i`` of the roll steer's states (rows ``i_roll``, ``i_roll`` + 1): eps' = rate,
+    rate' = omega^2 (gain T - eps) - 2 zeta omega rate, T = ``lateral`` the tyres' force (N)."""
+    w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
+    out[i_roll, i] = rate
+    a = item(gain, i) * lateral
+    a = a - eps
+    ww = w * w
+    a = ww * a
+    b = 2.0 * item(zeta, i)
+    b = b * w
+    b = b * rate
+    out[i_roll + 1, i] = a - b
+
+
+@njit(inline="always", error_model="numpy")
+def load_guess_at(i, psi_dot, s, c, v, v_dot, m, a_lat, F_w):
+    """Realisation ``i`` of the loads' steady guess T = m (v psi_dot cos beta + v' sin beta - a_lat)
+    - F_w (N) from sin and cos of beta (track_extended.ExtendedSingleTrackRHS._forces' order)."""
+    g = v * psi_dot
+    g = g * c
+    g = g + v_dot * s
+    g = g - item(a_lat, i)
+    g = item(m, i) * g
+    return g - F_w[i]
 
 
 @compiled
@@ -30,12 +61,7 @@ def _side_slip(t, sin_b, cos_b, lever, psi_dot, v, q, loaded, T, m, v_dot, a_lat
     for i in range(t.shape[0]):
         s, c = side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q)
         if loaded:
-            g = v * psi_dot[i]
-            g = g * c
-            g = g + v_dot * s
-            g = g - item(a_lat, i)
-            g = item(m, i) * g
-            T[i] = g - F_w[i]
+            T[i] = load_guess_at(i, psi_dot[i], s, c, v, v_dot, m, a_lat, F_w)
         if wheel:
             d = item(delta, i)
             if eps.shape[0]:
@@ -144,6 +170,72 @@ def _scaled_sine(t, v, out):
         out[i] = v * half_angle_sine(t[i])
 
 
+class ChassisConstants:
+    """The constants the compiled chassis rates read per realisation, each an array (n,) whether or
+    not it varies (one compiled loop for every structure: numbers and arrays would compile one per
+    combination of their kinds, ~2 s each on a cold cache), and the loads' work arrays.
+
+    Parameters
+    ----------
+    n : int
+        Realisations.
+    lever, static : ndarray, shape (2, n)
+        [l_f, -l_r] (m) and the static axle loads (N).
+    mu : float or ndarray, shape (n,)
+        Friction (-).
+    balance : uqdrive.vehicle.dynamics.rhs.Balance
+        The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
+    sigma : float or ndarray, shape (n,), or None
+        Relaxation length (m, 0: none) where the tyres relax.
+    roll : tuple (i_roll, omega, gain, zeta) or None
+        The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
+    course_weight : float or ndarray, shape (n,)
+        k of psi + k beta (-).
+    loads : dict or None
+        Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
+        steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
+        between calls (``K``, ``steps``, ``L`` and the flags ``pitching``, ``transferring``,
+        ``slipping``, ``sensitive``).
+    """
+
+    def __init__(self, n: int, lever, static, mu, balance, sigma, roll, course_weight, loads):
+        self.n = n
+        self.lever = np.ascontiguousarray(lever, float)
+        self.static = np.ascontiguousarray(static, float)
+        self.mu = realisations(mu, n)
+        self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
+        self.yaw_factor = realisations(balance.yaw_factor, n)
+        self.relaxed = sigma is not None
+        self.sigma = realisations(0.0 if sigma is None else sigma, n)
+        self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
+        self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
+        self.k = realisations(course_weight, n)
+        self.loads = loads
+        self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
+        self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
+        self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
+        self.none = np.empty((0, n))  # an absent term's rows
+
+
+def chassis_arguments(rhs, x, steps: int, per_run=()):
+    """The arguments of :class:`ChassisConstants` that a chassis right-hand side ``rhs`` gives
+    (``roll`` and ``loads`` built from it), or None where a compiled loop cannot read them: per-realisation
+    stiffness or shape factors, per-axle constants (also among ``per_run``), anything but float64."""
+    n = x.shape[1]
+    per_run = (rhs.mu, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f, rhs.balance.l_r,
+               rhs.balance.M_c, rhs.balance.yaw_factor, *per_run)
+    if (x.dtype != np.float64 or np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
+            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
+        return None
+    loads = None
+    if rhs.loaded:
+        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps, "L": float(rhs.L), "pitching": rhs.pitching,
+                 "transferring": rhs.transferring, "slipping": rhs.slipping, "sensitive": rhs.sensitive}
+    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
+    return {"n": n, "lever": rhs.lever, "static": rhs.static, "mu": rhs.mu, "balance": rhs.balance,
+            "sigma": rhs.sigma if rhs.relaxed else None, "roll": roll, "course_weight": rhs.k, "loads": loads}
+
+
 class FusedChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
     chassis model on wheels that do not yield and a load-free stiffness, the same numbers: its
@@ -156,7 +248,7 @@ class FusedChassisRates(ChassisConstants):
     B, C : tuple of two floats, float
         The front and rear stiffness factors and the shape factor (-).
     **constants
-        Those of :class:`.fused_linear.ChassisConstants`.
+        Those of :class:`ChassisConstants`.
     """
 
     def __init__(self, E, B, C, **constants):
@@ -225,13 +317,10 @@ class FusedChassisRates(ChassisConstants):
 def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
-    (n_states, n), on the linear tyre :func:`.fused_linear.fused_linear_chassis_rates`; None
-    where neither serves: compliance steer, the load-sensitive tyre, a loads' loop not compiled
-    (``compiled_loop``), per-realisation stiffness or shape factors, per-axle relaxation or roll
-    constants, anything but float64."""
-    if not rhs.saturating:
-        return fused_linear_chassis_rates(rhs, x, steps, compiled_loop)
-    if rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop):
+    (n_states, n), or None where it does not serve: the linear tyre
+    (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer, the load-sensitive tyre,
+    a loads' loop not compiled (``compiled_loop``), constants :func:`chassis_arguments` refuses."""
+    if not rhs.saturating or rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop):
         return None
     constants = chassis_arguments(rhs, x, steps, (rhs.E,))
     if constants is None:

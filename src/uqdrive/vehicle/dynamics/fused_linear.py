@@ -16,14 +16,15 @@ import functools
 
 import numpy as np
 
-from ..axle_loads import course_sine
 from numba import njit
 
+from ..axle_loads import course_sine
+from .fused_chassis import ChassisConstants, chassis_arguments, load_guess_at, roll_mode_at
 from .fused_rates import half_angle_pair, item
 from .jit import compiled, realisations
 from .load_newton import newton_loads
 
-__all__ = ["ChassisConstants", "FusedLinearChassisRates", "chassis_arguments", "fused_linear_chassis_rates", "roll_mode_at"]
+__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -45,22 +46,6 @@ def _steady_slip_at(x, i, lever, v, delta, i_roll):
     return a_f, a_r
 
 
-@njit(inline="always", error_model="numpy")
-def roll_mode_at(x, out, i, i_roll, omega, gain, zeta, lateral):
-    """Realisation ``i`` of the roll steer's states (rows ``i_roll``, ``i_roll`` + 1): eps' = rate,
-    rate' = omega^2 (gain T - eps) - 2 zeta omega rate, T = ``lateral`` the tyres' force (N)."""
-    w, eps, rate = item(omega, i), x[i_roll, i], x[i_roll + 1, i]
-    out[i_roll, i] = rate
-    a = item(gain, i) * lateral
-    a = a - eps
-    ww = w * w
-    a = ww * a
-    b = 2.0 * item(zeta, i)
-    b = b * w
-    b = b * rate
-    out[i_roll + 1, i] = a - b
-
-
 @compiled
 def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a_lat, F_w, T, slip):
     """From t = tan(beta / 2): cos and sin of beta (axle_loads.half_angle_sin_cos) into rows 1 and
@@ -71,12 +56,7 @@ def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a
         s, c = half_angle_pair(t[i])
         trig[1, i] = c
         trig[2, i] = s
-        g = v * x[1, i]
-        g = g * c
-        g = g + v_dot * s
-        g = g - item(a_lat, i)
-        g = item(m, i) * g
-        T[i] = g - F_w[i]
+        T[i] = load_guess_at(i, x[1, i], s, c, v, v_dot, m, a_lat, F_w)
         a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
         if relaxed and item(sigma, i) > 0:
             a_f, a_r = x[4, i], x[5, i]
@@ -171,72 +151,6 @@ def _linear_kernel(relaxed: bool, i_roll: int):
     return compiled(rates)
 
 
-class ChassisConstants:
-    """The constants the compiled chassis rates read per realisation, each an array (n,) whether or
-    not it varies (one compiled loop for every structure: numbers and arrays would compile one per
-    combination of their kinds, ~2 s each on a cold cache), and the loads' work arrays.
-
-    Parameters
-    ----------
-    n : int
-        Realisations.
-    lever, static : ndarray, shape (2, n)
-        [l_f, -l_r] (m) and the static axle loads (N).
-    mu : float or ndarray, shape (n,)
-        Friction (-).
-    balance : uqdrive.vehicle.dynamics.rhs.Balance
-        The balances (multiplying form): l_f, l_r (m), M_c (m) and 1 / I_z (1 / (kg m^2)).
-    sigma : float or ndarray, shape (n,), or None
-        Relaxation length (m, 0: none) where the tyres relax.
-    roll : tuple (i_roll, omega, gain, zeta) or None
-        The roll steer's first state row, its frequency (rad/s), steer per newton (rad/N) and damping (-).
-    course_weight : float or ndarray, shape (n,)
-        k of psi + k beta (-).
-    loads : dict or None
-        Where the loads follow the tyres' force: the mass ``m`` (kg) and ``a_lat`` (m/s^2) of their
-        steady guess and the arguments of :func:`.load_newton.newton_loads` that do not change
-        between calls (``K``, ``steps``, ``L`` and the flags ``pitching``, ``transferring``,
-        ``slipping``, ``sensitive``).
-    """
-
-    def __init__(self, n: int, lever, static, mu, balance, sigma, roll, course_weight, loads):
-        self.n = n
-        self.lever = np.ascontiguousarray(lever, float)
-        self.static = np.ascontiguousarray(static, float)
-        self.mu = realisations(mu, n)
-        self.l_f, self.l_r, self.M_c = realisations(balance.l_f, n), realisations(balance.l_r, n), realisations(balance.M_c, n)
-        self.yaw_factor = realisations(balance.yaw_factor, n)
-        self.relaxed = sigma is not None
-        self.sigma = realisations(0.0 if sigma is None else sigma, n)
-        self.i_roll, *roll = (0, 0.0, 0.0, 0.0) if roll is None else roll
-        self.omega, self.gain, self.zeta = (realisations(a, n) for a in roll)
-        self.k = realisations(course_weight, n)
-        self.loads = loads
-        self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
-        self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
-        self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
-        self.none = np.empty((0, n))  # an absent term's rows
-
-
-def chassis_arguments(rhs, x, steps: int, per_run=()):
-    """The arguments of :class:`ChassisConstants` that a chassis right-hand side ``rhs`` gives
-    (``roll`` and ``loads`` built from it), or None where a compiled loop cannot read them: per-realisation
-    stiffness or shape factors, per-axle constants (also among ``per_run``), anything but float64."""
-    n = x.shape[1]
-    per_run = (rhs.mu, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f, rhs.balance.l_r,
-               rhs.balance.M_c, rhs.balance.yaw_factor, *per_run)
-    if (x.dtype != np.float64 or np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
-            or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
-        return None
-    loads = None
-    if rhs.loaded:
-        loads = {"m": rhs.m, "a_lat": rhs.a_lat, "K": rhs.load_constants(n), "steps": steps, "L": float(rhs.L), "pitching": rhs.pitching,
-                 "transferring": rhs.transferring, "slipping": rhs.slipping, "sensitive": rhs.sensitive}
-    roll = (rhs.i_roll, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta) if rhs.rolling else None
-    return {"n": n, "lever": rhs.lever, "static": rhs.static, "mu": rhs.mu, "balance": rhs.balance,
-            "sigma": rhs.sigma if rhs.relaxed else None, "roll": roll, "course_weight": rhs.k, "loads": loads}
-
-
 class FusedLinearChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a chassis model on
     the linear tyre, the same numbers: its constants and work arrays for ``n`` realisations.
@@ -250,7 +164,7 @@ class FusedLinearChassisRates(ChassisConstants):
     course_sine : bool
         y_dot = v sin(psi + k beta) (``course_exact``), else v (psi + k beta).
     **constants
-        Those of :class:`ChassisConstants`.
+        Those of :class:`.fused_chassis.ChassisConstants`.
     """
 
     def __init__(self, B, C, kappa, course_sine: bool, **constants):
@@ -302,7 +216,7 @@ def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedLinearChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x`` (n_states, n),
     or None where it does not serve: the Magic Formula, a loads' loop not compiled
-    (``compiled_loop``), constants :func:`chassis_arguments` refuses. ``steps``: the loads' Newton steps."""
+    (``compiled_loop``), constants :func:`.fused_chassis.chassis_arguments` refuses. ``steps``: the loads' Newton steps."""
     if rhs.saturating or (rhs.loaded and not compiled_loop):
         return None
     constants = chassis_arguments(rhs, x, steps, (rhs.kappa,))
