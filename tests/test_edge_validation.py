@@ -2,6 +2,7 @@
 flags, each refused with exit code 2, exactly one line on stderr naming the field, no traceback
 and nothing written; outputs only once the input is accepted; --force; clean exits on signals."""
 
+import ctypes
 import json
 import os
 import signal
@@ -328,6 +329,27 @@ def test_signal_exception_removes_the_temporary(tmp_path):
                 time.sleep(5)
     assert list(tmp_path.iterdir()) == []
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_a_signal_whose_exception_code_called_from_c_swallowed_still_stops_the_output(tmp_path, monkeypatch):
+    """The handler's exception raised inside a ctypes callback (numba writing its cache is one) is
+    ignored there and the run goes on: the output is still not written, and no traceback is printed."""
+    def callback():
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)  # the handler runs here and its exception ends the callback, not the run
+
+    reported = []  # what would be printed as "Exception ignored ..."
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+    with pytest.raises(Interrupted) as stopped:
+        with _signals_exit_cleanly():
+            with atomic_path(tmp_path / "x.nc") as tmp:
+                tmp.write_text("whole")
+                ctypes.CFUNCTYPE(None)(callback)()
+    assert stopped.value.signum == signal.SIGTERM
+    assert list(tmp_path.iterdir()) == [] and reported == []
+    with _signals_exit_cleanly(), atomic_path(tmp_path / "y.nc") as tmp:  # the next run is not interrupted
+        tmp.write_text("whole")
+    assert (tmp_path / "y.nc").read_text() == "whole"
 
 
 def _catches(pid: int, signum: int) -> bool:

@@ -15,6 +15,7 @@ import yaml
 
 from ..inference.discrepancy import DEFAULT_CANDIDATES, DiscrepancyFinder, family_of
 from ..io import MIN_RUNS, DataError, OutputError, check_run_count, read_ensemble, speed_profile
+from ..outputs import raise_if_interrupted
 from ..studies.manoeuvres import steering_command
 from ..vehicle.effects import EFFECTS, expand_names
 from ..vehicle_spec import OPTIONAL_QUANTITIES
@@ -178,6 +179,7 @@ def write_outputs(finder: DiscrepancyFinder, verdict: dict, out: Path, figures: 
         (tmp / "model.yaml").write_text(yaml.safe_dump(finder.model_document(), sort_keys=False))
         if figures:
             _draw_figures(finder, verdict, tmp)
+        raise_if_interrupted()
         if out.exists() and not out.is_dir():
             raise OutputError(f"output folder '{out}' became a regular file meanwhile; it is not replaced by a folder: choose another --out")
         if out.exists():

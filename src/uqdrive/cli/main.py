@@ -20,6 +20,7 @@ from pathlib import Path
 from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_folder, check_writable
+from ..outputs import Interrupted, forget_signals, raise_if_interrupted, signal_received
 from .help_text import CANDIDATES_TEXT, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
@@ -43,14 +44,6 @@ STRICT_HELP = (f"exit with status {EXIT_MODEL_DOES_NOT_FIT} when the model does 
 QUIET_HELP = "print no progress (the stages and their elapsed time, on stderr when it is a terminal)"
 STATUS_TEXT = (f"exit status: 0 done; 2 refused input; with --strict {EXIT_MODEL_DOES_NOT_FIT} when the model does not fit "
                f"the data\n(outputs written), {EXIT_NOT_CONVERGED} when the optimiser did not converge (identify)")
-
-
-class Interrupted(BaseException):
-    """SIGINT/SIGTERM/SIGHUP turned into an exception, so that cleanup runs (like KeyboardInterrupt)."""
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
 
 
 def _speed_said(config, ds) -> str | None:
@@ -358,14 +351,24 @@ def _signals_exit_cleanly():
     def handler(signum, frame):
         for name in names:
             signal.signal(getattr(signal, name), signal.SIG_IGN)
+        signal_received(signum)  # outputs check it: code called back from C swallows the exception
         raise Interrupted(signum)
 
+    unraisable = sys.unraisablehook
+
+    def quiet(info):  # the swallowed Interrupted is raised again before any output (no traceback for it)
+        if not isinstance(info.exc_value, Interrupted):
+            unraisable(info)
+
     old = {name: signal.signal(getattr(signal, name), handler) for name in names}
+    sys.unraisablehook = quiet
     try:
         yield
     finally:
         for name, previous in old.items():
             signal.signal(getattr(signal, name), previous)
+        sys.unraisablehook = unraisable
+        forget_signals()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -379,6 +382,7 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("default")
         try:
             status = args.run(args) or 0
+            raise_if_interrupted()
             for message in dict.fromkeys(str(w.message) for w in caught):
                 stderr_line(f"uqdrive: warning: {message}")
             return status
