@@ -181,9 +181,8 @@ def test_rule_resources_flags_a_rule_over_its_declaration(tmp_path):
     assert rule_resources.suggest(peaks["fit"]) == (1500, 7)  # 900.5 x 1.5 -> 1500 MB; 130 s x 3 -> 7 min
 
 
-# Most of its minute is spent waiting for Slurm's status checks: scheduled early, the wait overlaps other tests' work
-# instead of leaving a core idle at the end of the suite.
-@pytest.mark.long(55)
+# Not marked long: most of its minute is waiting for Slurm's status checks, and started early its jobs queue beside
+# the second DAG run's on the one-node cluster, so that both wait longer.
 def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_what_is_missing(on_slurm, tmp_path):
     """A tyre surface named with broken TeX makes exactly one rule fail (fig_tyre_curves: matplotlib
     cannot draw the legend); the KLE beside it succeeds. Fixed, the rerun submits only the figure."""
