@@ -32,9 +32,6 @@ settings.register_profile("explore", derandomize=False)
 settings.load_profile("repeatable")
 
 REPO = Path(__file__).resolve().parents[1]
-#: xdist group of the test files that compile most of numba's kernel variants (a clean clone has
-#: none cached): on one worker each variant is compiled once, then read from numba's disk cache.
-KERNEL_GROUP = "kernels"
 
 
 def tiny_config(t_end: float = 0.8, samples: int = 12) -> dict:

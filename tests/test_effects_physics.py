@@ -13,12 +13,6 @@ from uqdrive.vehicle.effects import EFFECTS, ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 from uqdrive.settings import Settings
 
-from conftest import KERNEL_GROUP
-
-# One xdist worker runs the tests that compile the chassis kernels: on two, both workers
-# compiled the same variants at once (a clean clone: 138 against 112 CPU-s for these four files).
-pytestmark = pytest.mark.xdist_group(KERNEL_GROUP)
-
 THETA = [0.8, 0.0, 1.55, 0.0, 0.0, 0.0]  # one car: no spread, no mean wind
 V = 70.0 / 3.6
 H, T_W = 0.55, 1.6

@@ -15,12 +15,6 @@ from uqdrive.vehicle import track_extended
 from uqdrive.vehicle.effects import ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 
-from conftest import KERNEL_GROUP
-
-# One xdist worker runs the tests that compile the chassis kernels: on two, both workers
-# compiled the same variants at once (a clean clone: 138 against 112 CPU-s for these four files).
-pytestmark = pytest.mark.xdist_group(KERNEL_GROUP)
-
 SETTINGS = Settings.from_config(load_config(None))
 V, J = 70.0 / 3.6, 41  # m/s; half steps of the tabulated inputs
 H, T_W = 0.55, 1.6

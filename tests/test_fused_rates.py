@@ -15,12 +15,6 @@ from uqdrive.settings import Settings
 from uqdrive.vehicle.dynamics.rhs import HalfStepInputs, SingleTrackRHS
 from uqdrive.vehicle.single_track import VehicleParameters
 
-from conftest import KERNEL_GROUP
-
-# One xdist worker runs the tests that compile the chassis kernels: on two, both workers
-# compiled the same variants at once (a clean clone: 138 against 112 CPU-s for these four files).
-pytestmark = pytest.mark.xdist_group(KERNEL_GROUP)
-
 SETTINGS = Settings.from_config(load_config(None))
 J = 41  # half steps of the tabulated inputs
 

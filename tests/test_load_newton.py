@@ -12,12 +12,6 @@ from uqdrive.vehicle import track_extended
 from uqdrive.vehicle.effects import ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 
-from conftest import KERNEL_GROUP
-
-# One xdist worker runs the tests that compile the chassis kernels: on two, both workers
-# compiled the same variants at once (a clean clone: 138 against 112 CPU-s for these four files).
-pytestmark = pytest.mark.xdist_group(KERNEL_GROUP)
-
 V = 70.0 / 3.6
 H, T_W = 0.55, 1.6
 TERMS = {"lateral_load_transfer": [0.6, -0.4], "longitudinal_load_transfer": [0.55], "combined_slip": [0.8, 0.4],
