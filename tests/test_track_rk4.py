@@ -10,6 +10,7 @@ from uqdrive.numerics.integrate import rk4_fixed_step, rk4_fixed_step_into
 from uqdrive.vehicle.augmented import AugmentedSimulator, actual_steering
 from uqdrive.vehicle.axle_loads import half_angle_sin_cos
 from uqdrive.vehicle.dynamics.engine import RK4_MAX_STEP
+from uqdrive.vehicle.dynamics.fused_rk4 import rk4_fused_into
 from uqdrive.vehicle.effects import EFFECTS, ModelStructure
 from uqdrive.settings import Settings
 
@@ -128,9 +129,10 @@ def test_batched_pairs_equal_their_own_groups_bit_for_bit(sim):
         assert np.allclose(got, sim.simulate(th, s), rtol=0, atol=1e-12 * np.abs(got).max())
 
 
-def test_in_place_rk4_equals_the_allocating_one_bit_for_bit():
+@pytest.mark.parametrize("stepper", [rk4_fixed_step_into, rk4_fused_into], ids=["numpy", "compiled"])
+def test_in_place_rk4_equals_the_allocating_one_bit_for_bit(stepper):
     """A stiff-ish non-linear test system (two states, several realisations), recorded every
-    third step."""
+    third step; the in-place stepper with NumPy's arithmetic and with its arithmetic compiled."""
     a = np.linspace(0.5, 3.0, 5)
 
     def f(x, j):
@@ -141,10 +143,10 @@ def test_in_place_rk4_equals_the_allocating_one_bit_for_bit():
 
     x0 = np.stack([np.full(5, 0.3), np.zeros(5)])
     want = rk4_fixed_step(f, x0, 0.05, 60, 3)
-    got = rk4_fixed_step_into(f_into, x0, 0.05, 60, 3)
+    got = stepper(f_into, x0, 0.05, 60, 3)
     assert got.shape == (21, 2, 5) and np.array_equal(got, want)
     with pytest.raises(ValueError):
-        rk4_fixed_step_into(f_into, x0, 0.05, 61, 3)
+        stepper(f_into, x0, 0.05, 61, 3)
 
 
 def _chassis(sigma=0.4, roll=(0.35, 2.4, 0.6), transfer=(0.55, -0.3), gain=1.0):

@@ -411,7 +411,10 @@ def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, 
     h_s = vehicle.require("cg_height", "the effect load_sensitive_tyre") if _load_sensitive(s) else 0.0
     rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads,
                                  tyre_load_height=h_s)
-    out = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
+    step = rk4_fixed_step_into
+    if FUSED:  # the stepper's arithmetic compiled too, the same numbers
+        from .dynamics.fused_rk4 import rk4_fused_into as step
+    out = step(rhs, np.zeros((rhs.n_states, np.size(wind))), h, n_steps, record_every)
     if with_rhs:
         return out.transpose(1, 2, 0), rhs
     return out[:, :4].transpose(1, 2, 0)

@@ -49,7 +49,10 @@ def integrate_single_track(rhs: SingleTrackRHS, h: float, n_steps: int, record_e
         psi, psi_dot, beta, y (rad, rad/s, rad, m) every ``record_every`` steps from t = 0 (psi
         and y NaN where ``rhs`` leaves them out).
     """
-    return _with_heading(rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, rhs.n)), h, n_steps, record_every))
+    step = rk4_fixed_step_into
+    if getattr(rhs, "fused", False):  # numba is loaded: the stepper's arithmetic compiled too, the same numbers
+        from .dynamics.fused_rk4 import rk4_fused_into as step
+    return _with_heading(step(rhs, np.zeros((rhs.n_states, rhs.n)), h, n_steps, record_every))
 
 
 def _with_heading(out):

@@ -19,7 +19,7 @@ from numba import njit
 
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
 from .jit import compiled, realisations
-from .load_newton import newton_loads
+from .load_newton import newton_loop
 
 __all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "roll_mode_at"]
 
@@ -215,6 +215,23 @@ class ChassisConstants:
         self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
         self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
         self.none = np.empty((0, n))  # an absent term's rows
+        self.P, self.capacity, self.factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))  # the loads' loop's outputs
+        self._rows, self._loops = tuple(self.trig), {}
+
+    def newton_loads(self, front, unit, F_w, v_dot: float, B_f: float, B_r: float, C: float, yielding: bool):
+        """:func:`.load_newton.newton_loads` from ``self.T`` (the steady guess), ``self.trig`` and
+        ``self.slip`` with the constants of ``loads``, into ``self.P``, ``self.capacity`` and
+        ``self.factors`` (returned): no arrays made, the compiled loop of each speed kind kept
+        (~4 us a call less at 300 realisations). Arguments as :func:`.load_newton.newton_loads`'."""
+        a, held = self.loads, v_dot == 0.0
+        key = (unit.shape[0] == 2, bool(yielding), held)
+        loop = self._loops.get(key)
+        if loop is None:
+            loop = self._loops[key] = newton_loop(*(bool(a[k]) for k in ("pitching", "transferring", "slipping", "sensitive")), *key)
+        tan_b, cos_b, sin_b = self._rows
+        loop(self.T, a["K"], tan_b, cos_b, sin_b, front, self.slip, unit, F_w, self.P, self.capacity, self.factors, a["steps"], float(v_dot),
+             a["L"], float(B_f), float(B_r), float(C))
+        return self.P, self.capacity, self.factors
 
 
 def chassis_arguments(rhs, x, steps: int, per_run=()):
@@ -296,9 +313,7 @@ class FusedChassisRates(ChassisConstants):
             if a["pitching"] or a["slipping"]:
                 np.tan(beta, trig[0])
             front = realisations(cos_delta, n)
-            P, capacity, _ = newton_loads(self.T, a["K"], trig, front, self.slip, unit, F_w, a["steps"], v_dot, a["L"], self.B_f, self.B_r,
-                                          self.C, pitching=a["pitching"], transferring=a["transferring"], slipping=a["slipping"],
-                                          sensitive=False, yielding=False)
+            P, capacity, _ = self.newton_loads(front, unit, F_w, v_dot, self.B_f, self.B_r, self.C, False)
             capacity = capacity if a["slipping"] else self.none
         far = _rates(unit, not loaded, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
                      trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,

@@ -18,13 +18,11 @@ import numpy as np
 
 from numba import njit
 
-from ..axle_loads import course_sine
 from .fused_chassis import ChassisConstants, chassis_arguments, load_guess_at, roll_mode_at
-from .fused_rates import half_angle_pair, item
+from .fused_rates import half_angle_pair, half_angle_sine, item
 from .jit import compiled, realisations
-from .load_newton import newton_loads
 
-__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates"]
+__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates", "near_sine"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -47,21 +45,51 @@ def _steady_slip_at(x, i, lever, v, delta, i_roll):
 
 
 @compiled
-def _load_guess(t, trig, x, lever, v, delta, i_roll, sigma, relaxed, m, v_dot, a_lat, F_w, T, slip):
-    """From t = tan(beta / 2): cos and sin of beta (axle_loads.half_angle_sin_cos) into rows 1 and
-    2 of ``trig``, the loads' steady guess T = m (v psi_dot cos beta + v' sin beta - a_lat) - F_w
-    into ``T`` and the slip angles whose force the loads scale (the lagged states where sigma > 0,
-    else the steady ones) into ``slip`` (2, n)."""
-    for i in range(t.shape[0]):
-        s, c = half_angle_pair(t[i])
-        trig[1, i] = c
-        trig[2, i] = s
-        T[i] = load_guess_at(i, x[1, i], s, c, v, v_dot, m, a_lat, F_w)
-        a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
-        if relaxed and item(sigma, i) > 0:
-            a_f, a_r = x[4, i], x[5, i]
-        slip[0, i] = a_f
-        slip[1, i] = a_r
+def near_sine(angle, t, v) -> bool:
+    """v sin(angle) into ``angle`` (n,) from t = tan(angle / 2) by the half-angle identity where
+    every angle is within 3 rad of zero (:func:`uqdrive.vehicle.axle_loads.course_sine` times v, to
+    the bit), and True; else (an angle at 3 rad or more, or NaN) False, ``angle`` left as it is.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,)
+        The course psi + k beta (rad), overwritten by v sin of it.
+    t : ndarray, shape (n,)
+        NumPy's tan(angle / 2) (-).
+    v : float
+        Speed (m/s).
+    """
+    for i in range(angle.shape[0]):
+        if not abs(angle[i]) < 3.0:
+            return False
+    for i in range(angle.shape[0]):
+        angle[i] = v * half_angle_sine(t[i])
+    return True
+
+
+@functools.lru_cache(maxsize=None)
+def _load_guess(relaxed: bool, i_roll: int):
+    """The loop that readies the loads' Newton loop, for tyres that relax or not and the roll
+    steer's first state row ``i_roll`` (0: none), constants of the compiled loop as in
+    :func:`_linear_kernel` (as arguments they kept it from vectorising: 10.5 -> 3.2 us a call at 300
+    realisations). From t = tan(beta / 2): cos and sin of beta (axle_loads.half_angle_sin_cos)
+    into rows 1 and 2 of ``trig``, the loads' steady guess T = m (v psi_dot cos beta + v' sin beta
+    - a_lat) - F_w into ``T`` and the slip angles whose force the loads scale (the lagged states
+    where sigma > 0, else the steady ones) into ``slip`` (2, n)."""
+
+    def guess(t, trig, x, lever, v, delta, sigma, m, v_dot, a_lat, F_w, T, slip):
+        for i in range(t.shape[0]):
+            s, c = half_angle_pair(t[i])
+            trig[1, i] = c
+            trig[2, i] = s
+            T[i] = load_guess_at(i, x[1, i], s, c, v, v_dot, m, a_lat, F_w)
+            a_f, a_r = _steady_slip_at(x, i, lever, v, delta, i_roll)
+            if relaxed and item(sigma, i) > 0:
+                a_f, a_r = x[4, i], x[5, i]
+            slip[0, i] = a_f
+            slip[1, i] = a_r
+
+    return compiled(guess)
 
 
 @functools.lru_cache(maxsize=None)
@@ -175,6 +203,7 @@ class FusedLinearChassisRates(ChassisConstants):
         self.kappa = realisations(0.0 if kappa is None else kappa, n)
         self.course_sine = bool(course_sine)
         self.kernel = _linear_kernel(self.relaxed, int(self.i_roll))
+        self.guess = _load_guess(self.relaxed, int(self.i_roll))
         self.ones = np.ones(n)
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
@@ -192,24 +221,23 @@ class FusedLinearChassisRates(ChassisConstants):
             a, trig, t = self.loads, self.trig, self.t
             np.multiply(x[2], 0.5, t)
             np.tan(t, t)
-            _load_guess(t, trig, x, self.lever, v, delta, self.i_roll, self.sigma, self.relaxed, self.m, v_dot, self.a_lat, F_w, self.T,
-                        self.slip)
+            self.guess(t, trig, x, self.lever, v, delta, self.sigma, self.m, v_dot, self.a_lat, F_w, self.T, self.slip)
             if a["pitching"] or a["slipping"] or a["sensitive"]:
                 np.tan(x[2], trig[0])
-            P, capacity, factors = newton_loads(self.T, a["K"], trig, self.ones, self.slip, self.none, F_w, a["steps"], v_dot, a["L"],
-                                                self.stiffness[0], self.stiffness[1], self.stiffness[2], pitching=a["pitching"],
-                                                transferring=a["transferring"], slipping=a["slipping"], sensitive=a["sensitive"],
-                                                yielding=self.compliant and not self.relaxed)
+            P, capacity, factors = self.newton_loads(self.ones, self.none, F_w, v_dot, *self.stiffness, self.compliant and not self.relaxed)
             capacity = capacity if a["slipping"] else self.none
             factors = factors if a["sensitive"] else self.none
         exact = self.course_sine
         self.kernel(x, out, self.lever, P, capacity, factors, self.mu, self.stiffness, v, delta, self.sigma, self.kappa, self.compliant,
                     self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c, 0.0 if M_w is None else realisations(M_w, n),
                     M_w is not None, self.yaw_factor, inv_mv, a_v, v_dot / v, profile, self.k, not exact)
-        if exact:
-            course = out[3]
-            course[:] = course_sine(course)  # the half-angle sine within 3 rad, NumPy's beyond
-            course *= v
+        if exact:  # axle_loads.course_sine times v: the half-angle sine within 3 rad, NumPy's beyond
+            course, t = out[3], self.t
+            np.multiply(course, 0.5, t)
+            np.tan(t, t)
+            if not near_sine(course, t, v):
+                np.sin(course, course)
+                course *= v
 
 
 def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):

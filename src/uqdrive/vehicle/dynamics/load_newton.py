@@ -22,7 +22,7 @@ from numba import njit
 
 from .jit import compiled
 
-__all__ = ["ROWS", "newton_loads"]
+__all__ = ["ROWS", "newton_loads", "newton_loop"]
 
 #: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
 ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
@@ -215,7 +215,29 @@ def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L
     """
     n = T.shape[0]
     P, capacity, factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))
-    loop = _kernel(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
+    loop = newton_loop(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
     loop(T, K, trig[0], trig[1], trig[2], front, slip, unit, F_w, P, capacity, factors, int(steps), float(v_dot), float(L), float(B_f),
          float(B_r), float(C))
     return P, capacity, factors
+
+
+def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool, held_speed: bool):
+    """The compiled loop :func:`newton_loads` calls for one combination of terms, for a caller that
+    keeps its output arrays between calls (a right-hand side called four times a step).
+
+    Parameters
+    ----------
+    pitching, transferring, slipping, sensitive, yielding : bool
+        As :func:`newton_loads`.
+    saturating : bool
+        The Magic Formula (``unit`` has two rows), else the linear tyre.
+    held_speed : bool
+        v_dot is 0 (the loads' longitudinal acceleration comes from the side slip alone).
+
+    Returns
+    -------
+    callable
+        ``loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C)``:
+        the arguments of :func:`newton_loads` (``trig``'s rows apart), writing T, P, capacity and factors in place.
+    """
+    return _kernel(pitching, transferring, slipping, sensitive, saturating, yielding, held_speed)
