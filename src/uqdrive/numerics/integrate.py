@@ -21,6 +21,8 @@ __all__ = [
     "lti_response_single",
     "rk4_fixed_step",
     "rk4_fixed_step_into",
+    "rk4_stage",
+    "rk4_advance",
 ]
 
 
@@ -255,7 +257,24 @@ def rk4_fixed_step(rhs: Callable[[np.ndarray, int], np.ndarray], x0, h: float, n
     return rk4_fixed_step_into(lambda x, j, out: np.copyto(out, rhs(x, j)), x0, h, n_steps, record_every)
 
 
-def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, h: float, n_steps: int, record_every: int):
+def rk4_stage(k, c: float, x, xs) -> None:
+    """The next stage's state ``xs`` = c k + x, in place (NumPy's two passes)."""
+    np.multiply(k, c, xs)
+    xs += x
+
+
+def rk4_advance(x, k1, k2, k3, k4, sixth: float) -> None:
+    """x += (h / 6) (k1 + 2 (k2 + k3) + k4) in place, in :func:`rk4_fixed_step`'s order (``k2`` overwritten)."""
+    k2 += k3
+    k2 *= 2.0
+    k2 += k1
+    k2 += k4
+    k2 *= sixth
+    x += k2
+
+
+def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, h: float, n_steps: int, record_every: int,
+                        stage: Callable = rk4_stage, advance: Callable = rk4_advance):
     """:func:`rk4_fixed_step` for a right-hand side that writes into a given array.
 
     The stages and the state are updated in place, so a step allocates nothing; for the small
@@ -270,6 +289,10 @@ def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, 
         (d, n); it must not keep ``x`` or ``out``.
     x0, h, n_steps, record_every
         As for :func:`rk4_fixed_step`.
+    stage, advance : callable
+        The array arithmetic, with the signatures and the numbers of :func:`rk4_stage` and
+        :func:`rk4_advance` (:mod:`uqdrive.vehicle.dynamics.fused_rk4`: compiled loops); the
+        states are C-contiguous float64.
 
     Returns
     -------
@@ -277,7 +300,7 @@ def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, 
     """
     if n_steps % record_every:
         raise ValueError("n_steps must be a multiple of record_every")
-    x = np.array(x0, dtype=float)
+    x = np.array(x0, dtype=float, order="C")
     out = np.empty((n_steps // record_every + 1,) + x.shape)
     out[0] = x
     half, sixth = 0.5 * h, h / 6.0
@@ -285,22 +308,13 @@ def rk4_fixed_step_into(rhs: Callable[[np.ndarray, int, np.ndarray], None], x0, 
     for i in range(n_steps):
         j = 2 * i
         rhs(x, j, k1)
-        np.multiply(k1, half, xs)
-        xs += x
+        stage(k1, half, x, xs)
         rhs(xs, j + 1, k2)
-        np.multiply(k2, half, xs)
-        xs += x
+        stage(k2, half, x, xs)
         rhs(xs, j + 1, k3)
-        np.multiply(k3, h, xs)
-        xs += x
+        stage(k3, h, x, xs)
         rhs(xs, j + 2, k4)
-        # x + (h / 6) (k1 + 2 (k2 + k3) + k4), in rk4_fixed_step's order
-        k2 += k3
-        k2 *= 2.0
-        k2 += k1
-        k2 += k4
-        k2 *= sixth
-        x += k2
+        advance(x, k1, k2, k3, k4, sixth)
         if (i + 1) % record_every == 0:
             out[(i + 1) // record_every] = x
     return out

@@ -9,8 +9,7 @@ contraction without fastmath).
 
 from __future__ import annotations
 
-import numpy as np
-
+from ...numerics.integrate import rk4_fixed_step_into
 from .jit import compiled
 
 __all__ = ["rk4_fused_into"]
@@ -18,7 +17,7 @@ __all__ = ["rk4_fused_into"]
 
 @compiled
 def _stage(k, c, x, xs):
-    """xs = c k + x (np.multiply(k, c, xs); xs += x), element by element, for arrays of one shape."""
+    """xs = c k + x, element by element (numerics.integrate.rk4_stage), for C-contiguous arrays of one shape."""
     k1, x1, s1 = k.reshape(-1), x.reshape(-1), xs.reshape(-1)
     for i in range(k1.shape[0]):
         s1[i] = k1[i] * c + x1[i]
@@ -26,7 +25,7 @@ def _stage(k, c, x, xs):
 
 @compiled
 def _advance(x, k1, k2, k3, k4, sixth):
-    """x += (h / 6) (k1 + 2 (k2 + k3) + k4) in the NumPy stepper's order: ((((k2 + k3) 2) + k1) + k4) sixth."""
+    """x += (h / 6) (k1 + 2 (k2 + k3) + k4) in numerics.integrate.rk4_advance's order: ((((k2 + k3) 2) + k1) + k4) sixth."""
     x_, a, b, c, d = x.reshape(-1), k1.reshape(-1), k2.reshape(-1), k3.reshape(-1), k4.reshape(-1)
     for i in range(x_.shape[0]):
         s = b[i] + c[i]
@@ -57,23 +56,4 @@ def rk4_fused_into(rhs, x0, h: float, n_steps: int, record_every: int):
     ndarray, shape (n_steps // record_every + 1, d, n)
         The state at every ``record_every``-th step, the initial one first.
     """
-    if n_steps % record_every:
-        raise ValueError("n_steps must be a multiple of record_every")
-    x = np.array(x0, dtype=float, order="C")
-    out = np.empty((n_steps // record_every + 1,) + x.shape)
-    out[0] = x
-    half, sixth = 0.5 * h, h / 6.0
-    k1, k2, k3, k4, xs = (np.empty_like(x) for _ in range(5))
-    for i in range(n_steps):
-        j = 2 * i
-        rhs(x, j, k1)
-        _stage(k1, half, x, xs)
-        rhs(xs, j + 1, k2)
-        _stage(k2, half, x, xs)
-        rhs(xs, j + 1, k3)
-        _stage(k3, h, x, xs)
-        rhs(xs, j + 2, k4)
-        _advance(x, k1, k2, k3, k4, sixth)
-        if (i + 1) % record_every == 0:
-            out[(i + 1) // record_every] = x
-    return out
+    return rk4_fixed_step_into(rhs, x0, h, n_steps, record_every, stage=_stage, advance=_advance)
