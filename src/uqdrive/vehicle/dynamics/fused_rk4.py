@@ -45,7 +45,7 @@ def rk4_fused_into(rhs, x0, h: float, n_steps: int, record_every: int):
     rhs : callable
         ``rhs(x, j, out)`` writes dx/dt at time j h / 2 for the state ``x`` (d, n) into ``out`` (d, n).
     x0 : array_like, shape (d, n)
-        Initial state.
+        Initial state (each row in its state's unit: rad, rad/s, rad, m, ...).
     h : float
         Step (s).
     n_steps, record_every : int
