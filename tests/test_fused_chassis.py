@@ -25,6 +25,9 @@ CHASSIS = ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "longitudin
 #: Each chassis term alone, in pairs and the loads' three together, with the terms of the
 #: kinematics (a bank, the course weight) on the side.
 SETS = [()] + [(c,) for c in CHASSIS] + list(itertools.combinations(CHASSIS, 2)) + [CHASSIS[2:], CHASSIS]
+#: Compliance steer on the Magic Formula (its own Newton loop through the tyre's sine), served on
+#: static loads without relaxation: alone and beside the roll steer.
+YIELDING = [("compliance_steer",), ("compliance_steer", "roll_steer")]
 #: On the linear tyre: relaxation, roll steer and compliance steer alone, in pairs and together,
 #: and each term that moves the loads alone, beside relaxation or compliance steer, and with all.
 LINEAR = ("tyre_relaxation", "roll_steer", "compliance_steer")
@@ -88,7 +91,7 @@ def _rates(rhs, x, steps=(0, 1, 2)):
 
 @pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
 @pytest.mark.parametrize("speed", [False, True], ids=["held", "braking"])
-@pytest.mark.parametrize("terms", SETS, ids=lambda t: "+".join(t) or "tyre")
+@pytest.mark.parametrize("terms", SETS + YIELDING, ids=lambda t: "+".join(t) or "tyre")
 def test_the_compiled_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed, per_run):
     """Each term alone, in pairs and together, at held speed and braking, with numbers or per-realisation
     inputs and constants (relaxation lengths of zero among them): the same doubles at three half
@@ -149,13 +152,15 @@ def test_an_ensemble_integrated_with_the_compiled_chassis_rates_is_the_numpy_ens
         np.testing.assert_array_equal(runs[1], runs[0])
 
 
-@pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer", "load-sensitive tyre", "loop in NumPy", "per-run B",
-                                  "per-run B, linear tyre", "switched off"])
+@pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer, relaxing", "compliance steer, load transfer",
+                                  "load-sensitive tyre", "loop in NumPy", "per-run B", "per-run B, linear tyre", "switched off"])
 def test_chassis_models_the_compiled_rates_do_not_serve_take_the_numpy_path(case, monkeypatch):
-    """Yielding wheels (their own Newton loop through the tyre's sine), the load-sensitive stiffness,
-    a loads' loop kept in NumPy (on either tyre), per-realisation stiffness factors and the switch
-    keep the NumPy path, with its numbers."""
-    terms = {"compliance steer": ("compliance_steer",), "load-sensitive tyre": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
+    """Yielding wheels on the Magic Formula beside relaxation or on loads that move, the
+    load-sensitive stiffness, a loads' loop kept in NumPy (on either tyre), per-realisation
+    stiffness factors and the switch keep the NumPy path, with its numbers."""
+    terms = {"compliance steer, relaxing": ("compliance_steer", "tyre_relaxation"),
+             "compliance steer, load transfer": ("compliance_steer", "lateral_load_transfer"),
+             "load-sensitive tyre": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
     s = _structure(terms)
     if case == "linear tyre, loop in NumPy":
         s = _structure(("lateral_load_transfer",), linear=True)

@@ -1,12 +1,13 @@
 """The axle loads of the chassis right-hand side (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`):
-load transfer, the friction ellipse's share and the load-sensitive tyre's factors, and the trigonometry they share.
+load transfer, the friction ellipse's share and the load-sensitive tyre's factors, the trigonometry they
+share, and the front wheels' yield to the force those loads carry (compliance steer).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["AxleLoads", "SideSlip", "course_sine", "half_angle_sin_cos", "half_angle_sin_cos_into", "opposite"]
+__all__ = ["AxleLoads", "SideSlip", "course_sine", "half_angle_sin_cos", "half_angle_sin_cos_into", "opposite", "yielded_front_slip"]
 
 
 def half_angle_sin_cos_into(angle, sin_out, cos_out, t, inv) -> None:
@@ -50,6 +51,48 @@ def course_sine(angle):
     if np.abs(angle).max(initial=0.0) < 3.0:
         return half_angle_sin_cos(angle)[0]
     return np.sin(angle)
+
+
+def yielded_front_slip(q0, peak, B, C, E, kappa, saturating: bool):
+    """Front slip with the wheels yielding to their own force: q = q0 - kappa F(q).
+
+    Linear tyre: q0 / max(1 + kappa c, 0.05), c = peak B C; Magic Formula (Pacejka (2.2a), its
+    force peak sin(C atan(u)), u = B q - E (B q - atan(B q))): three Newton steps from it (the
+    loop's gain kappa dF/dq is below 1 in the fitted range, so the residual falls quadratically to
+    round-off).
+
+    Parameters
+    ----------
+    q0 : ndarray, shape (n,)
+        The front's slip angle the wheel angle alone makes (rad).
+    peak : ndarray, shape (n,)
+        The front axle's peak force (N).
+    B, C : float or ndarray, shape (1,)
+        The front's stiffness and the shape factor (-).
+    E : float or ndarray, shape (n,)
+        The curvature factor (-).
+    kappa : float or ndarray, shape (n,)
+        Front wheel angle (rad) per newton of the front axle's force.
+    saturating : bool
+        The Magic Formula, else the linear tyre.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The yielded slip angle (rad).
+    """
+    stiff = peak * B * C
+    q = q0 / np.maximum(1.0 + kappa * stiff, 0.05)
+    if not saturating:
+        return q
+    for _ in range(3):
+        bx = B * q
+        u = bx - E * (bx - np.arctan(bx))
+        angle = C * np.arctan(u)  # the force's and its slope's: D sin(angle), D cos(angle) C u' / (1 + u^2)
+        sin_a, cos_a = half_angle_sin_cos(angle)
+        slope = peak * cos_a * C / (1.0 + u * u) * B * (1.0 - E + E / (1.0 + bx * bx))
+        q = q - (q - q0 + kappa * (peak * sin_a)) / np.maximum(1.0 + kappa * slope, 0.05)
+    return q
 
 
 class SideSlip:

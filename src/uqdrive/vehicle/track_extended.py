@@ -75,9 +75,9 @@ import numpy as np
 from ..numerics.integrate import rk4_fixed_step_into
 from ..settings import Vehicle
 from .effects.terms import term_of
-from .axle_loads import AxleLoads, SideSlip, course_sine, half_angle_sin_cos
+from .axle_loads import AxleLoads, SideSlip, course_sine, half_angle_sin_cos, yielded_front_slip
 from .dynamics.rhs import Balance, slip_angles
-from .single_track import VehicleParameters, curvature_argument, tyre_angle
+from .single_track import VehicleParameters, tyre_angle
 
 #: Newton steps of the loads-forces loop in :meth:`ExtendedSingleTrackRHS._forces`. From the steady
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
@@ -233,26 +233,6 @@ class ExtendedSingleTrackRHS(AxleLoads):
             return None
         return self._unit_curve(q_steady if lagged is None else lagged, self.B)
 
-    def _yielded_front_slip(self, q0, peak, B=None):
-        """Front slip (n,) (rad) with the wheels yielding to their own force: q = q0 - kappa F(q).
-
-        Linear tyre: q0 / (1 + kappa c), c = peak B C; Magic Formula: three Newton steps from it
-        (the loop's gain kappa dF/dq is below 1 in the fitted range, so the residual falls
-        quadratically to round-off)."""
-        B = self.B[0, 0] if B is None else B
-        stiff = peak * B * self.C
-        q = q0 / self._at_least(1.0 + self.kappa * stiff, 0.05)
-        if not self.saturating:
-            return q
-        for _ in range(3):
-            bx = B * q
-            u = curvature_argument(bx, self.E)
-            angle = self.C * np.arctan(u)  # the force's and its slope's: D sin(angle), D cos(angle) C u' / (1 + u^2)
-            sin_a, cos_a = half_angle_sin_cos(angle)
-            slope = peak * cos_a * self.C / (1.0 + u * u) * B * (1.0 - self.E + self.E / (1.0 + bx * bx))
-            q = q - (q - q0 + self.kappa * (peak * sin_a)) / self._at_least(1.0 + self.kappa * slope, 0.05)
-        return q
-
     def _at_loads(self, P, q_steady, delta, lagged, capacity=1.0, factors=None, unit=None):
         """Slip angles (2, n), front wheel angle (n,) and axle forces (2, n) on the effective loads
         ``P`` (2, n), each axle's peak times its lateral ``capacity`` (and the load-sensitive tyre's
@@ -273,7 +253,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
                 delta = delta - self.kappa * F[0]
             return q, delta, F
         if self.compliant:
-            q_front = self._yielded_front_slip(q[0], peak[0], B[0])
+            q_front = yielded_front_slip(q[0], peak[0], B[0], self.C, self.E, self.kappa, self.saturating)
             delta = delta - (q[0] - q_front)
             q[0] = q_front
             if unit is not None:  # the rear's slip is the steady one: only the front's force is new

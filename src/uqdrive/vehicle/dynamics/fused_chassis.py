@@ -5,8 +5,9 @@ relaxation, roll steer and the loads' loop in some fifteen calls instead of ~70,
 As :mod:`.fused_rates` does for the single-track model: NumPy's SIMD tangents and arctangents stay,
 the arithmetic between them runs per realisation in the chassis path's order (no multiply-add
 contraction without fastmath), and the loads' Newton loop is :func:`.load_newton.newton_loads`.
-Served: the Magic Formula on wheels that do not yield to their force (no compliance steer) with
-a load-free stiffness (no load-sensitive tyre); the right-hand side keeps NumPy's path elsewhere.
+Served: the Magic Formula with a load-free stiffness (no load-sensitive tyre), its wheels yielding
+to their force (compliance steer, its Newton loop through the tyre's sine :mod:`.fused_yield`) on
+static loads without relaxation; the right-hand side keeps NumPy's path elsewhere.
 The constants, the roll mode and the loads' steady guess are shared with the linear tyre's loop
 (:mod:`.fused_linear`).
 """
@@ -18,6 +19,7 @@ import numpy as np
 from numba import njit
 
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
+from .fused_yield import FrontYield
 from .jit import compiled, realisations
 from .load_newton import newton_loop
 
@@ -264,14 +266,19 @@ class FusedChassisRates(ChassisConstants):
         The curvature factor (-).
     B, C : tuple of two floats, float
         The front and rear stiffness factors and the shape factor (-).
+    kappa : float or ndarray, shape (n,), optional
+        Compliance steer (static loads, no relaxation): front wheel angle (rad) per newton of the
+        front axle's force; None: the wheels do not yield.
     **constants
         Those of :class:`ChassisConstants`.
     """
 
-    def __init__(self, E, B, C, **constants):
+    def __init__(self, E, B, C, kappa=None, **constants):
         super().__init__(**constants)
         n = self.n
         self.E, self.B_f, self.B_r, self.C = realisations(E, n), float(B[0]), float(B[1]), float(C)
+        self.front_peak = self.static[0] * self.mu  # the yielding front's peak on static loads (N)
+        self.front_yield = None if kappa is None else FrontYield(n, self.B_f, self.C, self.E, realisations(kappa, n))
         self.half_wheel, self.cos_delta = np.empty(n), np.empty(n)
         self.q, self.steady, self.bx, self.F, self.unit = (np.empty((2, n)) for _ in range(5))
         self.no_roll = np.empty(0)  # no roll steer's row
@@ -315,7 +322,14 @@ class FusedChassisRates(ChassisConstants):
             front = realisations(cos_delta, n)
             P, capacity, _ = self.newton_loads(front, unit, F_w, v_dot, self.B_f, self.B_r, self.C, False)
             capacity = capacity if a["slipping"] else self.none
-        far = _rates(unit, not loaded, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
+        from_tangent = not loaded
+        if self.front_yield is not None:  # static loads, no relaxation: the front wheels yield to their force
+            unit, from_tangent = self.unit, False
+            _unit_forces(bx, unit)
+            wheel = realisations(delta - eps if rolling else delta, n)  # the wheel angle less the roll steer
+            self.front_yield(self.steady[0], self.front_peak, wheel, unit[0], self.cos_delta)
+            cos_delta = self.cos_delta
+        far = _rates(unit, from_tangent, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
                      trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,
                      0.0 if M_w is None else realisations(M_w, n), M_w is not None, self.yaw_factor, inv_mv, a_v,
                      v_dot / v, profile, self.k)
@@ -333,11 +347,13 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
     (n_states, n), or None where it does not serve: the linear tyre
-    (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer, the load-sensitive tyre,
-    a loads' loop not compiled (``compiled_loop``), constants :func:`chassis_arguments` refuses."""
-    if not rhs.saturating or rhs.compliant or rhs.sensitive or (rhs.loaded and not compiled_loop):
+    (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer on loads that move or
+    beside relaxation, the load-sensitive tyre, a loads' loop not compiled (``compiled_loop``),
+    constants :func:`chassis_arguments` refuses."""
+    if (not rhs.saturating or rhs.sensitive or (rhs.loaded and not compiled_loop)
+            or (rhs.compliant and (rhs.loaded or rhs.relaxed))):
         return None
-    constants = chassis_arguments(rhs, x, steps, (rhs.E,))
+    constants = chassis_arguments(rhs, x, steps, (rhs.E, rhs.kappa))
     if constants is None:
         return None
-    return FusedChassisRates(rhs.E, rhs.B[:, 0], rhs.C, **constants)
+    return FusedChassisRates(rhs.E, rhs.B[:, 0], rhs.C, rhs.kappa if rhs.compliant else None, **constants)
