@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .single_track import curvature_argument
+
 __all__ = ["AxleLoads", "SideSlip", "course_sine", "half_angle_sin_cos", "half_angle_sin_cos_into", "opposite", "yielded_front_slip"]
 
 
@@ -87,7 +89,7 @@ def yielded_front_slip(q0, peak, B, C, E, kappa, saturating: bool):
         return q
     for _ in range(3):
         bx = B * q
-        u = bx - E * (bx - np.arctan(bx))
+        u = curvature_argument(bx, E)
         angle = C * np.arctan(u)  # the force's and its slope's: D sin(angle), D cos(angle) C u' / (1 + u^2)
         sin_a, cos_a = half_angle_sin_cos(angle)
         slope = peak * cos_a * C / (1.0 + u * u) * B * (1.0 - E + E / (1.0 + bx * bx))

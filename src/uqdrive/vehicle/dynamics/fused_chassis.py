@@ -23,7 +23,7 @@ from .fused_yield import FrontYield
 from .jit import compiled, realisations
 from .load_newton import newton_loop
 
-__all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "roll_mode_at"]
+__all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "near_sine", "roll_mode_at"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -172,6 +172,28 @@ def _scaled_sine(t, v, out):
         out[i] = v * half_angle_sine(t[i])
 
 
+@compiled
+def near_sine(angle, t, v) -> bool:
+    """v sin(angle) into ``angle`` (n,) from t = tan(angle / 2) by the half-angle identity where
+    every angle is within 3 rad of zero (:func:`uqdrive.vehicle.axle_loads.course_sine` times v, to
+    the bit), and True; else (an angle at 3 rad or more, or NaN) False, ``angle`` left as it is.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,)
+        The course psi + k beta (rad), overwritten by v sin of it.
+    t : ndarray, shape (n,)
+        NumPy's tan(angle / 2) (-).
+    v : float
+        Speed (m/s).
+    """
+    for i in range(angle.shape[0]):
+        if not abs(angle[i]) < 3.0:
+            return False
+    _scaled_sine(t, v, angle)
+    return True
+
+
 class ChassisConstants:
     """The constants the compiled chassis rates read per realisation, each an array (n,) whether or
     not it varies (one compiled loop for every structure: numbers and arrays would compile one per
@@ -218,18 +240,16 @@ class ChassisConstants:
         self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
         self.none = np.empty((0, n))  # an absent term's rows
         self.P, self.capacity, self.factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))  # the loads' loop's outputs
-        self._rows, self._loops = tuple(self.trig), {}
+        self._rows = tuple(self.trig)
+        self._terms = () if loads is None else tuple(bool(loads[k]) for k in ("pitching", "transferring", "slipping", "sensitive"))
 
     def newton_loads(self, front, unit, F_w, v_dot: float, B_f: float, B_r: float, C: float, yielding: bool):
         """:func:`.load_newton.newton_loads` from ``self.T`` (the steady guess), ``self.trig`` and
         ``self.slip`` with the constants of ``loads``, into ``self.P``, ``self.capacity`` and
-        ``self.factors`` (returned): no arrays made, the compiled loop of each speed kind kept
-        (~4 us a call less at 300 realisations). Arguments as :func:`.load_newton.newton_loads`'."""
-        a, held = self.loads, v_dot == 0.0
-        key = (unit.shape[0] == 2, bool(yielding), held)
-        loop = self._loops.get(key)
-        if loop is None:
-            loop = self._loops[key] = newton_loop(*(bool(a[k]) for k in ("pitching", "transferring", "slipping", "sensitive")), *key)
+        ``self.factors`` (returned): no arrays made per call (~4 us a call less at 300
+        realisations). Arguments as :func:`.load_newton.newton_loads`'."""
+        a = self.loads
+        loop = newton_loop(*self._terms, unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
         tan_b, cos_b, sin_b = self._rows
         loop(self.T, a["K"], tan_b, cos_b, sin_b, front, self.slip, unit, F_w, self.P, self.capacity, self.factors, a["steps"], float(v_dot),
              a["L"], float(B_f), float(B_r), float(C))

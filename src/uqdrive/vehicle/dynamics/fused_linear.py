@@ -18,11 +18,11 @@ import numpy as np
 
 from numba import njit
 
-from .fused_chassis import ChassisConstants, chassis_arguments, load_guess_at, roll_mode_at
-from .fused_rates import half_angle_pair, half_angle_sine, item
+from .fused_chassis import ChassisConstants, chassis_arguments, load_guess_at, near_sine, roll_mode_at
+from .fused_rates import half_angle_pair, item
 from .jit import compiled, realisations
 
-__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates", "near_sine"]
+__all__ = ["FusedLinearChassisRates", "fused_linear_chassis_rates"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -42,29 +42,6 @@ def _steady_slip_at(x, i, lever, v, delta, i_roll):
     if i_roll > 0:
         a_f = a_f - x[i_roll, i]
     return a_f, a_r
-
-
-@compiled
-def near_sine(angle, t, v) -> bool:
-    """v sin(angle) into ``angle`` (n,) from t = tan(angle / 2) by the half-angle identity where
-    every angle is within 3 rad of zero (:func:`uqdrive.vehicle.axle_loads.course_sine` times v, to
-    the bit), and True; else (an angle at 3 rad or more, or NaN) False, ``angle`` left as it is.
-
-    Parameters
-    ----------
-    angle : ndarray, shape (n,)
-        The course psi + k beta (rad), overwritten by v sin of it.
-    t : ndarray, shape (n,)
-        NumPy's tan(angle / 2) (-).
-    v : float
-        Speed (m/s).
-    """
-    for i in range(angle.shape[0]):
-        if not abs(angle[i]) < 3.0:
-            return False
-    for i in range(angle.shape[0]):
-        angle[i] = v * half_angle_sine(t[i])
-    return True
 
 
 @functools.lru_cache(maxsize=None)

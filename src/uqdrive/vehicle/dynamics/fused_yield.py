@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .fused_rates import half_angle_pair, half_angle_sine
 from .jit import compiled
 
 __all__ = ["FrontYield"]
@@ -53,13 +54,7 @@ def _newton_step(t, u, bx, q0, peak, B, C, E, kappa, q):
     """One Newton step q <- q - (q - q0 + kappa peak sin a) / max(1 + kappa dF/dq, 0.05) from
     t = tan(a / 2), and B q into ``bx``."""
     for i in range(t.shape[0]):
-        tt = t[i]
-        t2 = tt * tt
-        inv = 1.0 / (1.0 + t2)
-        sin_a = 2.0 * tt
-        sin_a = sin_a * inv
-        cos_a = 1.0 - t2
-        cos_a = cos_a * inv
+        sin_a, cos_a = half_angle_pair(t[i])
         slope = peak[i] * cos_a
         slope = slope * C
         slope = slope / (1.0 + u[i] * u[i])
@@ -80,10 +75,7 @@ def _unit_and_wheel(t, q0, q, wheel, unit, h):
     """sin of the yielded slip's tyre angle (from t = tan(a / 2)) into ``unit`` and half the wheel
     angle it leaves, 0.5 (wheel - (q0 - q)), into ``h``."""
     for i in range(t.shape[0]):
-        tt = t[i]
-        inv = 1.0 / (1.0 + tt * tt)
-        s = 2.0 * tt
-        unit[i] = s * inv
+        unit[i] = half_angle_sine(t[i])
         w = q0[i] - q[i]
         w = wheel[i] - w
         h[i] = 0.5 * w
@@ -93,11 +85,7 @@ def _unit_and_wheel(t, q0, q, wheel, unit, h):
 def _cosine(t, out):
     """cos of the angle whose half-angle tangent is ``t``, (1 - t^2) / (1 + t^2) (axle_loads.half_angle_sin_cos)."""
     for i in range(t.shape[0]):
-        tt = t[i]
-        t2 = tt * tt
-        inv = 1.0 / (1.0 + t2)
-        c = 1.0 - t2
-        out[i] = c * inv
+        out[i] = half_angle_pair(t[i])[1]
 
 
 class FrontYield:
