@@ -42,7 +42,7 @@ def roll_mode_at(x, out, i, i_roll, omega, gain, zeta, lateral):
     out[i_roll + 1, i] = a - b
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def load_guess_at(i, psi_dot, s, c, v, v_dot, m, a_lat, F_w):
     """Realisation ``i`` of the loads' steady guess T = m (v psi_dot cos beta + v' sin beta - a_lat)
     - F_w (N) from sin and cos of beta (track_extended.ExtendedSingleTrackRHS._forces' order)."""

@@ -18,7 +18,7 @@ from numba.extending import overload
 
 from .jit import compiled, realisations
 
-__all__ = ["FusedRates", "curvature_from_atan", "half_angle_pair", "half_angle_sine", "half_tyre_angle", "item", "per_realisation", "side_slip_at"]
+__all__ = ["FusedRates", "curvature_from_atan", "half_angle_pair", "half_angle_sine", "half_tyre_angle", "item", "side_slip_at"]
 
 
 def item(a, i):  # pragma: no cover - replaced by the overload inside compiled code
@@ -33,7 +33,7 @@ def _item_compiled(a, i):
     return lambda a, i: a
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def half_angle_sine(t):
     """sin of the angle whose half-angle tangent is ``t`` (axle_loads.half_angle_sin_cos_into's order)."""
     inv = t * t
@@ -43,7 +43,7 @@ def half_angle_sine(t):
     return s * inv
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def half_angle_pair(t):
     """sin and cos of the angle whose half-angle tangent is ``t`` (axle_loads.half_angle_sin_cos_into's order)."""
     inv = t * t
@@ -56,7 +56,7 @@ def half_angle_pair(t):
     return s, c
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def side_slip_at(t, i, sin_b, cos_b, lever, psi_dot, v, q):
     """Realisation ``i`` of :func:`_slip_argument`; returns its sin and cos of beta."""
     s, c = half_angle_pair(t[i])
@@ -145,16 +145,11 @@ def _number(a):
     return float(a) if isinstance(a, np.ndarray) and a.ndim == 0 else a
 
 
-def per_realisation(a, n: int):
-    """``a`` for the compiled loops: a number as a float, an array as a contiguous float64 array
-    of shape (n,) (broadcast: the same values)."""
-    return float(a) if np.ndim(a) == 0 else realisations(a, n)
-
-
 class FusedRates:
     """:meth:`.rhs.SingleTrackRHS._rates` of a Magic-Formula right-hand side whose tyre angle
-    takes the half-angle sine, the same numbers: its constants (numbers or arrays (n,), read by
-    :func:`per_realisation`) and its work arrays.
+    takes the half-angle sine, the same numbers: its constants (each kept as an array (n,) whether
+    or not it varies, as :class:`.fused_chassis.ChassisConstants` keeps them: one compiled loop
+    for every model, not one per combination of numbers and arrays) and its work arrays.
 
     Parameters
     ----------
@@ -182,10 +177,10 @@ class FusedRates:
         n = lever.shape[1]
         self.lever, self.peak = np.ascontiguousarray(lever, float), np.ascontiguousarray(peak, float)
         self.B_f, self.B_r, self.C = float(B[0]), float(B[1]), float(C)
-        self.E, self.l_f, self.l_r = per_realisation(E, n), per_realisation(l_f, n), per_realisation(l_r, n)
-        self.M_c, self.yaw_factor, self.quotient = float(M_c), per_realisation(yaw_factor, n), bool(quotient)
+        self.E, self.l_f, self.l_r = realisations(E, n), realisations(l_f, n), realisations(l_r, n)
+        self.M_c, self.yaw_factor, self.quotient = float(M_c), realisations(yaw_factor, n), bool(quotient)
         self.course = course_weight is not None
-        self.k = per_realisation(0.0 if course_weight is None else course_weight, n)
+        self.k = realisations(0.0 if course_weight is None else course_weight, n)
         self.heading = bool(heading)
         self.rows = (1, 2) if heading else (0, 1)
         self.sin_b, self.cos_b, self.t = np.empty(n), np.empty(n), np.empty(n)

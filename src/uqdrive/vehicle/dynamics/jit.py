@@ -1,6 +1,13 @@
 """How the compiled loops of the dynamics (:mod:`.ltv_rk4`, :mod:`.load_newton`, :mod:`.fused_rates`)
 are compiled (numba's njit, cached on disk where a place is writable) and how they are given a
 value per realisation.
+
+Their helpers are plain ``njit`` functions, which LLVM inlines; ``inline="always"`` (numba inlines
+the helper's code and types it anew at each call site) is kept for the helpers that take a term's
+flag or a state row the loop fixes (``_loads``, the roll mode, the steady slip), so that the flag
+folds away before LLVM vectorises the loop. Inlining every helper that way made a clean
+checkout's tests/test_fused_chassis.py compile for 65-85 s instead of 40-55 s, for no speed
+(benchmarks/bench_fused_chassis.py's and bench_fused_rates.py's per-call rows unchanged).
 """
 
 from __future__ import annotations
@@ -30,9 +37,12 @@ _FLOAT64 = np.dtype(np.float64)
 def realisations(a, n: int):
     """``a`` (a number or an array broadcasting to (n,)) as a C-contiguous float64 array of shape
     (n,), the same values: what a compiled loop indexes per realisation. An array that already is
-    one is returned itself (checked in ~0.3 us: the right-hand sides pass a half step's inputs
-    through here on every call, where the broadcast and its checks cost ~4 us); a broadcast one is
-    a read-only view."""
-    if a.__class__ is np.ndarray and a.shape == (n,) and a.dtype is _FLOAT64 and a.flags.c_contiguous:
-        return a
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))
+    one, and writable, is returned itself (checked in ~0.3 us: the right-hand sides pass a half
+    step's inputs through here on every call, where the broadcast and its checks cost ~4 us); any
+    other is copied, so that a loop sees one array type (numba compiles a read-only array's loop
+    anew, ~1 s a loop on a cold cache)."""
+    flags = a.flags if a.__class__ is np.ndarray else None
+    if flags is not None and a.shape == (n,) and a.dtype is _FLOAT64 and flags.c_contiguous:
+        return a if flags.writeable else a.copy()
+    out = np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))
+    return out if out.flags.writeable else out.copy()  # an (n,) array comes back as its read-only broadcast view

@@ -32,13 +32,13 @@ ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "
  REFERENCE_F, REFERENCE_R) = range(len(ROWS))
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def _at_least(x, c):
     """np.maximum(x, c): c where x < c, else x (a NaN stays NaN)."""
     return c if x < c else x
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def _wheel_pair(F_z, dF, F0, p_Dz, half, arm, slope):
     """One axle's effective load P and dP / dT: its inner and outer wheel (F_z / 2 -+ dF, a lifted
     wheel carrying nothing, no peak below zero), each at its peak per unit load (Pacejka (4.E13))."""
@@ -89,7 +89,7 @@ def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, 
     return P_f, P_r, dP_f, dP_r, slope
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def _capacity(T, i, K, P_f, P_r, tan_b, cos_b, sin_b, v_dot, F_w):
     """AxleLoads.lateral_capacity of realisation ``i`` (the friction ellipse's shares)."""
     m, mu = K[M, i], K[MU, i]
@@ -101,7 +101,7 @@ def _capacity(T, i, K, P_f, P_r, tan_b, cos_b, sin_b, v_dot, F_w):
     return np.sqrt(_at_least(1.0 - used_f * used_f, 0.0)), np.sqrt(_at_least(1.0 - used_r * used_r, 0.0))
 
 
-@njit(inline="always", error_model="numpy")
+@njit(error_model="numpy")
 def _factors(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L):
     """AxleLoads.load_factors of realisation ``i``: the peak's and the stiffness' factors per axle."""
     m = K[M, i]
