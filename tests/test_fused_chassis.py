@@ -1,6 +1,7 @@
 """The chassis right-hand side's compiled arithmetic (vehicle/dynamics/fused_chassis.py, on the
-linear tyre fused_linear.py) gives the NumPy path's numbers bit for bit, on every term it serves
-with and without its neighbours, and the chassis models it does not serve take the NumPy path."""
+linear tyre fused_linear.py) gives the NumPy path's numbers bit for bit, its rates and the lateral
+acceleration a_y, on every term it serves with and without its neighbours, and the chassis models
+it does not serve take the NumPy path."""
 
 import itertools
 from dataclasses import replace
@@ -89,6 +90,11 @@ def _rates(rhs, x, steps=(0, 1, 2)):
     return out
 
 
+def _accelerations(rhs, x, steps=(0, 1, 2)):
+    """a_y (m/s^2) of ``x`` at the half steps: what the recorded a_y channel reads."""
+    return np.stack([rhs.lateral_acceleration(x, j) for j in steps])
+
+
 @pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
 @pytest.mark.parametrize("speed", [False, True], ids=["held", "braking"])
 @pytest.mark.parametrize("terms", SETS + YIELDING, ids=lambda t: "+".join(t) or "tyre")
@@ -105,6 +111,7 @@ def test_the_compiled_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed
     assert fused.fused and not reference.fused
     assert np.all(np.isfinite(expected))
     np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(_accelerations(fused, x), _accelerations(reference, x))
 
 
 @pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
@@ -124,6 +131,7 @@ def test_the_compiled_linear_chassis_rates_are_the_numpy_rates_bit_for_bit(terms
     assert fused.fused and not reference.fused
     assert np.all(np.isfinite(expected))
     np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(_accelerations(fused, x), _accelerations(reference, x))
 
 
 @pytest.mark.parametrize("linear", [False, True], ids=["magic formula", "linear tyre"])

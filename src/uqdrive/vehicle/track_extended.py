@@ -323,7 +323,11 @@ class ExtendedSingleTrackRHS(AxleLoads):
     def lateral_acceleration(self, x, j: int):
         """a_y (m/s^2), shape (n,), of ``x`` (n_states, n) at half step ``j``: the specific force
         an accelerometer at the centre of gravity reads, (F_f cos delta + F_r + F_w) / m, with the
-        lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention)."""
+        lagged slip angles where the tyres relax (uqdrive.vehicle.track_rk4's a_y convention); the
+        compiled rates' sum of the forces where they serve (the same numbers; at 300 realisations
+        half the time of the NumPy loads and forces, at 2400 about 10 % less)."""
+        if self._fused_rates(x, j, np.empty_like(x)):
+            return self._fused.total / self.m
         _, delta, F = self._forces(x, j, *self._at(j)[:2])
         return (self._front(F[0], delta) + F[1] + self.F_w_half[j]) / self.m
 
@@ -340,17 +344,23 @@ class ExtendedSingleTrackRHS(AxleLoads):
             self._last_delta, self._last_cos = delta, half_angle_sin_cos(delta)[1]
         return self._last_cos
 
-    def __call__(self, x, j: int, out) -> None:
-        """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
+    def _fused_rates(self, x, j: int, out) -> bool:
+        """dx/dt into ``out`` by the compiled rates (built at the first call) where they serve, and True; else False."""
         if self._fused is None:
             from .dynamics import fused_chassis, fused_linear  # numba: only where a chassis model is integrated
 
             build = fused_chassis.fused_chassis_rates if self.saturating else fused_linear.fused_linear_chassis_rates
             self._fused = build(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
-        if self._fused:
-            delta = self.delta_half[j]
-            cos_delta = np.cos(delta) if self.saturating and np.ndim(delta) == 0 else None
-            self._fused(x, out, delta, cos_delta, self.F_w_half[j], self.M_w, *self._at(j), self.speed_half is not None)
+        if not self._fused:
+            return False
+        delta = self.delta_half[j]
+        cos_delta = np.cos(delta) if self.saturating and np.ndim(delta) == 0 else None
+        self._fused(x, out, delta, cos_delta, self.F_w_half[j], self.M_w, *self._at(j), self.speed_half is not None)
+        return True
+
+    def __call__(self, x, j: int, out) -> None:
+        """dx/dt (n_states, n) of ``x`` at half step ``j`` into ``out``."""
+        if self._fused_rates(x, j, out):
             return
         psi, psi_dot, beta = x[0], x[1], x[2]
         side_slip = SideSlip(beta)

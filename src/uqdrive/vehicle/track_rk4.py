@@ -265,6 +265,9 @@ def measured_channels(x, a_y, structure, channels):
     """The ``channels`` (C, n, K + 1) as measured: states x (4, n, K + 1) and a_y (n, K + 1) (None
     when not measured) in the channels' order, with the structure's gain and offset
     (:meth:`uqdrive.vehicle.effects.ModelStructure.output_map`)."""
-    rows = [a_y if c == "a_y" else x[STATES.index(c)] for c in channels]
     gain, offset = structure.output_map(channels)
-    return np.stack(rows) * gain[:, None, None] + offset[:, None, None]
+    out = np.empty((len(channels),) + x.shape[1:])
+    for r, c in enumerate(channels):  # in place: np.stack's copy and the product's temporary cost as much as the arithmetic
+        np.multiply(a_y if c == "a_y" else x[STATES.index(c)], gain[r], out=out[r])
+    out += offset[:, None, None]
+    return out

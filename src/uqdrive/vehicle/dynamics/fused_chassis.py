@@ -110,13 +110,14 @@ def _unit_forces(t, unit):
 
 @compiled
 def _rates(unit, from_tangent, P, mu, capacity, cos_delta, x, out, steady, sigma, v, cos_b, sin_b, i_roll, omega, gain, zeta,
-           l_f, l_r, F_w, M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k):
+           l_f, l_r, F_w, M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k, total):
     """The axle forces P mu capacity sin(angle) (``unit``: the sine, or with ``from_tangent`` the
     half angle's tangent) and dx/dt into ``out``: the lagged slip angles' (alpha_ss - alpha) v cos(beta)
     / sigma (rows 4-5 where ``steady`` has rows), the roll steer's mode (rows ``i_roll``, ``i_roll`` + 1
     where ``i_roll`` > 0), psi_dot, the yaw and lateral balances (rhs.Balance.rates with a_lat / v and
-    -(v' / v) sin beta), and the course angle psi + k beta (row 3, its sine taken after). Returns
-    whether the course may not take the half-angle sine: some |angle| not below 3 rad (NaN included)."""
+    -(v' / v) sin beta), and the course angle psi + k beta (row 3, its sine taken after); the force
+    across the car F_f cos(delta) + F_r + F_w (N) into ``total`` (n,). Returns whether the course may
+    not take the half-angle sine: some |angle| not below 3 rad (NaN included)."""
     relaxed, capped = steady.shape[0] > 0, capacity.shape[0] > 0
     far = False
     for i in range(x.shape[1]):
@@ -151,6 +152,7 @@ def _rates(unit, from_tangent, P, mu, capacity, cos_delta, x, out, steady, sigma
         out[1, i] = yaw * item(yaw_factor, i)
         lateral = front + F_r
         lateral = lateral + F_wi
+        total[i] = lateral
         lateral = lateral * cos_b[i]
         lateral = lateral * item(inv_mv, i)
         lateral = lateral - psi_dot
@@ -238,6 +240,7 @@ class ChassisConstants:
         self.m, self.a_lat = (realisations(0.0 if loads is None else loads[name], n) for name in ("m", "a_lat"))
         self.trig = np.zeros((3, n))  # tan, cos and sin of beta (the loads' loop reads those its terms need)
         self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
+        self.total = np.empty(n)  # the last call's force across the car F_f cos(delta) + F_r + F_w (N)
         self.none = np.empty((0, n))  # an absent term's rows
         self.P, self.capacity, self.factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))  # the loads' loop's outputs
         self._rows = tuple(self.trig)
@@ -352,7 +355,7 @@ class FusedChassisRates(ChassisConstants):
         far = _rates(unit, from_tangent, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
                      trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,
                      0.0 if M_w is None else realisations(M_w, n), M_w is not None, self.yaw_factor, inv_mv, a_v,
-                     v_dot / v, profile, self.k)
+                     v_dot / v, profile, self.k, self.total)
         course = out[3]
         if far:
             np.sin(course, course)

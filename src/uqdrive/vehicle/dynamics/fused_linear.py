@@ -85,11 +85,11 @@ def _linear_kernel(relaxed: bool, i_roll: int):
     where ``compliant`` (alpha_f / max(1 + kappa c_f, 0.05) without relaxation, the steady front
     slip minus kappa F_f with it); the lagged states' (alpha_ss - alpha) v / sigma, the roll mode,
     psi_dot, the balances and the course psi + k beta (row 3; ``scaled``: v times it, else the
-    caller takes its sine)."""
+    caller takes its sine); the force across the car F_f + F_r + F_w (N) into ``total`` (n,)."""
     rolling = i_roll > 0
 
     def rates(x, out, lever, P, capacity, factors, mu, stiffness, v, delta, sigma, kappa, compliant, omega, gain, zeta, l_f, l_r, F_w,
-              M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k, scaled):
+              M_c, M_w, has_M_w, yaw_factor, inv_mv, a_v, v_dot_v, has_v_dot, k, scaled, total):
         B_f, B_r, C = stiffness[0], stiffness[1], stiffness[2]
         capped, factored = capacity.shape[0] > 0, factors.shape[0] > 0
         for i in range(x.shape[1]):
@@ -144,6 +144,7 @@ def _linear_kernel(relaxed: bool, i_roll: int):
             out[1, i] = yaw * item(yaw_factor, i)
             lateral = F_f + F_r
             lateral = lateral + F_wi
+            total[i] = lateral
             lateral = lateral * item(inv_mv, i)
             lateral = lateral - psi_dot
             lateral = lateral + item(a_v, i)
@@ -207,7 +208,7 @@ class FusedLinearChassisRates(ChassisConstants):
         exact = self.course_sine
         self.kernel(x, out, self.lever, P, capacity, factors, self.mu, self.stiffness, v, delta, self.sigma, self.kappa, self.compliant,
                     self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c, 0.0 if M_w is None else realisations(M_w, n),
-                    M_w is not None, self.yaw_factor, inv_mv, a_v, v_dot / v, profile, self.k, not exact)
+                    M_w is not None, self.yaw_factor, inv_mv, a_v, v_dot / v, profile, self.k, not exact, self.total)
         if exact:  # axle_loads.course_sine times v: the half-angle sine within 3 rad, NumPy's beyond
             course, t = out[3], self.t
             np.multiply(course, 0.5, t)
