@@ -12,6 +12,7 @@ import uqdrive.vehicle.dynamics.rhs as rhs_module
 from uqdrive.config import load_config
 from uqdrive.numerics.integrate import rk4_fixed_step_into
 from uqdrive.settings import Settings
+from uqdrive.vehicle.dynamics.jit import realisations
 from uqdrive.vehicle.dynamics.rhs import HalfStepInputs, SingleTrackRHS
 from uqdrive.vehicle.single_track import VehicleParameters
 
@@ -95,3 +96,19 @@ def test_rates_the_compiled_loop_does_not_serve_take_the_numpy_path(case):
     out = np.empty((4, n))
     rhs(np.full((4, n), 0.05), 3, out)
     assert np.all(np.isfinite(out))
+
+
+def test_realisations_hands_the_loops_one_array_type():
+    """jit.realisations: a writable C-contiguous float64 (n,) array is passed as it is; a number,
+    a broadcast, another dtype and a read-only array come back as a writable (n,) float64 copy with
+    the same values (a read-only array is its own type to numba: a loop compiled again)."""
+    n = 7
+    own = np.linspace(0.0, 1.0, n)
+    assert realisations(own, n) is own
+    frozen = own.copy()
+    frozen.flags.writeable = False
+    for given in (frozen, 0.5, np.float64(0.5), np.ones(1), np.arange(n), own[::-1], np.broadcast_to(own, (n,))):
+        got = realisations(given, n)
+        assert got.shape == (n,) and got.dtype == np.float64 and got.flags.c_contiguous and got.flags.writeable, given
+        np.testing.assert_array_equal(got, np.broadcast_to(np.asarray(given, float), (n,)))
+    assert realisations(frozen, n) is not frozen
