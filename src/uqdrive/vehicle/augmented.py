@@ -178,8 +178,7 @@ class AugmentedSimulator(EnsembleSimulator):
             return [measured_channels(x[:, i * n:(i + 1) * n], None if a_y is None else a_y[i * n:(i + 1) * n], s, self.channels)
                     for i, s in enumerate(structures)]
         x = self._rk4(p, wind, coeffs, delta, batch, groups=groups)
-        return [x[:, i * n:(i + 1) * n] * np.asarray(s.output_gain, float)[:, None, None] + np.asarray(s.output_offset, float)[:, None, None]
-                for i, s in enumerate(structures)]
+        return [measured_channels(x[:, i * n:(i + 1) * n], None, s, STATES) for i, s in enumerate(structures)]
 
     def _batch(self, thetas, structures, chassis: bool = False):
         """Parameters, mean wind, gust coefficients and one structure (its per-pair fields as

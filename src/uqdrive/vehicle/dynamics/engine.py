@@ -212,11 +212,9 @@ class EnsembleSimulator:
             x = self._rk4(p, wind, coeffs, delta, structure)
         else:
             x = self._exact(p, wind, coeffs, delta, structure)
-        gain = np.asarray(structure.output_gain, float)[:, None, None]
-        offset = np.asarray(structure.output_offset, float)[:, None, None]
-        if np.all(gain == 1.0) and not np.any(offset):  # as measured = as simulated: no copy of x
+        if all(g == 1.0 for g in structure.output_gain) and not any(structure.output_offset):  # as measured = as simulated: no copy of x
             return x
-        return x * gain + offset
+        return measured_channels(x, None, structure, STATES)
 
     def _substeps(self, s: ModelStructure) -> int:
         """RK4 steps per sample of the grid: the step at most ``RK4_MAX_STEP``, and short enough
