@@ -352,6 +352,32 @@ def test_a_signal_whose_exception_code_called_from_c_swallowed_still_stops_the_o
     assert (tmp_path / "y.nc").read_text() == "whole"
 
 
+def test_a_signal_that_surfaces_as_another_exception_still_exits_as_interrupted(monkeypatch, capsys):
+    """A signal arriving while an extension module is imported comes out as that import's
+    ImportError (numba's, imported at first use, does this): the run still ends as interrupted,
+    128 + N and one line, while the same error without a signal is not hidden."""
+    cli = sys.modules["uqdrive.cli.main"]  # the package's `main` attribute is the function
+
+    def run(args, signalled=True):
+        try:
+            if signalled:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(5)  # the handler's exception ends the sleep
+        except Interrupted as exc:
+            raise ImportError("numba._devicearray failed to import") from exc
+        raise ImportError("numba._devicearray failed to import")
+
+    parser = cli.build_parser()
+    monkeypatch.setattr(parser, "parse_args", lambda argv: type("Args", (), {"run": staticmethod(run)})())
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    assert main(["config"]) == 128 + signal.SIGTERM
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "interrupted by SIGTERM" in err
+    monkeypatch.setattr(parser, "parse_args", lambda argv: type("Args", (), {"run": staticmethod(lambda a: run(a, False))})())
+    with pytest.raises(ImportError):
+        main(["config"])
+
+
 def _catches(pid: int, signum: int) -> bool:
     status = Path(f"/proc/{pid}/status").read_text()
     mask = int(next(line.split()[1] for line in status.splitlines() if line.startswith("SigCgt:")), 16)

@@ -381,7 +381,13 @@ def main(argv: list[str] | None = None) -> int:
     with _signals_exit_cleanly(), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         try:
-            status = args.run(args) or 0
+            try:
+                status = args.run(args) or 0
+            except Exception:
+                # the signal's exception may surface as another: an extension module being
+                # imported when it arrives reports ImportError (numba's, imported at first use)
+                raise_if_interrupted()
+                raise
             raise_if_interrupted()
             for message in dict.fromkeys(str(w.message) for w in caught):
                 stderr_line(f"uqdrive: warning: {message}")
