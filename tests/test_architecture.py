@@ -10,7 +10,7 @@ from uqdrive.dependencies import PACKAGE_ROOT, _import_nodes, import_graph, modu
 # Layer of each top-level part of the package; a module may import its own layer or lower ones.
 LAYERS = {
     "_version": 0, "_lazy": 0, "_errors": 0, "_yaml": 0, "config": 0, "vehicle_spec": 0, "rng": 0, "dependencies": 0,
-    "settings": 0, "workflow_config": 0,
+    "settings": 0, "workflow_config": 0, "interrupts": 0,
     "numerics": 1,
     "vehicle": 2,
     "io": 3, "outputs": 3, "recordings": 3, "inference": 3, "control": 3, "wheelslip": 3,

@@ -18,6 +18,7 @@ import yaml
 
 from uqdrive.cli.identify import fit_warnings
 from uqdrive.cli.main import Interrupted, _signals_exit_cleanly, main
+from uqdrive.interrupts import shielded
 from uqdrive.io import OutputError, atomic_path, write_dataset
 
 from conftest import REPO, tiny_config, tiny_files
@@ -350,6 +351,54 @@ def test_a_signal_whose_exception_code_called_from_c_swallowed_still_stops_the_o
     with _signals_exit_cleanly(), atomic_path(tmp_path / "y.nc") as tmp:  # the next run is not interrupted
         tmp.write_text("whole")
     assert (tmp_path / "y.nc").read_text() == "whole"
+
+
+def test_a_signal_during_an_import_is_raised_once_the_import_has_ended(tmp_path, monkeypatch):
+    """An extension module interrupted in its initialisation prints the traceback itself and
+    reports ImportError (numba's does), so a signal that arrives during an import is raised
+    when the import has ended: the module is whole, and the run still stops."""
+    (tmp_path / "slow_module.py").write_text(
+        "import os, signal, time\n"
+        "os.kill(os.getpid(), signal.SIGTERM)\n"
+        "end = time.monotonic() + 0.2\n"
+        "while time.monotonic() < end:\n"
+        "    pass\n"
+        "WHOLE = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "slow_module", raising=False)
+    with pytest.raises(Interrupted) as stopped:
+        with _signals_exit_cleanly():
+            import slow_module  # noqa: F401
+            time.sleep(5)  # the recheck raises here
+    assert stopped.value.signum == signal.SIGTERM
+    assert sys.modules["slow_module"].WHOLE
+    assert signal.getsignal(signal.SIGALRM) == signal.SIG_DFL and signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
+def test_a_signal_in_a_shielded_block_is_raised_when_the_block_ends(tmp_path, monkeypatch):
+    """netCDF4's writer and reader hold locks that an exception raised between taking one and its
+    ``try`` would leave taken (the close then waits forever): a signal there is raised when the
+    read or write has ended, and the output is still not written."""
+    done = []
+    with pytest.raises(Interrupted) as stopped:
+        with _signals_exit_cleanly(), atomic_path(tmp_path / "x.nc") as tmp, shielded():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)
+            done.append(tmp.write_text("whole"))
+    assert stopped.value.signum == signal.SIGTERM and done == [5]
+    assert list(tmp_path.iterdir()) == []
+    real = xr.Dataset.to_netcdf
+
+    def interrupted_write(self, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.05)
+        done.append("written")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", interrupted_write)
+    with pytest.raises(Interrupted), _signals_exit_cleanly():
+        write_dataset(xr.Dataset({"a": ("x", np.arange(3.0))}), tmp_path / "y.nc")
+    assert done[-1] == "written" and list(tmp_path.iterdir()) == []
 
 
 def test_a_signal_that_surfaces_as_another_exception_still_exits_as_interrupted(monkeypatch, capsys):

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from .interrupts import shielded
 from .outputs import OutputError, atomic_path, check_output_folder, check_replaced_folder, check_writable  # noqa: F401
 from .outputs import write_csv_rows, write_dataset  # noqa: F401
 from .vehicle.channels import CHANNEL_UNITS, CHANNELS
@@ -275,8 +276,8 @@ def read_ensemble(path: str | Path) -> xr.Dataset:
     if not path.is_file():
         raise DataError(f"ensemble path '{path}' is not a file; give a netCDF file")
     try:
-        with xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False) as ds:
-            ds = ds.load()
+        with shielded(), xr.open_dataset(path, engine="netcdf4", decode_times=False, decode_timedelta=False) as ds:
+            ds = ds.load()  # shielded: a signal there would leave netCDF4's file lock taken and the close waiting
     except Exception as exc:  # netCDF4/HDF5 raise many kinds; any of them means an unreadable file
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise DataError(f"'{path}' is not a readable netCDF file ({reason}); write it with xarray's to_netcdf") from exc

@@ -15,45 +15,14 @@ from typing import Mapping, Sequence
 
 import xarray as xr
 
+from .interrupts import Interrupted, forget_signals, raise_if_interrupted, shielded, signal_received
+
 __all__ = ["OutputError", "Interrupted", "check_writable", "check_output_folder", "check_replaced_folder", "atomic_path", "write_csv_rows",
            "write_dataset", "signal_received", "raise_if_interrupted", "forget_signals"]
 
 
 class OutputError(OSError):
     """An output path cannot be written."""
-
-
-class Interrupted(BaseException):
-    """SIGINT/SIGTERM/SIGHUP turned into an exception, so that cleanup runs (like KeyboardInterrupt)."""
-
-    __module__ = "uqdrive.cli.main"
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
-
-
-#: Signals the command line's handler received (:func:`signal_received`). Its exception is raised
-#: wherever Python code runs at that moment, and code called back from C swallows it (ctypes
-#: prints "Exception ignored" and goes on: numba writing its cache is such a callback), so the
-#: run would continue and write its outputs; every output checks here before it is moved into place.
-_RECEIVED: list[int] = []
-
-
-def signal_received(signum: int) -> None:
-    """Record that the run was interrupted by ``signum`` (the command line's signal handler)."""
-    _RECEIVED.append(int(signum))
-
-
-def forget_signals() -> None:
-    """Forget the signals received (a command line run in this process ended)."""
-    _RECEIVED.clear()
-
-
-def raise_if_interrupted() -> None:
-    """Raise :class:`Interrupted` if a signal was received whose exception did not end the run."""
-    if _RECEIVED:
-        raise Interrupted(_RECEIVED[0])
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -233,5 +202,5 @@ def write_dataset(ds: xr.Dataset, path: str | Path, overwrite: bool = True) -> N
     """
     # explicit: a dataset read from a compressed file would otherwise keep its source's deflate
     encoding = {name: {"zlib": False} for name in ds.data_vars if ds[name].dtype.kind in "fiu"}
-    with atomic_path(path, overwrite) as tmp:
+    with atomic_path(path, overwrite) as tmp, shielded():  # netCDF4's writer holds locks a signal must not break
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)

@@ -20,7 +20,7 @@ from pathlib import Path
 from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_folder, check_writable
-from ..outputs import Interrupted, forget_signals, raise_if_interrupted, signal_received
+from ..interrupts import Interrupted, deliver, shielded, forget_signals, raise_if_interrupted, signal_received
 from .help_text import CANDIDATES_TEXT, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
@@ -76,7 +76,7 @@ def _notes(config, measured: Path, args=None) -> None:
     try:
         import xarray as xr
 
-        with xr.open_dataset(measured) as ds:
+        with shielded(), xr.open_dataset(measured) as ds:
             said = [_speed_said(config, ds), None if args is None else _car_said(args, config, ds)]
     except Exception:  # noqa: BLE001 - the reader of the command reports what is wrong
         return
@@ -342,17 +342,19 @@ def build_parser() -> OneLineParser:
 
 @contextmanager
 def _signals_exit_cleanly():
-    """Turn SIGINT/SIGTERM/SIGHUP into :class:`Interrupted` (later ones are ignored during cleanup)."""
+    """Turn SIGINT/SIGTERM/SIGHUP into :class:`Interrupted` (later ones are ignored during cleanup),
+    raised where that is safe (:func:`uqdrive.interrupts.deliver`: an import or a shielded block first ends)."""
     names = [s for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s)]
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    recheck = hasattr(signal, "setitimer")
 
     def handler(signum, frame):
         for name in names:
             signal.signal(getattr(signal, name), signal.SIG_IGN)
         signal_received(signum)  # outputs check it: code called back from C swallows the exception
-        raise Interrupted(signum)
+        deliver(frame, recheck)
 
     unraisable = sys.unraisablehook
 
@@ -361,14 +363,17 @@ def _signals_exit_cleanly():
             unraisable(info)
 
     old = {name: signal.signal(getattr(signal, name), handler) for name in names}
+    alarm = signal.signal(signal.SIGALRM, lambda _, frame: deliver(frame, recheck)) if recheck else None
     sys.unraisablehook = quiet
     try:
         yield
     finally:
+        forget_signals()
+        if recheck:
+            signal.signal(signal.SIGALRM, alarm)
         for name, previous in old.items():
             signal.signal(getattr(signal, name), previous)
         sys.unraisablehook = unraisable
-        forget_signals()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,101 @@
+"""SIGINT/SIGTERM/SIGHUP turned into :class:`Interrupted` at a point where raising is safe: never
+inside an import nor a :func:`shielded` block, where the exception is raised once they have ended.
+
+An extension module whose initialisation is interrupted prints the traceback itself and reports
+ImportError (numba's does), and a library interrupted between taking a lock and its ``try``
+never releases it (netCDF4's writer then waits for it forever): so a signal that lands in an
+import is raised when a check every :data:`RECHECK` s finds the import over (SIGALRM), and one
+that lands in a shielded block when the block ends. :func:`uqdrive.cli.main.main` installs the
+handlers; this module holds what they share with the outputs.
+"""
+
+from __future__ import annotations
+
+import signal
+from contextlib import contextmanager
+
+__all__ = ["Interrupted", "RECHECK", "deliver", "forget_signals", "raise_if_interrupted", "shielded", "signal_received"]
+
+#: Seconds between the checks whether the import a signal landed in has ended.
+RECHECK = 0.02
+
+
+class Interrupted(BaseException):
+    """SIGINT/SIGTERM/SIGHUP turned into an exception, so that cleanup runs (like KeyboardInterrupt)."""
+
+    __module__ = "uqdrive.cli.main"
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+#: Signals the command line's handler received (:func:`signal_received`). Code called back from C
+#: swallows the exception (ctypes prints "Exception ignored" and goes on: numba writing its cache
+#: is such a callback), so the run would continue and write its outputs; every output checks here
+#: (:func:`raise_if_interrupted`) before it is moved into place.
+_RECEIVED: list[int] = []
+#: Depth of the :func:`shielded` blocks now running, and whether a recheck timer is armed.
+_STATE = {"shield": 0, "armed": False}
+
+
+def signal_received(signum: int) -> None:
+    """Record that the run was interrupted by ``signum`` (the command line's signal handler)."""
+    _RECEIVED.append(int(signum))
+
+
+def _disarm() -> None:
+    if _STATE["armed"]:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        _STATE["armed"] = False
+
+
+def forget_signals() -> None:
+    """Forget the signals received and stop a pending recheck (a command line run ended)."""
+    _RECEIVED.clear()
+    _disarm()
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a signal was received whose exception did not end the run
+    (the pending recheck is stopped: the exception is raised once)."""
+    if _RECEIVED:
+        _disarm()
+        raise Interrupted(_RECEIVED[0])
+
+
+def _importing(frame) -> bool:
+    """Whether ``frame`` runs inside an import (a frame of importlib's bootstrap below it)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def deliver(frame, can_recheck: bool) -> None:
+    """Raise the received signal's :class:`Interrupted` in ``frame``, the one a handler interrupted,
+    unless that is unsafe: in a :func:`shielded` block it is raised when the block ends, in an
+    import (with ``can_recheck``: SIGALRM's handler calls this again) after a recheck."""
+    if not _RECEIVED:
+        return
+    if _STATE["shield"]:
+        return
+    if can_recheck and _importing(frame):
+        _STATE["armed"] = True
+        signal.setitimer(signal.ITIMER_REAL, RECHECK)
+        return
+    raise_if_interrupted()
+
+
+@contextmanager
+def shielded():
+    """A block a signal's exception does not interrupt: it is raised when the block ends (a
+    library's own locking, such as a netCDF write, runs whole)."""
+    _STATE["shield"] += 1
+    try:
+        yield
+    finally:
+        _STATE["shield"] -= 1
+    if not _STATE["shield"]:
+        raise_if_interrupted()
