@@ -29,6 +29,9 @@ SETS = [()] + [(c,) for c in CHASSIS] + list(itertools.combinations(CHASSIS, 2))
 #: Compliance steer on the Magic Formula (its own Newton loop through the tyre's sine), served on
 #: static loads without relaxation: alone and beside the roll steer.
 YIELDING = [("compliance_steer",), ("compliance_steer", "roll_steer")]
+#: The load-sensitive tyre on the Magic Formula (its curve anew at each Newton step's loads): alone,
+#: beside each chassis term, and with all of them.
+SENSITIVE = [("load_sensitive_tyre",)] + [("load_sensitive_tyre", c) for c in CHASSIS] + [("load_sensitive_tyre",) + CHASSIS]
 #: On the linear tyre: relaxation, roll steer and compliance steer alone, in pairs and together,
 #: and each term that moves the loads alone, beside relaxation or compliance steer, and with all.
 LINEAR = ("tyre_relaxation", "roll_steer", "compliance_steer")
@@ -97,7 +100,7 @@ def _accelerations(rhs, x, steps=(0, 1, 2)):
 
 @pytest.mark.parametrize("per_run", [False, True], ids=["numbers", "per-run"])
 @pytest.mark.parametrize("speed", [False, True], ids=["held", "braking"])
-@pytest.mark.parametrize("terms", SETS + YIELDING, ids=lambda t: "+".join(t) or "tyre")
+@pytest.mark.parametrize("terms", SETS + YIELDING + SENSITIVE, ids=lambda t: "+".join(t) or "tyre")
 def test_the_compiled_chassis_rates_are_the_numpy_rates_bit_for_bit(terms, speed, per_run):
     """Each term alone, in pairs and together, at held speed and braking, with numbers or per-realisation
     inputs and constants (relaxation lengths of zero among them): the same doubles at three half
@@ -161,20 +164,23 @@ def test_an_ensemble_integrated_with_the_compiled_chassis_rates_is_the_numpy_ens
 
 
 @pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer, relaxing", "compliance steer, load transfer",
-                                  "load-sensitive tyre", "loop in NumPy", "per-run B", "per-run B, linear tyre", "switched off"])
+                                  "load-sensitive tyre, compliance steer", "load-sensitive tyre, loop in NumPy", "loop in NumPy",
+                                  "per-run B", "per-run B, linear tyre", "switched off"])
 def test_chassis_models_the_compiled_rates_do_not_serve_take_the_numpy_path(case, monkeypatch):
-    """Yielding wheels on the Magic Formula beside relaxation or on loads that move, the
-    load-sensitive stiffness, a loads' loop kept in NumPy (on either tyre), per-realisation
-    stiffness factors and the switch keep the NumPy path, with its numbers."""
+    """Yielding wheels on the Magic Formula beside relaxation or on loads that move (the
+    load-sensitive stiffness's among them), a loads' loop kept in NumPy (on either tyre, the
+    load-sensitive one's included), per-realisation stiffness factors and the switch keep the
+    NumPy path, with its numbers."""
     terms = {"compliance steer, relaxing": ("compliance_steer", "tyre_relaxation"),
              "compliance steer, load transfer": ("compliance_steer", "lateral_load_transfer"),
-             "load-sensitive tyre": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
+             "load-sensitive tyre, compliance steer": ("load_sensitive_tyre", "compliance_steer"),
+             "load-sensitive tyre, loop in NumPy": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
     s = _structure(terms)
     if case == "linear tyre, loop in NumPy":
         s = _structure(("lateral_load_transfer",), linear=True)
         monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
-    if case == "loop in NumPy":
-        s = _structure(("lateral_load_transfer",))
+    if case in ("loop in NumPy", "load-sensitive tyre, loop in NumPy"):
+        s = s if case != "loop in NumPy" else _structure(("lateral_load_transfer",))
         monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
     rhs = _rhs(case != "switched off", s)
     if case == "per-run B":

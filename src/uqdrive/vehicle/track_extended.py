@@ -169,8 +169,8 @@ class ExtendedSingleTrackRHS(AxleLoads):
         self._sigma_or_inf = np.where(self.sigma > 0, self.sigma, np.inf) if self.relaxed else None
         # the compiled loop where it is arithmetic alone: the linear tyre, or the Magic Formula at
         # slip angles the loads leave alone (not its load-sensitive stiffness, not yielding wheels)
-        self._compiled_loop = (self.loaded and COMPILED_LOOP and all(np.ndim(a) == 0 for a in (p.c_Sf, p.c_Sr, self.C))
-                               and not (self.saturating and (self.sensitive or self.compliant)))
+        self._loop_compiles = self.loaded and COMPILED_LOOP and all(np.ndim(a) == 0 for a in (p.c_Sf, p.c_Sr, self.C))
+        self._compiled_loop = self._loop_compiles and not (self.saturating and (self.sensitive or self.compliant))
         self._constants, self._fused = None, None if FUSED else False  # the compiled rates, built at the first call
 
     def _at(self, j: int):
@@ -350,7 +350,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
             from .dynamics import fused_chassis, fused_linear  # numba: only where a chassis model is integrated
 
             build = fused_chassis.fused_chassis_rates if self.saturating else fused_linear.fused_linear_chassis_rates
-            self._fused = build(self, x, LOAD_NEWTON_STEPS, self._compiled_loop) or False
+            self._fused = build(self, x, LOAD_NEWTON_STEPS, self._loop_compiles) or False  # the compiled rates step the sensitive tyre's loop
         if not self._fused:
             return False
         delta = self.delta_half[j]

@@ -5,9 +5,10 @@ relaxation, roll steer and the loads' loop in some fifteen calls instead of ~70,
 As :mod:`.fused_rates` does for the single-track model: NumPy's SIMD tangents and arctangents stay,
 the arithmetic between them runs per realisation in the chassis path's order (no multiply-add
 contraction without fastmath), and the loads' Newton loop is :func:`.load_newton.newton_loads`.
-Served: the Magic Formula with a load-free stiffness (no load-sensitive tyre), its wheels yielding
-to their force (compliance steer, its Newton loop through the tyre's sine :mod:`.fused_yield`) on
-static loads without relaxation; the right-hand side keeps NumPy's path elsewhere.
+Served: the Magic Formula, its stiffness following the loads (the load-sensitive tyre: the loads'
+loop step by step, :func:`.load_newton.sensitive_newton`), its wheels yielding to their force
+(compliance steer, its Newton loop through the tyre's sine :mod:`.fused_yield`) on static loads
+without relaxation; the right-hand side keeps NumPy's path elsewhere.
 The constants, the roll mode and the loads' steady guess are shared with the linear tyre's loop
 (:mod:`.fused_linear`).
 """
@@ -18,10 +19,10 @@ import numpy as np
 
 from numba import njit
 
-from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item, side_slip_at
+from .fused_rates import half_angle_sine, item, side_slip_at
 from .fused_yield import FrontYield
 from .jit import compiled, realisations
-from .load_newton import newton_loop
+from .load_newton import curve_tangent, newton_loop, sensitive_newton
 
 __all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "near_sine", "roll_mode_at"]
 
@@ -280,8 +281,8 @@ def chassis_arguments(rhs, x, steps: int, per_run=()):
 
 class FusedChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
-    chassis model on wheels that do not yield and a load-free stiffness, the same numbers: its
-    constants and work arrays for ``n`` realisations.
+    chassis model (its wheels yielding to their force on static loads without relaxation only),
+    the same numbers: its constants and work arrays for ``n`` realisations.
 
     Parameters
     ----------
@@ -304,6 +305,10 @@ class FusedChassisRates(ChassisConstants):
         self.front_yield = None if kappa is None else FrontYield(n, self.B_f, self.C, self.E, realisations(kappa, n))
         self.half_wheel, self.cos_delta = np.empty(n), np.empty(n)
         self.q, self.steady, self.bx, self.F, self.unit = (np.empty((2, n)) for _ in range(5))
+        self.sensitive = self.loads is not None and bool(self.loads["sensitive"])  # B moves with the loads: its curve per Newton step
+        if self.sensitive:
+            self.newton_work = (self.P, np.empty((2, n)), np.empty((2, n)), self.bx, self.capacity, self.factors, self.F)
+            self.ones = np.ones(n)
         self.no_roll = np.empty(0)  # no roll steer's row
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
@@ -329,13 +334,17 @@ class FusedChassisRates(ChassisConstants):
             np.tan(self.half_wheel, self.half_wheel)
         _slip_angles(q, delta, eps, x[4:6] if self.relaxed else self.none, self.sigma, self.B_f, self.B_r, self.steady, self.slip, bx,
                      wheel, self.half_wheel, self.cos_delta)
-        np.arctan(bx, F)
-        curvature_from_atan(bx, self.E, F)
-        np.arctan(F, F)
-        half_tyre_angle(F, self.C, bx)
-        np.tan(bx, bx)
         cos_delta = self.cos_delta if wheel else float(cos_delta)
-        P, capacity, unit = self.static, self.none, bx
+        P, mu, capacity, unit = self.static, self.mu, self.none, bx
+        if self.sensitive:  # the peaks mu P c f_D and the curve's tangents at B f_K / f_D of the loads the loop ends at
+            a = self.loads
+            np.tan(beta, trig[0])
+            sensitive_newton(self.T, a["K"], trig, realisations(cos_delta, n), self.slip, F_w, a["steps"], v_dot, a["L"], self.B_f, self.B_r,
+                             self.C, self.E, self.newton_work, pitching=a["pitching"], transferring=a["transferring"], slipping=a["slipping"])
+            P, mu = self.newton_work[2], self.ones  # the peak times one: the same doubles
+            loaded = False
+        else:
+            curve_tangent(bx, self.E, self.C, F)
         if loaded:
             unit = self.unit
             _unit_forces(bx, unit)
@@ -352,7 +361,7 @@ class FusedChassisRates(ChassisConstants):
             wheel = realisations(delta - eps if rolling else delta, n)  # the wheel angle less the roll steer
             self.front_yield(self.steady[0], self.front_peak, wheel, unit[0], self.cos_delta)
             cos_delta = self.cos_delta
-        far = _rates(unit, from_tangent, P, self.mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
+        far = _rates(unit, from_tangent, P, mu, capacity, cos_delta, x, out, self.steady if self.relaxed else self.none, self.sigma, v,
                      trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,
                      0.0 if M_w is None else realisations(M_w, n), M_w is not None, self.yaw_factor, inv_mv, a_v,
                      v_dot / v, profile, self.k, self.total)
@@ -371,9 +380,9 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
     (n_states, n), or None where it does not serve: the linear tyre
     (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer on loads that move or
-    beside relaxation, the load-sensitive tyre, a loads' loop not compiled (``compiled_loop``),
-    constants :func:`chassis_arguments` refuses."""
-    if (not rhs.saturating or rhs.sensitive or (rhs.loaded and not compiled_loop)
+    beside relaxation, a loads' loop not compiled (``compiled_loop``), constants
+    :func:`chassis_arguments` refuses."""
+    if (not rhs.saturating or (rhs.loaded and not compiled_loop)
             or (rhs.compliant and (rhs.loaded or rhs.relaxed))):
         return None
     constants = chassis_arguments(rhs, x, steps, (rhs.E, rhs.kappa))

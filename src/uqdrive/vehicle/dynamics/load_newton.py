@@ -7,7 +7,9 @@ Each step is some hundred operations on (2, n) arrays; at the chassis fits' few 
 realisations NumPy spends most of their time per call, not per element. The loop here performs
 the same operations per realisation in the same order (no fused multiply-add: numba contracts
 none without fastmath), so every number is NumPy's; it is used where the loop is arithmetic alone
-(the linear tyre, or the Magic Formula at slip angles the loads leave alone).
+(the linear tyre, or the Magic Formula at slip angles the loads leave alone). Where the tyre's
+stiffness follows its load (the load-sensitive tyre) each step's loads move the curve, whose
+arctangents and tangents NumPy takes between compiled steps (:func:`sensitive_newton`).
 
 numba is imported with this module, which the chassis right-hand side imports at its first loop;
 each combination of terms is compiled once (about 2 s) and cached on disk.
@@ -20,9 +22,10 @@ import functools
 import numpy as np
 from numba import njit
 
+from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle
 from .jit import compiled
 
-__all__ = ["ROWS", "newton_loads", "newton_loop"]
+__all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "sensitive_newton"]
 
 #: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
 ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
@@ -241,3 +244,110 @@ def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: b
         the arguments of :func:`newton_loads` (``trig``'s rows apart), writing T, P, capacity and factors in place.
     """
     return _kernel(pitching, transferring, slipping, sensitive, saturating, yielding, held_speed)
+
+
+def curve_tangent(bx, E, C: float, work) -> None:
+    """tan of half the Magic Formula's angle C atan(u), u = B x - E (B x - atan(B x)), into ``bx``
+    (2, n), which holds B x (-): :func:`uqdrive.vehicle.single_track.curvature_argument`'s and
+    :func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`'s order, NumPy's arctan and tan.
+    ``E`` (n,) the curvature factor, ``work`` (2, n) overwritten."""
+    np.arctan(bx, work)
+    curvature_from_atan(bx, E, work)
+    np.arctan(work, work)
+    half_tyre_angle(work, C, bx)
+    np.tan(bx, bx)
+
+
+@functools.lru_cache(maxsize=None)
+def _step_kernel(pitching: bool, transferring: bool, slipping: bool, held_speed: bool):
+    """The loads at T, their slope, the peaks and B times the slip angles, per realisation, for
+    one combination of terms (constants of the loop, folded before LLVM vectorises it)."""
+
+    def loads_step(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, v_dot, L, B_f, B_r, P, dP, peak, bx, capacity, factors):
+        for i in range(T.shape[0]):
+            t = T[i]
+            tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
+            P_f, P_r, dP_f, dP_r, _ = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, held_speed, slope)
+            c_f = c_r = 1.0
+            if slipping:
+                c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
+            f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
+            mu = K[MU, i]
+            peak_f, peak_r = P_f * mu, P_r * mu
+            if slipping:
+                peak_f, peak_r = peak_f * c_f, peak_r * c_r
+            peak[0, i], peak[1, i] = peak_f * f0_f, peak_r * f0_r
+            bx[0, i] = (B_f * (f1_f / f0_f)) * slip[0, i]
+            bx[1, i] = (B_r * (f1_r / f0_r)) * slip[1, i]
+            P[0, i], P[1, i], dP[0, i], dP[1, i] = P_f, P_r, dP_f, dP_r
+            capacity[0, i], capacity[1, i] = c_f, c_r
+            factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
+
+    return compiled(loads_step)
+
+
+@compiled
+def _newton_step(T, K, front, P, dP, peak, t, has_slope):
+    """One Newton step T <- T + (front F_f + F_r - T) / max(1 - d(front F_f + F_r)/dT, 0.05) from
+    the forces peak sin(angle) (``t``: tan of the half angles) (:func:`.load_newton.newton_loads`' order)."""
+    for i in range(T.shape[0]):
+        F_f = peak[0, i] * half_angle_sine(t[0, i])
+        F_r = peak[1, i] * half_angle_sine(t[1, i])
+        dF_f = F_f / _at_least(P[0, i], 1e-3 * K[STATIC_F, i])
+        dF_r = F_r / _at_least(P[1, i], 1e-3 * K[STATIC_R, i])
+        fr, x = front[i], T[i]
+        if has_slope:
+            gain = fr * dF_f * dP[0, i] + dF_r * dP[1, i]
+            T[i] = x + (fr * F_f + F_r - x) / _at_least(1.0 - gain, 0.05)
+        else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
+            T[i] = x + (fr * F_f + F_r - x) / 1.0
+
+
+def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, C: float, E, out,
+                     *, pitching: bool, transferring: bool, slipping: bool) -> None:
+    """Newton's method on the tyres' lateral force T (N) of a Magic-Formula chassis model with the
+    load-sensitive tyre, and its forces' peaks and curve at the result.
+
+    Per realisation the operations of the NumPy loop in
+    :meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS._forces` (Rajamani eq. (2.27),
+    Gillespie eq. (2-4), Pacejka (4.E13)-(4.E14)): ``steps`` steps of :func:`.load_newton.newton_loads`'
+    update with the stiffness B f_K / f_D and the peak mu P f_D of the step's loads, then the loads
+    at the last T.
+
+    Parameters
+    ----------
+    T : ndarray, shape (n,)
+        The steady guess (N), overwritten by the loop's result.
+    K : ndarray, shape (len(load_newton.ROWS), n)
+        Per-realisation constants (:data:`.load_newton.ROWS`).
+    trig : ndarray, shape (3, n)
+        tan, cos and sin of the side slip beta (-).
+    front : ndarray, shape (n,)
+        cos of the front wheel angle (-).
+    slip : ndarray, shape (2, n)
+        The slip angles the forces follow (rad): the lagged ones of a relaxing tyre, else the steady ones.
+    F_w : ndarray, shape (n,)
+        Side wind (N) at the half step.
+    steps : int
+        Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
+    v_dot, L, B_f, B_r, C : float
+        Speed rate (m/s^2), wheelbase (m), the load-free stiffness factors (-) and the shape factor (-).
+    E : ndarray, shape (n,)
+        The curvature factor (-).
+    out : tuple of ndarray
+        Work arrays ``(P, dP, peak, t, capacity, factors, work)``, shapes (2, n) but factors (4, n):
+        at return ``peak`` holds the axles' peaks mu P c f_D (N) and ``t`` the tangents of the
+        curve's half angles at the result (the force is peak sin(angle)).
+    pitching, transferring, slipping : bool
+        Longitudinal transfer, lateral transfer, combined slip.
+    """
+    P, dP, peak, t, capacity, factors, work = out
+    kernel = _step_kernel(bool(pitching), bool(transferring), bool(slipping), v_dot == 0.0)
+    tan_b, cos_b, sin_b = trig
+    has_slope = bool(transferring or pitching)
+    for step in range(steps + 1):
+        slope = step < steps
+        kernel(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, float(v_dot), float(L), float(B_f), float(B_r), P, dP, peak, t, capacity, factors)
+        curve_tangent(t, E, C, work)
+        if slope:
+            _newton_step(T, K, front, P, dP, peak, t, has_slope)
