@@ -318,8 +318,8 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
     ----------
     T : ndarray, shape (n,)
         The steady guess (N), overwritten by the loop's result.
-    K : ndarray, shape (len(load_newton.ROWS), n)
-        Per-realisation constants (:data:`.load_newton.ROWS`).
+    K : ndarray, shape (len(ROWS), n)
+        Per-realisation constants, rows :data:`ROWS` (kg, m/s^2, m, N, N, m/m, m/m, -, -, rad/N, -, -, -, -, -, -, -, m, N, N).
     trig : ndarray, shape (3, n)
         tan, cos and sin of the side slip beta (-).
     front : ndarray, shape (n,)
