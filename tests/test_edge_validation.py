@@ -375,6 +375,28 @@ def test_a_signal_during_an_import_is_raised_once_the_import_has_ended(tmp_path,
     assert signal.getsignal(signal.SIGALRM) == signal.SIG_DFL and signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
+def test_a_signal_during_numbas_compiler_is_raised_once_it_has_returned(tmp_path):
+    """An exception raised inside numba's or llvmlite's code (a compilation, a load from numba's
+    cache) leaves LLVM's state half-changed and the interpreter may crash at exit: a signal that
+    lands there is raised once that code has returned. A function whose code sits in a file under
+    a numba folder stands in for the compiler."""
+    source = ("import os, signal, time\n"
+              "def compile_step(done):\n"
+              "    os.kill(os.getpid(), signal.SIGTERM)\n"
+              "    end = time.monotonic() + 0.2\n"
+              "    while time.monotonic() < end:\n"
+              "        pass\n"
+              "    done.append(True)\n")
+    space = {}
+    exec(compile(source, str(tmp_path / "numba" / "core" / "compiler.py"), "exec"), space)
+    done = []
+    with pytest.raises(Interrupted) as stopped:
+        with _signals_exit_cleanly():
+            space["compile_step"](done)
+            time.sleep(5)  # the recheck raises here
+    assert stopped.value.signum == signal.SIGTERM and done == [True]
+
+
 def test_a_signal_in_a_shielded_block_is_raised_when_the_block_ends(tmp_path, monkeypatch):
     """netCDF4's writer and reader hold locks that an exception raised between taking one and its
     ``try`` would leave taken (the close then waits forever): a signal there is raised when the

@@ -1,16 +1,17 @@
 """SIGINT/SIGTERM/SIGHUP turned into :class:`Interrupted` at a point where raising is safe: never
-inside an import nor a :func:`shielded` block, where the exception is raised once they have ended.
+inside an import, numba's compiler nor a :func:`shielded` block; it is raised once they have ended.
 
 An extension module whose initialisation is interrupted prints the traceback itself and reports
 ImportError (numba's does), and a library interrupted between taking a lock and its ``try``
 never releases it (netCDF4's writer then waits for it forever): so a signal that lands in an
-import is raised when a check every :data:`RECHECK` s finds the import over (SIGALRM), and one
+import or a compilation is raised when a check every :data:`RECHECK` s finds it over (SIGALRM), and one
 that lands in a shielded block when the block ends. :func:`uqdrive.cli.main.main` installs the
 handlers; this module holds what they share with the outputs.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 from contextlib import contextmanager
 
@@ -64,10 +65,17 @@ def raise_if_interrupted() -> None:
         raise Interrupted(_RECEIVED[0])
 
 
-def _importing(frame) -> bool:
-    """Whether ``frame`` runs inside an import (a frame of importlib's bootstrap below it)."""
+#: Code a signal's exception must not interrupt, by the path of its file: importlib's bootstrap
+#: (an import), numba's and llvmlite's (a compilation or a load from numba's cache: an exception
+#: there leaves LLVM's state half-changed, and the interpreter may crash at exit, status -11).
+_DEFERRING = ("<frozen importlib", f"{os.sep}numba{os.sep}", f"{os.sep}llvmlite{os.sep}")
+
+
+def _in_deferring_code(frame) -> bool:
+    """Whether ``frame`` runs inside an import or numba's compiler (a frame of their code below it)."""
     while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib"):
+        name = frame.f_code.co_filename
+        if name.startswith(_DEFERRING[0]) or _DEFERRING[1] in name or _DEFERRING[2] in name:
             return True
         frame = frame.f_back
     return False
@@ -76,12 +84,12 @@ def _importing(frame) -> bool:
 def deliver(frame, can_recheck: bool) -> None:
     """Raise the received signal's :class:`Interrupted` in ``frame``, the one a handler interrupted,
     unless that is unsafe: in a :func:`shielded` block it is raised when the block ends, in an
-    import (with ``can_recheck``: SIGALRM's handler calls this again) after a recheck."""
+    import or numba's compiler (with ``can_recheck``: SIGALRM's handler calls this again) after a recheck."""
     if not _RECEIVED:
         return
     if _STATE["shield"]:
         return
-    if can_recheck and _importing(frame):
+    if can_recheck and _in_deferring_code(frame):
         _STATE["armed"] = True
         signal.setitimer(signal.ITIMER_REAL, RECHECK)
         return
