@@ -243,6 +243,7 @@ class ChassisConstants:
         self.t, self.T, self.slip = np.empty(n), np.empty(n), np.empty((2, n))
         self.total = np.empty(n)  # the last call's force across the car F_f cos(delta) + F_r + F_w (N)
         self.none = np.empty((0, n))  # an absent term's rows
+        self.ones = np.ones(n)  # a factor of one: the same doubles
         self.P, self.capacity, self.factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))  # the loads' loop's outputs
         self._rows = tuple(self.trig)
         self._terms = () if loads is None else tuple(bool(loads[k]) for k in ("pitching", "transferring", "slipping", "sensitive"))
@@ -308,7 +309,6 @@ class FusedChassisRates(ChassisConstants):
         self.sensitive = self.loads is not None and bool(self.loads["sensitive"])  # B moves with the loads: its curve per Newton step
         if self.sensitive:
             self.newton_work = (self.P, np.empty((2, n)), np.empty((2, n)), self.bx, self.capacity, self.factors, self.F)
-            self.ones = np.ones(n)
         self.no_roll = np.empty(0)  # no roll steer's row
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:

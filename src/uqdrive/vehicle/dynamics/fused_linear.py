@@ -182,7 +182,6 @@ class FusedLinearChassisRates(ChassisConstants):
         self.course_sine = bool(course_sine)
         self.kernel = _linear_kernel(self.relaxed, int(self.i_roll))
         self.guess = _load_guess(self.relaxed, int(self.i_roll))
-        self.ones = np.ones(n)
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
         """dx/dt of ``x`` into ``out`` (n_states, n), float64, from one half step's wheel angle
