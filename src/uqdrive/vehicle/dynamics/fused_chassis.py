@@ -254,7 +254,7 @@ class ChassisConstants:
         ``self.factors`` (returned): no arrays made per call (~4 us a call less at 300
         realisations). Arguments as :func:`.load_newton.newton_loads`'."""
         a = self.loads
-        loop = newton_loop(*self._terms, unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
+        loop = newton_loop(*self._terms, unit.shape[0] == 2, bool(yielding))
         tan_b, cos_b, sin_b = self._rows
         loop(self.T, a["K"], tan_b, cos_b, sin_b, front, self.slip, unit, F_w, self.P, self.capacity, self.factors, a["steps"], float(v_dot),
              a["L"], float(B_f), float(B_r), float(C))

@@ -57,9 +57,13 @@ def _wheel_pair(F_z, dF, F0, p_Dz, half, arm, slope):
 
 
 @njit(inline="always", error_model="numpy")
-def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, held_speed, slope):
+def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, slope):
     """AxleLoads._loads of realisation ``i`` at the tyres' force ``T``: P_f, P_r and, with
-    ``slope``, dP_f / dT, dP_r / dT (``has_slope`` False where NumPy's slope is the scalar 0)."""
+    ``slope``, dP_f / dT, dP_r / dT (``has_slope`` False where NumPy's slope is the scalar 0).
+
+    At held speed (v_dot = 0) NumPy takes a_x = -(tan_b a_y), the general form's value: 0 cos_b
+    and 0 sin_b are zeros, which leave a_y and tan_b a_y as they are (at most a zero's sign
+    differs, which the loads' sums s + -shift do not keep), so one loop serves both."""
     s_f, s_r = K[STATIC_F, i], K[STATIC_R, i]
     if not pitching:
         raw_f, raw_r = s_f, s_r
@@ -68,10 +72,7 @@ def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, 
     else:
         m = K[M, i]
         a_y = (T + F_w) / m + K[A_LAT, i]
-        if held_speed:
-            a_x = -(tan_b * a_y)
-        else:
-            a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
+        a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
         shift = m * a_x * K[H_X, i] / L
         raw_f, raw_r = s_f + -shift, s_r + shift
         F_zf, F_zr = _at_least(raw_f, 0.0), _at_least(raw_r, 0.0)
@@ -119,7 +120,7 @@ def _factors(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L):
 
 
 @functools.lru_cache(maxsize=None)
-def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool, held_speed: bool):
+def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool):
     """The loop of ExtendedSingleTrackRHS._forces for one combination of terms (see :func:`newton_loads`).
 
     The terms are constants of the compiled loop, not arguments: a branch on an argument inside
@@ -133,7 +134,7 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
             for i in range(n):
                 t = T[i]
                 tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
-                P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, held_speed, slope)
+                P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, slope)
                 c_f = c_r = 1.0
                 if slipping:
                     c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
@@ -218,13 +219,13 @@ def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L
     """
     n = T.shape[0]
     P, capacity, factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))
-    loop = newton_loop(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding), v_dot == 0.0)
+    loop = newton_loop(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding))
     loop(T, K, trig[0], trig[1], trig[2], front, slip, unit, F_w, P, capacity, factors, int(steps), float(v_dot), float(L), float(B_f),
          float(B_r), float(C))
     return P, capacity, factors
 
 
-def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool, held_speed: bool):
+def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool):
     """The compiled loop :func:`newton_loads` calls for one combination of terms, for a caller that
     keeps its output arrays between calls (a right-hand side called four times a step).
 
@@ -234,8 +235,6 @@ def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: b
         As :func:`newton_loads`.
     saturating : bool
         The Magic Formula (``unit`` has two rows), else the linear tyre.
-    held_speed : bool
-        v_dot is 0 (the loads' longitudinal acceleration comes from the side slip alone).
 
     Returns
     -------
@@ -243,7 +242,7 @@ def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: b
         ``loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C)``:
         the arguments of :func:`newton_loads` (``trig``'s rows apart), writing T, P, capacity and factors in place.
     """
-    return _kernel(pitching, transferring, slipping, sensitive, saturating, yielding, held_speed)
+    return _kernel(pitching, transferring, slipping, sensitive, saturating, yielding)
 
 
 def curve_tangent(bx, E, C: float, work) -> None:
@@ -259,7 +258,7 @@ def curve_tangent(bx, E, C: float, work) -> None:
 
 
 @functools.lru_cache(maxsize=None)
-def _step_kernel(pitching: bool, transferring: bool, slipping: bool, held_speed: bool):
+def _step_kernel(pitching: bool, transferring: bool, slipping: bool):
     """The loads at T, their slope, the peaks and B times the slip angles, per realisation, for
     one combination of terms (constants of the loop, folded before LLVM vectorises it)."""
 
@@ -267,7 +266,7 @@ def _step_kernel(pitching: bool, transferring: bool, slipping: bool, held_speed:
         for i in range(T.shape[0]):
             t = T[i]
             tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
-            P_f, P_r, dP_f, dP_r, _ = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, held_speed, slope)
+            P_f, P_r, dP_f, dP_r, _ = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, slope)
             c_f = c_r = 1.0
             if slipping:
                 c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
@@ -342,7 +341,7 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
         Longitudinal transfer, lateral transfer, combined slip.
     """
     P, dP, peak, t, capacity, factors, work = out
-    kernel = _step_kernel(bool(pitching), bool(transferring), bool(slipping), v_dot == 0.0)
+    kernel = _step_kernel(bool(pitching), bool(transferring), bool(slipping))
     tan_b, cos_b, sin_b = trig
     has_slope = bool(transferring or pitching)
     for step in range(steps + 1):
