@@ -18,7 +18,8 @@ import yaml
 
 from uqdrive.cli.identify import fit_warnings
 from uqdrive.cli.main import Interrupted, _signals_exit_cleanly, main
-from uqdrive.interrupts import shielded
+from uqdrive import interrupts
+from uqdrive.interrupts import package_roots, shielded
 from uqdrive.io import OutputError, atomic_path, write_dataset
 
 from conftest import REPO, tiny_config, tiny_files
@@ -375,11 +376,9 @@ def test_a_signal_during_an_import_is_raised_once_the_import_has_ended(tmp_path,
     assert signal.getsignal(signal.SIGALRM) == signal.SIG_DFL and signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
-def test_a_signal_during_numbas_compiler_is_raised_once_it_has_returned(tmp_path):
-    """An exception raised inside numba's or llvmlite's code (a compilation, a load from numba's
-    cache) leaves LLVM's state half-changed and the interpreter may crash at exit: a signal that
-    lands there is raised once that code has returned. A function whose code sits in a file under
-    a numba folder stands in for the compiler."""
+def _compile_step(path):
+    """A function, its code in the file ``path``, that receives SIGTERM and then works for 0.2 s
+    before it records that it ended."""
     source = ("import os, signal, time\n"
               "def compile_step(done):\n"
               "    os.kill(os.getpid(), signal.SIGTERM)\n"
@@ -388,13 +387,39 @@ def test_a_signal_during_numbas_compiler_is_raised_once_it_has_returned(tmp_path
               "        pass\n"
               "    done.append(True)\n")
     space = {}
-    exec(compile(source, str(tmp_path / "numba" / "core" / "compiler.py"), "exec"), space)
+    exec(compile(source, str(path), "exec"), space)
+    return space["compile_step"]
+
+
+def test_a_signal_during_numbas_compiler_is_raised_once_it_has_returned(tmp_path, monkeypatch):
+    """An exception raised inside numba's or llvmlite's code (a compilation, a load from numba's
+    cache) leaves LLVM's state half-changed and the interpreter may crash at exit: a signal that
+    lands there is raised once that code has returned. A function whose code sits in a file of a
+    package folder taken for numba's stands in for the compiler; one in a folder that is only
+    named numba (a project's own) is interrupted at once."""
+    installed, own = tmp_path / "site-packages" / "numba", tmp_path / "project" / "numba"
+    monkeypatch.setitem(interrupts._DEFERRING, "roots", (os.path.join(installed, ""),))
     done = []
     with pytest.raises(Interrupted) as stopped:
         with _signals_exit_cleanly():
-            space["compile_step"](done)
+            _compile_step(installed / "core" / "compiler.py")(done)
             time.sleep(5)  # the recheck raises here
     assert stopped.value.signum == signal.SIGTERM and done == [True]
+    done = []
+    with pytest.raises(Interrupted), _signals_exit_cleanly():
+        _compile_step(own / "core" / "compiler.py")(done)
+    assert done == []
+
+
+def test_the_deferring_packages_are_found_by_their_installed_folders():
+    """numba's and llvmlite's code is recognised by the folders they are installed in (without
+    importing them), a package that is not installed has none."""
+    numba_root, llvmlite_root = package_roots("numba"), package_roots("llvmlite")
+    assert numba_root and llvmlite_root and set(numba_root + llvmlite_root) <= set(interrupts._DEFERRING["roots"])
+    import numba.core.compiler
+
+    assert numba.core.compiler.__file__.startswith(numba_root)
+    assert package_roots("uqdrive_no_such_package") == ()
 
 
 def test_a_signal_in_a_shielded_block_is_raised_when_the_block_ends(tmp_path, monkeypatch):

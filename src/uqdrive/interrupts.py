@@ -11,11 +11,12 @@ handlers; this module holds what they share with the outputs.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import signal
 from contextlib import contextmanager
 
-__all__ = ["Interrupted", "RECHECK", "deliver", "forget_signals", "raise_if_interrupted", "shielded", "signal_received"]
+__all__ = ["Interrupted", "RECHECK", "deliver", "forget_signals", "package_roots", "raise_if_interrupted", "shielded", "signal_received"]
 
 #: Seconds between the checks whether the import a signal landed in has ended.
 RECHECK = 0.02
@@ -65,17 +66,34 @@ def raise_if_interrupted() -> None:
         raise Interrupted(_RECEIVED[0])
 
 
-#: Code a signal's exception must not interrupt, by the path of its file: importlib's bootstrap
-#: (an import), numba's and llvmlite's (a compilation or a load from numba's cache: an exception
-#: there leaves LLVM's state half-changed, and the interpreter may crash at exit, status -11).
-_DEFERRING = ("<frozen importlib", f"{os.sep}numba{os.sep}", f"{os.sep}llvmlite{os.sep}")
+def package_roots(*names: str) -> tuple[str, ...]:
+    """The folders (each ending in the path separator) of the installed packages ``names``, found
+    without importing them; a package not installed has none."""
+    roots = []
+    for name in names:
+        try:
+            spec = importlib.util.find_spec(name)
+        except (ImportError, ValueError):
+            spec = None
+        for folder in (spec.submodule_search_locations or ()) if spec is not None else ():
+            # as the code's files name it (the folder found on sys.path) and with links resolved
+            roots += dict.fromkeys(os.path.join(path, "") for path in (os.path.abspath(folder), os.path.realpath(folder)))
+    return tuple(roots)
+
+
+#: Code a signal's exception must not interrupt, by the file of its code: importlib's bootstrap
+#: (an import), and numba's and llvmlite's packages (a compilation or a load from numba's cache:
+#: an exception there leaves LLVM's state half-changed, and the interpreter may crash at exit,
+#: status -11), by their installed folders, so that a project's own folder named numba is not theirs.
+_DEFERRING = {"frozen": "<frozen importlib", "roots": package_roots("numba", "llvmlite")}
 
 
 def _in_deferring_code(frame) -> bool:
     """Whether ``frame`` runs inside an import or numba's compiler (a frame of their code below it)."""
+    frozen, roots = _DEFERRING["frozen"], _DEFERRING["roots"]
     while frame is not None:
         name = frame.f_code.co_filename
-        if name.startswith(_DEFERRING[0]) or _DEFERRING[1] in name or _DEFERRING[2] in name:
+        if name.startswith(frozen) or (roots and name.startswith(roots)):
             return True
         frame = frame.f_back
     return False
