@@ -26,9 +26,11 @@ CHASSIS = ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "longitudin
 #: Each chassis term alone, in pairs and the loads' three together, with the terms of the
 #: kinematics (a bank, the course weight) on the side.
 SETS = [()] + [(c,) for c in CHASSIS] + list(itertools.combinations(CHASSIS, 2)) + [CHASSIS[2:], CHASSIS]
-#: Compliance steer on the Magic Formula (its own Newton loop through the tyre's sine), served on
-#: static loads without relaxation: alone and beside the roll steer.
-YIELDING = [("compliance_steer",), ("compliance_steer", "roll_steer")]
+#: Compliance steer on the Magic Formula (its own Newton loop through the tyre's sine), served
+#: without relaxation: alone and beside the roll steer on static loads, beside each term that moves
+#: the loads (the yield at each step of the loads' loop), and with all of them.
+YIELDING = ([("compliance_steer",), ("compliance_steer", "roll_steer")] + [("compliance_steer", c) for c in CHASSIS[2:]]
+            + [("compliance_steer", "roll_steer") + CHASSIS[2:]])
 #: The load-sensitive tyre on the Magic Formula (its curve anew at each Newton step's loads): alone,
 #: beside each chassis term, and with all of them.
 SENSITIVE = [("load_sensitive_tyre",)] + [("load_sensitive_tyre", c) for c in CHASSIS] + [("load_sensitive_tyre",) + CHASSIS]
@@ -163,23 +165,23 @@ def test_an_ensemble_integrated_with_the_compiled_chassis_rates_is_the_numpy_ens
         np.testing.assert_array_equal(runs[1], runs[0])
 
 
-@pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer, relaxing", "compliance steer, load transfer",
+@pytest.mark.parametrize("case", ["linear tyre, loop in NumPy", "compliance steer, relaxing", "compliance steer, load transfer, loop in NumPy",
                                   "load-sensitive tyre, compliance steer", "load-sensitive tyre, loop in NumPy", "loop in NumPy",
                                   "per-run B", "per-run B, linear tyre", "switched off"])
 def test_chassis_models_the_compiled_rates_do_not_serve_take_the_numpy_path(case, monkeypatch):
-    """Yielding wheels on the Magic Formula beside relaxation or on loads that move (the
-    load-sensitive stiffness's among them), a loads' loop kept in NumPy (on either tyre, the
-    load-sensitive one's included), per-realisation stiffness factors and the switch keep the
-    NumPy path, with its numbers."""
+    """Yielding wheels on the Magic Formula beside relaxation or beside the load-sensitive
+    stiffness, a loads' loop kept in NumPy (on either tyre, the load-sensitive one's and the
+    yielding wheels' included), per-realisation stiffness factors and the switch keep the NumPy
+    path, with its numbers."""
     terms = {"compliance steer, relaxing": ("compliance_steer", "tyre_relaxation"),
-             "compliance steer, load transfer": ("compliance_steer", "lateral_load_transfer"),
+             "compliance steer, load transfer, loop in NumPy": ("compliance_steer", "lateral_load_transfer"),
              "load-sensitive tyre, compliance steer": ("load_sensitive_tyre", "compliance_steer"),
              "load-sensitive tyre, loop in NumPy": ("load_sensitive_tyre",)}.get(case, ("tyre_relaxation",))
     s = _structure(terms)
     if case == "linear tyre, loop in NumPy":
         s = _structure(("lateral_load_transfer",), linear=True)
         monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
-    if case in ("loop in NumPy", "load-sensitive tyre, loop in NumPy"):
+    if case in ("loop in NumPy", "load-sensitive tyre, loop in NumPy", "compliance steer, load transfer, loop in NumPy"):
         s = s if case != "loop in NumPy" else _structure(("lateral_load_transfer",))
         monkeypatch.setattr(track_extended, "COMPILED_LOOP", False)
     rhs = _rhs(case != "switched off", s)

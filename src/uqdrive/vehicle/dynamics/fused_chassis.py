@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from .fused_rates import half_angle_sine, item, side_slip_at
-from .fused_yield import FrontYield
+from .fused_yield import FrontYield, yielding_newton
 from .jit import compiled, realisations
 from .load_newton import curve_tangent, newton_loop, sensitive_newton
 
@@ -282,7 +282,7 @@ def chassis_arguments(rhs, x, steps: int, per_run=()):
 
 class FusedChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
-    chassis model (its wheels yielding to their force on static loads without relaxation only),
+    chassis model (its wheels yielding to their force without relaxation, on static loads or on loads that follow the tyres beside every term but the load-sensitive tyre),
     the same numbers: its constants and work arrays for ``n`` realisations.
 
     Parameters
@@ -309,6 +309,8 @@ class FusedChassisRates(ChassisConstants):
         self.sensitive = self.loads is not None and bool(self.loads["sensitive"])  # B moves with the loads: its curve per Newton step
         if self.sensitive:
             self.newton_work = (self.P, np.empty((2, n)), np.empty((2, n)), self.bx, self.capacity, self.factors, self.F)
+        elif self.front_yield is not None and self.loads is not None:  # the front's yield at each step of the loads' loop
+            self.newton_work = (self.P, np.empty((2, n)), np.empty((2, n)), self.capacity, self.factors, self.F, self.cos_delta)
         self.no_roll = np.empty(0)  # no roll steer's row
 
     def __call__(self, x, out, delta, cos_delta, F_w, M_w, v: float, v_dot: float, inv_mv, a_v, profile: bool) -> None:
@@ -345,7 +347,16 @@ class FusedChassisRates(ChassisConstants):
             loaded = False
         else:
             curve_tangent(bx, self.E, self.C, F)
-        if loaded:
+        if loaded and self.front_yield is not None:  # the front's yield on the loads of each Newton step
+            unit, a = self.unit, self.loads
+            _unit_forces(bx, unit)
+            if a["pitching"] or a["slipping"]:
+                np.tan(beta, trig[0])
+            yielding_newton(self.T, a["K"], trig, self.steady[0], realisations(delta - eps if rolling else delta, n), unit, F_w, a["steps"],
+                            v_dot, a["L"], self.B_f, self.C, self.front_yield, self.newton_work, pitching=a["pitching"],
+                            transferring=a["transferring"], slipping=a["slipping"])
+            P, capacity, cos_delta = self.P, self.capacity if a["slipping"] else self.none, self.cos_delta
+        elif loaded:
             unit = self.unit
             _unit_forces(bx, unit)
             a = self.loads
@@ -355,7 +366,7 @@ class FusedChassisRates(ChassisConstants):
             P, capacity, _ = self.newton_loads(front, unit, F_w, v_dot, self.B_f, self.B_r, self.C, False)
             capacity = capacity if a["slipping"] else self.none
         from_tangent = not loaded
-        if self.front_yield is not None:  # static loads, no relaxation: the front wheels yield to their force
+        if self.front_yield is not None and not loaded:  # static loads, no relaxation: the front wheels yield to their force
             unit, from_tangent = self.unit, False
             _unit_forces(bx, unit)
             wheel = realisations(delta - eps if rolling else delta, n)  # the wheel angle less the roll steer
@@ -383,7 +394,7 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     beside relaxation, a loads' loop not compiled (``compiled_loop``), constants
     :func:`chassis_arguments` refuses."""
     if (not rhs.saturating or (rhs.loaded and not compiled_loop)
-            or (rhs.compliant and (rhs.loaded or rhs.relaxed))):
+            or (rhs.compliant and (rhs.relaxed or (rhs.loaded and rhs.sensitive)))):
         return None
     constants = chassis_arguments(rhs, x, steps, (rhs.E, rhs.kappa))
     if constants is None:

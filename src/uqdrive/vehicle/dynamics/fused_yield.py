@@ -4,7 +4,9 @@ NumPy's arctangents and tangents: :func:`uqdrive.vehicle.axle_loads.yielded_fron
 Each of its three Newton steps is some twenty NumPy calls on (n,) arrays, most of their cost per
 call at a discover fit's few hundred realisations; here two arctangents and a tangent by NumPy
 (its SIMD functions, the same numbers) and the arithmetic between them as loops, each element by
-the NumPy path's operations in its order (no multiply-add contraction without fastmath).
+the NumPy path's operations in its order (no multiply-add contraction without fastmath). On
+loads that follow the tyres' force the yield runs at each step of the loads' Newton loop
+(:func:`yielding_newton`).
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ import numpy as np
 
 from .fused_rates import half_angle_pair, half_angle_sine
 from .jit import compiled
+from .load_newton import KAPPA, MU, STATIC_F, STATIC_R, loads_step
 
-__all__ = ["FrontYield"]
+__all__ = ["FrontYield", "yielding_newton"]
 
 NEWTON_STEPS = 3  # axle_loads.yielded_front_slip's
 
@@ -128,3 +131,76 @@ class FrontYield:
         _unit_and_wheel(self.t, q0, q, wheel, unit, self.h)
         np.tan(self.h, self.t)
         _cosine(self.t, cos_wheel)
+
+
+@compiled
+def _yield_step(T, K, front, P, dP, peak, unit, B_f, C, has_slope):
+    """One Newton step of :func:`yielding_newton` from the forces peak unit (``front``: cos of the
+    yielded wheel angle), the front's slope divided by 1 + kappa mu P B C (the loads' loop's order)."""
+    for i in range(T.shape[0]):
+        F_f = peak[0, i] * unit[0, i]
+        F_r = peak[1, i] * unit[1, i]
+        floor_f, floor_r = 1e-3 * K[STATIC_F, i], 1e-3 * K[STATIC_R, i]
+        dF_f = F_f / (floor_f if P[0, i] < floor_f else P[0, i])
+        dF_r = F_r / (floor_r if P[1, i] < floor_r else P[1, i])
+        dF_f /= 1.0 + K[KAPPA, i] * P[0, i] * K[MU, i] * B_f * C
+        fr, x = front[i], T[i]
+        if has_slope:
+            den = 1.0 - (fr * dF_f * dP[0, i] + dF_r * dP[1, i])
+            T[i] = x + (fr * F_f + F_r - x) / (0.05 if den < 0.05 else den)
+        else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
+            T[i] = x + (fr * F_f + F_r - x) / 1.0
+
+
+def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, L: float, B_f: float, C: float, front_yield, out,
+                    *, pitching: bool, transferring: bool, slipping: bool) -> None:
+    """Newton's method on the tyres' lateral force T (N) of a Magic-Formula chassis model whose
+    front wheels yield to their force (compliance steer) on loads that follow T.
+
+    Per realisation the operations of the NumPy loop in
+    :meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS._forces` (Rajamani eq. (2.27),
+    Gillespie eq. (2-4)): at each of ``steps`` steps the loads and peaks of T, the front's yield
+    q = q0 - kappa F_f(q) on that peak (``front_yield``,
+    :func:`uqdrive.vehicle.axle_loads.yielded_front_slip`) and :func:`.load_newton.newton_loads`'
+    update, the front's slope divided by 1 + kappa mu P_f B C; then the loads and the yield at the last T.
+
+    Parameters
+    ----------
+    T : ndarray, shape (n,)
+        The steady guess (N), overwritten by the loop's result.
+    K : ndarray, shape (len(ROWS), n)
+        Per-realisation constants, rows :data:`.load_newton.ROWS` (kg, m/s^2, m, N, N, m/m, m/m, -, -, rad/N, -, -, -, -, -, -, -, m, N, N).
+    trig : ndarray, shape (3, n)
+        tan, cos and sin of the side slip beta (-).
+    q0 : ndarray, shape (n,)
+        The front's steady slip angle (rad), the wheel angle's alone.
+    wheel : ndarray, shape (n,)
+        The front wheel angle (rad), the roll steer's taken off.
+    unit : ndarray, shape (2, n)
+        The force per unit peak (-): the rear's row is read (the load-free curve at its slip),
+        the front's row is written (the yielded slip's at the returned T).
+    F_w : ndarray, shape (n,)
+        Side wind (N) at the half step.
+    steps : int
+        Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
+    v_dot, L, B_f, C : float
+        Speed rate (m/s^2), wheelbase (m), the front's stiffness factor (-) and the shape factor (-).
+    front_yield : callable
+        ``front_yield(q0, peak, wheel, unit, cos_wheel)`` (:class:`FrontYield`).
+    out : tuple of ndarray
+        Work arrays ``(P, dP, peak, capacity, factors, bx, cos_wheel)``, shapes (2, n), factors
+        (4, n), cos_wheel (n,): at return ``P`` (N), ``capacity`` (-) and ``cos_wheel`` (-), the
+        loads, the lateral shares and cos of the yielded wheel angle at the result.
+    pitching, transferring, slipping : bool
+        Longitudinal transfer, lateral transfer, combined slip.
+    """
+    P, dP, peak, capacity, factors, bx, cos_wheel = out
+    kernel = loads_step(bool(pitching), bool(transferring), bool(slipping), False)
+    tan_b, cos_b, sin_b = trig
+    has_slope = bool(transferring or pitching)
+    for step in range(steps + 1):
+        slope = step < steps
+        kernel(T, K, tan_b, cos_b, sin_b, unit, F_w, slope, float(v_dot), float(L), float(B_f), float(B_f), P, dP, peak, bx, capacity, factors)
+        front_yield(q0, peak[0], wheel, unit[0], cos_wheel)
+        if slope:
+            _yield_step(T, K, cos_wheel, P, dP, peak, unit, float(B_f), float(C), has_slope)

@@ -25,7 +25,7 @@ from numba import njit
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle
 from .jit import compiled
 
-__all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "sensitive_newton"]
+__all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "loads_step", "sensitive_newton"]
 
 #: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
 ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
@@ -258,11 +258,15 @@ def curve_tangent(bx, E, C: float, work) -> None:
 
 
 @functools.lru_cache(maxsize=None)
-def _step_kernel(pitching: bool, transferring: bool, slipping: bool):
-    """The loads at T, their slope, the peaks and B times the slip angles, per realisation, for
-    one combination of terms (constants of the loop, folded before LLVM vectorises it)."""
+def loads_step(pitching: bool, transferring: bool, slipping: bool, sensitive: bool):
+    """The compiled step of the loads at T (N), per realisation, for one combination of terms
+    (constants of the loop, folded before LLVM vectorises it): ``loads_step(T, K, tan_b, cos_b,
+    sin_b, slip, F_w, slope, v_dot, L, B_f, B_r, P, dP, peak, bx, capacity, factors)`` writes the
+    loads P (N), with ``slope`` their slope dP / dT (-), the peaks mu P c (N) and the lateral shares
+    c (-); with ``sensitive`` the factors (-), the peaks times f_D and B f_K / f_D times the slip
+    angles ``slip`` into ``bx`` (:func:`sensitive_newton`'s and :mod:`.fused_yield`'s loops)."""
 
-    def loads_step(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, v_dot, L, B_f, B_r, P, dP, peak, bx, capacity, factors):
+    def step(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, v_dot, L, B_f, B_r, P, dP, peak, bx, capacity, factors):
         for i in range(T.shape[0]):
             t = T[i]
             tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
@@ -270,19 +274,23 @@ def _step_kernel(pitching: bool, transferring: bool, slipping: bool):
             c_f = c_r = 1.0
             if slipping:
                 c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
-            f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
+            f0_f = f0_r = f1_f = f1_r = 1.0
+            if sensitive:
+                f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
             mu = K[MU, i]
             peak_f, peak_r = P_f * mu, P_r * mu
             if slipping:
                 peak_f, peak_r = peak_f * c_f, peak_r * c_r
-            peak[0, i], peak[1, i] = peak_f * f0_f, peak_r * f0_r
-            bx[0, i] = (B_f * (f1_f / f0_f)) * slip[0, i]
-            bx[1, i] = (B_r * (f1_r / f0_r)) * slip[1, i]
+            if sensitive:
+                peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
+                bx[0, i] = (B_f * (f1_f / f0_f)) * slip[0, i]
+                bx[1, i] = (B_r * (f1_r / f0_r)) * slip[1, i]
+            peak[0, i], peak[1, i] = peak_f, peak_r
             P[0, i], P[1, i], dP[0, i], dP[1, i] = P_f, P_r, dP_f, dP_r
             capacity[0, i], capacity[1, i] = c_f, c_r
             factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
 
-    return compiled(loads_step)
+    return compiled(step)
 
 
 @compiled
@@ -341,7 +349,7 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
         Longitudinal transfer, lateral transfer, combined slip.
     """
     P, dP, peak, t, capacity, factors, work = out
-    kernel = _step_kernel(bool(pitching), bool(transferring), bool(slipping))
+    kernel = loads_step(bool(pitching), bool(transferring), bool(slipping), True)
     tan_b, cos_b, sin_b = trig
     has_slope = bool(transferring or pitching)
     for step in range(steps + 1):
@@ -350,3 +358,4 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
         curve_tangent(t, E, C, work)
         if slope:
             _newton_step(T, K, front, P, dP, peak, t, has_slope)
+
