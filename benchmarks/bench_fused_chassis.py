@@ -32,7 +32,7 @@ from uqdrive.vehicle.single_track import VehicleParameters
 #: The chassis terms timed per call, each as discover's candidate adds it to the Magic-Formula
 #: model, then (after "linear") to the LST's.
 TERMS = (("tyre_relaxation",), ("roll_steer",), ("lateral_load_transfer",), ("longitudinal_load_transfer", "combined_slip"), ("compliance_steer",),
-         ("load_sensitive_tyre",),
+         ("load_sensitive_tyre",), ("compliance_steer", "lateral_load_transfer"),
          ("linear", "tyre_relaxation"), ("linear", "roll_steer"), ("linear", "compliance_steer"))
 CG_HEIGHT, TRACK_WIDTH = 0.55, 1.6  # m: the four-wheel car's (benchmarks/bench_four_wheel.py)
 
