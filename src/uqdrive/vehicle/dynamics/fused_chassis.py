@@ -7,8 +7,10 @@ the arithmetic between them runs per realisation in the chassis path's order (no
 contraction without fastmath), and the loads' Newton loop is :func:`.load_newton.newton_loads`.
 Served: the Magic Formula, its stiffness following the loads (the load-sensitive tyre: the loads'
 loop step by step, :func:`.load_newton.sensitive_newton`), its wheels yielding to their force
-(compliance steer, its Newton loop through the tyre's sine :mod:`.fused_yield`) on static loads
-without relaxation; the right-hand side keeps NumPy's path elsewhere.
+(compliance steer, its Newton loop through the tyre's sine :mod:`.fused_yield`) without
+relaxation, on static loads or at each step of the loads' loop
+(:func:`.fused_yield.yielding_newton`) but beside the load-sensitive tyre; the right-hand side
+keeps NumPy's path elsewhere.
 The constants, the roll mode and the loads' steady guess are shared with the linear tyre's loop
 (:mod:`.fused_linear`).
 """
@@ -282,8 +284,8 @@ def chassis_arguments(rhs, x, steps: int, per_run=()):
 
 class FusedChassisRates(ChassisConstants):
     """:meth:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__` of a Magic-Formula
-    chassis model (its wheels yielding to their force without relaxation, on static loads or on loads that follow the tyres beside every term but the load-sensitive tyre),
-    the same numbers: its constants and work arrays for ``n`` realisations.
+    chassis model (its wheels yielding to their force without relaxation nor the load-sensitive
+    tyre), the same numbers: its constants and work arrays for ``n`` realisations.
 
     Parameters
     ----------
@@ -390,8 +392,8 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     """:class:`FusedChassisRates` of the chassis right-hand side ``rhs``
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x``
     (n_states, n), or None where it does not serve: the linear tyre
-    (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer on loads that move or
-    beside relaxation, a loads' loop not compiled (``compiled_loop``), constants
+    (:func:`.fused_linear.fused_linear_chassis_rates`), compliance steer beside relaxation or the
+    load-sensitive tyre, a loads' loop not compiled (``compiled_loop``), constants
     :func:`chassis_arguments` refuses."""
     if (not rhs.saturating or (rhs.loaded and not compiled_loop)
             or (rhs.compliant and (rhs.relaxed or (rhs.loaded and rhs.sensitive)))):

@@ -200,6 +200,7 @@ def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, 
     has_slope = bool(transferring or pitching)
     for step in range(steps + 1):
         slope = step < steps
+        # the slip angles and B_r (here unit and B_f) are read by the load-sensitive tyre's step alone
         kernel(T, K, tan_b, cos_b, sin_b, unit, F_w, slope, float(v_dot), float(L), float(B_f), float(B_f), P, dP, peak, bx, capacity, factors)
         front_yield(q0, peak[0], wheel, unit[0], cos_wheel)
         if slope:
