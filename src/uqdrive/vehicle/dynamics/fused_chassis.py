@@ -349,23 +349,18 @@ class FusedChassisRates(ChassisConstants):
             loaded = False
         else:
             curve_tangent(bx, self.E, self.C, F)
-        if loaded and self.front_yield is not None:  # the front's yield on the loads of each Newton step
+        if loaded:
             unit, a = self.unit, self.loads
             _unit_forces(bx, unit)
             if a["pitching"] or a["slipping"]:
                 np.tan(beta, trig[0])
-            yielding_newton(self.T, a["K"], trig, self.steady[0], realisations(delta - eps if rolling else delta, n), unit, F_w, a["steps"],
-                            v_dot, a["L"], self.B_f, self.C, self.front_yield, self.newton_work, pitching=a["pitching"],
-                            transferring=a["transferring"], slipping=a["slipping"])
-            P, capacity, cos_delta = self.P, self.capacity if a["slipping"] else self.none, self.cos_delta
-        elif loaded:
-            unit = self.unit
-            _unit_forces(bx, unit)
-            a = self.loads
-            if a["pitching"] or a["slipping"]:
-                np.tan(beta, trig[0])
-            front = realisations(cos_delta, n)
-            P, capacity, _ = self.newton_loads(front, unit, F_w, v_dot, self.B_f, self.B_r, self.C, False)
+            if self.front_yield is not None:  # the front's yield on the loads of each Newton step
+                yielding_newton(self.T, a["K"], trig, self.steady[0], realisations(delta - eps if rolling else delta, n), unit, F_w,
+                                a["steps"], v_dot, a["L"], self.B_f, self.C, self.front_yield, self.newton_work, pitching=a["pitching"],
+                                transferring=a["transferring"], slipping=a["slipping"])
+                P, capacity, cos_delta = self.P, self.capacity, self.cos_delta
+            else:
+                P, capacity, _ = self.newton_loads(realisations(cos_delta, n), unit, F_w, v_dot, self.B_f, self.B_r, self.C, False)
             capacity = capacity if a["slipping"] else self.none
         from_tangent = not loaded
         if self.front_yield is not None and not loaded:  # static loads, no relaxation: the front wheels yield to their force

@@ -15,7 +15,7 @@ import numpy as np
 
 from .fused_rates import half_angle_pair, half_angle_sine
 from .jit import compiled
-from .load_newton import KAPPA, MU, STATIC_F, STATIC_R, loads_step
+from .load_newton import KAPPA, MU, STATIC_F, STATIC_R, stepwise_newton
 
 __all__ = ["FrontYield", "yielding_newton"]
 
@@ -195,13 +195,8 @@ def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, 
         Longitudinal transfer, lateral transfer, combined slip.
     """
     P, dP, peak, capacity, factors, bx, cos_wheel = out
-    kernel = loads_step(bool(pitching), bool(transferring), bool(slipping), False)
-    tan_b, cos_b, sin_b = trig
-    has_slope = bool(transferring or pitching)
-    for step in range(steps + 1):
-        slope = step < steps
-        # the slip angles and B_r (here unit and B_f) are read by the load-sensitive tyre's step alone
-        kernel(T, K, tan_b, cos_b, sin_b, unit, F_w, slope, float(v_dot), float(L), float(B_f), float(B_f), P, dP, peak, bx, capacity, factors)
-        front_yield(q0, peak[0], wheel, unit[0], cos_wheel)
-        if slope:
-            _yield_step(T, K, cos_wheel, P, dP, peak, unit, float(B_f), float(C), has_slope)
+    # the slip angles and B_r (here unit and B_f) are read by the load-sensitive tyre's step alone
+    stepwise_newton(T, K, trig, unit, F_w, steps, v_dot, L, B_f, B_f, (P, dP, peak, bx, capacity, factors),
+                    lambda: front_yield(q0, peak[0], wheel, unit[0], cos_wheel),
+                    lambda has_slope: _yield_step(T, K, cos_wheel, P, dP, peak, unit, float(B_f), float(C), has_slope),
+                    pitching=pitching, transferring=transferring, slipping=slipping, sensitive=False)

@@ -25,7 +25,7 @@ from numba import njit
 from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle
 from .jit import compiled
 
-__all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "loads_step", "sensitive_newton"]
+__all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "loads_step", "sensitive_newton", "stepwise_newton"]
 
 #: The rows of the per-realisation constants ``K`` (each shape (n,)): the car's and the structure's.
 ROWS = ("m", "a_lat", "h_x", "static_f", "static_r", "arm_f", "arm_r", "p_Dz", "mu", "kappa", "kappa_x", "drive_f", "drive_r",
@@ -349,13 +349,26 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
         Longitudinal transfer, lateral transfer, combined slip.
     """
     P, dP, peak, t, capacity, factors, work = out
-    kernel = loads_step(bool(pitching), bool(transferring), bool(slipping), True)
+    stepwise_newton(T, K, trig, slip, F_w, steps, v_dot, L, B_f, B_r, (P, dP, peak, t, capacity, factors), lambda: curve_tangent(t, E, C, work),
+                    lambda has_slope: _newton_step(T, K, front, P, dP, peak, t, has_slope), pitching=pitching, transferring=transferring,
+                    slipping=slipping, sensitive=True)
+
+
+def stepwise_newton(T, K, trig, slip, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, work, between, update, *,
+                    pitching: bool, transferring: bool, slipping: bool, sensitive: bool) -> None:
+    """Newton's method on the tyres' lateral force T (N) one step at a time, for a tyre whose
+    curve the loads move (:func:`sensitive_newton`, :func:`.fused_yield.yielding_newton`): at each
+    of ``steps`` steps :func:`loads_step` into ``work`` = ``(P, dP, peak, bx, capacity, factors)``
+    (the arguments of :func:`sensitive_newton`, N and -), ``between()`` (the curve at those loads),
+    ``update(has_slope)`` (the compiled Newton update of T); then the loads and ``between()`` at the last T."""
+    P, dP, peak, bx, capacity, factors = work
+    kernel = loads_step(bool(pitching), bool(transferring), bool(slipping), bool(sensitive))
     tan_b, cos_b, sin_b = trig
     has_slope = bool(transferring or pitching)
     for step in range(steps + 1):
         slope = step < steps
-        kernel(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, float(v_dot), float(L), float(B_f), float(B_r), P, dP, peak, t, capacity, factors)
-        curve_tangent(t, E, C, work)
+        kernel(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, float(v_dot), float(L), float(B_f), float(B_r), P, dP, peak, bx, capacity, factors)
+        between()
         if slope:
-            _newton_step(T, K, front, P, dP, peak, t, has_slope)
+            update(has_slope)
 
