@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+import uqdrive
 from uqdrive.cli import main
 from uqdrive.inference.discrepancy.band import NullBand
 from uqdrive.inference.discrepancy.comparison import Compared, ModelComparison
@@ -259,3 +260,35 @@ def test_of_candidates_tied_with_the_best_the_one_with_fewest_parameters_leads()
     assert simplest_first(fits, chi2, 5.0) == ["tyre_saturation", "tyre_shape", "road_bank"]
     assert simplest_first(fits, chi2, 1.0) == ["tyre_shape", "tyre_saturation", "road_bank"]
     assert simplest_first({}, chi2, 1.0) == []
+
+
+@pytest.mark.long(20)
+def test_worker_processes_give_the_verdict_of_one_process(combined):
+    """jobs=2 (the screening's held fits, each step's candidate fits and probes, the backward
+    check's refits on two forked workers) gives verdict.json of jobs=1 number for number, timings
+    aside; the workers did the fits (the children's CPU grew), and a fit made in a worker holds
+    the parent's simulator and memo, not copies."""
+    import resource
+
+    cands = ["road_bank", "sensor_bias_psi_dot", "actuator_lag", "tyre_saturation"]
+    cfg = yaml.safe_load((combined / "config.yaml").read_text())
+
+    def run(jobs):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        v = uqdrive.discover(combined / "data.nc", config=cfg, candidates=cands, posterior=False, jobs=jobs)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        doc = v.to_dict()
+        for key in ("seconds", "stage_seconds"):
+            doc["evidence"].pop(key)
+        return v, doc, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+    one, alone, _ = run(1)
+    two, shared, children = run(2)
+    assert {e["effect"] for e in alone["effects"]} == {"road_bank", "sensor_bias"}  # two steps: the backward check refits
+    assert shared == alone
+    assert children > 1.0, children
+    f = two.finder
+    fits = [s.fit for s in f.steps_] + list(f.fits_.values())
+    d = f.fitter_.data
+    assert all(any(fit.simulator is s for s in (d.sim, d.sim_for(True))) for fit in fits)
+    assert all(fit.memo is f.baseline_.memo for fit in fits) and f.baseline_.memo is not None

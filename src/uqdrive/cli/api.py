@@ -24,7 +24,7 @@ __all__ = ["Estimate", "Verdict", "identify", "discover", "simulate", "resolve_c
 #: The settings of :func:`identify` (the flags of ``uqdrive identify``) and their defaults.
 IDENTIFY_SETTINGS = {"cost": "std", "m_load": None, "starts": 0, "state_scale": "rms_mean"}
 #: The settings of :func:`discover` (the flags of ``uqdrive discover``) and their defaults.
-DISCOVER_SETTINGS = {"posterior": None}
+DISCOVER_SETTINGS = {"posterior": None, "jobs": 1}
 
 
 def resolve_config(config: str | Path | Mapping[str, Any] | None = None, vehicle: str | Path | None = None) -> dict:
@@ -277,7 +277,9 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     progress : callable, optional
         Receives one line per stage.
     **settings
-        ``posterior`` (True, False or None: as the config says).
+        ``posterior`` (True, False or None: as the config says); ``jobs``, worker processes for
+        the fits of each search step (a count or ``"auto"``, the CPUs this process may use;
+        default 1), the same verdict for every count.
 
     Returns
     -------
@@ -291,7 +293,7 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
         progress("reading the ensemble")
     ds, source = _dataset(data)
     names = candidate_names(candidates)
-    finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model))
+    finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model), s["jobs"])
     return Verdict(_with_car(verdict, ds, cfg), finder)
 
 

@@ -23,7 +23,7 @@ from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_f
 from ..interrupts import Interrupted, deliver, shielded, forget_signals, raise_if_interrupted, signal_received
 from .help_text import CANDIDATES_TEXT, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
-from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, registry_choice, stderr_line
+from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, jobs_count, registry_choice, stderr_line
 from ..settings import Settings
 
 __all__ = ["main", "build_parser", "Interrupted"]
@@ -261,6 +261,9 @@ def _add_discover(sub) -> None:
     p.add_argument("--figures", action=argparse.BooleanOptionalAction, default=True,
                    help="draw bands.png and localisation.png (default); --no-figures writes verdict.json and model.yaml "
                         "only (a batch of recordings: matplotlib is never loaded)")
+    p.add_argument("--jobs", type=jobs_count, default=1, metavar="N|auto",
+                   help="worker processes for the fits of each search step (default 1; 'auto': every CPU this process may "
+                        "use); the verdict is the same for every N")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))
     p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
@@ -276,7 +279,7 @@ def _discover(args) -> int:
     out = check_replaced_folder(args.out, overwrite=args.force, names=DISCOVER_OUTPUTS)
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     verdict = discover(args.measured, config=config, candidates=candidates, model=args.model, progress=progress,
-                       posterior=args.posterior)
+                       posterior=args.posterior, jobs=args.jobs)
     progress("writing verdict.json, model.yaml" + (" and the figures" if args.figures else ""))
     verdict.save(out, figures=args.figures)
     progress("done")

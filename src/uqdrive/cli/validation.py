@@ -8,7 +8,7 @@ import importlib
 import math
 import sys
 
-__all__ = ["OneLineParser", "finite_float", "bounded_int", "stderr_line", "SEED_MAX"]
+__all__ = ["OneLineParser", "finite_float", "bounded_int", "jobs_count", "stderr_line", "SEED_MAX"]
 
 #: Largest root seed: netCDF stores it as a signed 64-bit attribute.
 SEED_MAX = 2**63 - 1
@@ -78,3 +78,16 @@ def registry_choice(flag: str, module: str, registry: str):
 def stderr_line(text: str) -> None:
     """Print ``text`` as exactly one line on stderr."""
     print(" ".join(str(text).split()), file=sys.stderr)
+
+
+def jobs_count(text: str) -> int | str:
+    """argparse type of ``--jobs``: a whole number of worker processes, at least 1, or ``auto``."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        value = int(text, 10)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--jobs '{text}' is neither a whole number nor 'auto'; give e.g. --jobs 2 or --jobs auto") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--jobs {text} is below 1; give a number of worker processes, 1 or more, or 'auto'")
+    return value

@@ -5,6 +5,7 @@ linear models' footing, the tie margin and penalty, the null band each fit is ju
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -115,8 +116,13 @@ class Compared:
         ``nonlinear_samples`` germs as drawn, not moment-matched: the Magic-Formula ensemble's
         statistics are ruled by its few realisations near loss of control, which matching a
         small set does not fix but moves across the spin threshold (seen: a 150-germ matched
-        set turned one excluded realisation into a kept one and multiplied beta's std misfit)."""
-        return self.sim.with_germs(self.raw_germs.head(self.nonlinear_samples)) if nonlinear else self.sim
+        set turned one excluded realisation into a kept one and multiplied beta's std misfit).
+        The same object on every call (fits made in worker processes refer to it)."""
+        return self._nonlinear_sim if nonlinear else self.sim
+
+    @cached_property
+    def _nonlinear_sim(self):
+        return self.sim.with_germs(self.raw_germs.head(self.nonlinear_samples))
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from .band import moment_statistics, statistic_scale
 from .comparison import Compared, ModelComparison, NullBands, prepare_measured, speed_profile
 from .effectset import family_of, testable
 from .fitter import CandidateFitter, SimulationMemo, nonlinear
+from ..parallel import resolve_jobs
 from .posterior import AugmentedPosterior
 from .selection import backward_check, forward_selection, size_check
 from .separate import separating_inputs
@@ -77,6 +78,10 @@ class DiscrepancyFinder:
     log : callable, optional
         Receives one progress line per finished stage (baseline fit, null band, screening,
         joint fits, verdict, posterior) with its seconds, e.g. ``print`` to a log file.
+    jobs : int or "auto"
+        Worker processes for the independent fits of each search step (the candidates of a
+        step, the refits of the backward check); the verdict is the same for every count
+        (:mod:`uqdrive.inference.parallel`). ``"auto"``: the CPUs this process may use.
 
     The data may carry any channels of :data:`uqdrive.vehicle.channels.CHANNELS` and a speed ``v``
     that changes: model, null band and fits compare exactly those channels along that speed.
@@ -118,8 +123,9 @@ class DiscrepancyFinder:
                  nonlinear_samples: int | None = None, bootstrap: int | None = None, level: float | None = None,
                  max_times: int | None = None, top: int | None = None, seed: int | None = None, posterior: bool | None = None,
                  inputs: Mapping[str, Any] | None = None, log: Callable[[str], None] | None = None, max_effects: int | None = None,
-                 start_model: Mapping[str, Any] | None = None):
+                 start_model: Mapping[str, Any] | None = None, jobs: int | str = 1):
         d = settings.discover
+        self.jobs = resolve_jobs(jobs)
         self.settings = settings
         default = DEFAULT_CANDIDATES if d.candidates is None else list(d.candidates)
         self.candidates = expand_names(candidates if candidates is not None else default)
@@ -190,7 +196,8 @@ class DiscrepancyFinder:
                 self.log(f"discover: {stage} done in {stages[stage]:.1f} s{detail}")
 
         # the linear simulations the fits of this dataset share
-        fitter = self.fitter_ = CandidateFitter(data, self.settings.layout.known, theta0, self.settings.vehicle.E, self.top, SimulationMemo())
+        fitter = self.fitter_ = CandidateFitter(data, self.settings.layout.known, theta0, self.settings.vehicle.E, self.top, SimulationMemo(),
+                                                   self.jobs)
         base = fitter.joint(theta0, list(start_effects), start_effects) if start_effects else fitter.baseline(theta0)
         lap("baseline", f" ({n} realisations, {index.size} times, {m} model realisations)")
         self.baseline_ = base

@@ -155,12 +155,12 @@ class StructureFit:
         self.index = np.asarray(index, int)
         self.noise_variance = np.asarray(noise_variance, float)
         self.spin_threshold = spin_threshold
-        self.effect = effect
-        self.base = base
-        self.fit_theta = fit_theta
+        self.effect, self.base, self.fit_theta = effect, base, fit_theta
         self.max_nfev = int(max_nfev)
-        self._cache: dict = {}
-        self._ahead = None  # (keys, simulations) simulated ahead of a call (_simulate)
+        self._cache, self._ahead = {}, None  # simulations by key; (keys, simulations) simulated ahead of a call (_simulate)
+
+    def __getstate__(self):  # what a worker sends back (inference.parallel): no simulations
+        return {**self.__dict__, "_cache": {}, "_ahead": None}
 
     @property
     def parameter_names(self) -> tuple:

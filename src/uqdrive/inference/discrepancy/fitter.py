@@ -15,6 +15,7 @@ from ...vehicle.effects import EFFECTS, ModelStructure
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
+from ..parallel import fork_map
 from .ranking import RESOLVED_SHARE, ResolutionStop, screen
 
 __all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear", "reach_bar"]
@@ -95,6 +96,9 @@ class CandidateFitter:
         Linear candidates re-identified jointly per forward step.
     memo : SimulationMemo, optional
         Linear simulations shared by the fits (:meth:`release` drops it).
+    jobs : int
+        Worker processes for the independent fits of a step (:func:`uqdrive.inference.parallel.fork_map`: the
+        same numbers as one after the other).
 
     Attributes
     ----------
@@ -111,8 +115,9 @@ class CandidateFitter:
     """
 
     def __init__(self, data: Compared, known: Mapping[int, float], start: Sequence[float], tyre_E: float, top: int,
-                 memo: SimulationMemo | None = None):
+                 memo: SimulationMemo | None = None, jobs: int = 1):
         self.data = data
+        self.jobs = int(jobs)
         self.known = dict(known)
         self.start = start
         self.tyre_E = tyre_E
@@ -143,6 +148,15 @@ class CandidateFitter:
     def release(self) -> None:
         """Drop the shared simulations (a posterior batches its own)."""
         self.memo = None
+
+    def map(self, fn, items) -> list:
+        """``[fn(item) for item in items]`` on :attr:`jobs` worker processes; the fits they return
+        hold this fitter's simulators and memo (:func:`uqdrive.inference.parallel.fork_map`)."""
+        items = list(items)
+        if self.jobs <= 1 or len(items) <= 1:
+            return [fn(item) for item in items]
+        d = self.data
+        return fork_map(fn, items, self.jobs, (d, d.sim, d.raw_germs, d.sim_for(True), self.memo, *EFFECTS.values()))
 
     def baseline(self, theta0) -> StructureFit:
         """The distributions alone fitted from ``theta0`` (the known ones held)."""
@@ -187,9 +201,9 @@ class CandidateFitter:
         """``fits`` with each probe :meth:`fit_pool` stopped out of reach (:attr:`unfinished`)
         fitted as without the stop, for a choice that reads more of them than whether they are
         in reach (their order, a tie, a pair)."""
-        out = dict(fits)
-        for c, (comparison, cur, names, values, linear) in self.unfinished.items():
-            out[c] = self._nonlinear_candidate(comparison, cur, names, values, linear, None)[0]
+        out, todo = dict(fits), list(self.unfinished.items())
+        done = self.map(lambda item: self._nonlinear_candidate(*item[1], None)[0], todo)
+        out.update(zip([c for c, _ in todo], done))
         self.unfinished = {}
         return out
 
@@ -208,7 +222,9 @@ class CandidateFitter:
             return f.fit(d.measured, d.scale_for(structure.nonlinear), theta)
 
         fixed = {c: [self.tyre_E] if c == "tyre_saturation" else list(EFFECTS[c].start) for c in pool if nonlinear(c)}
-        return screen(cur, pool, anchors, held, fixed)
+        pairs = [(c, label) for c in pool if c not in fixed for label in anchors]  # every held fit screen asks for, made at once
+        made = dict(zip(((c, anchors[label].tobytes()) for c, label in pairs), self.map(lambda pair: held(pair[0], anchors[pair[1]]), pairs)))
+        return screen(cur, pool, anchors, lambda name, theta: made[name, np.asarray(theta, float).tobytes()], fixed)
 
     def fit_pool(self, comparison: ModelComparison, cur, cur_band, pool, screening, names, values):
         """Joint fits of one forward step: the ``top`` linear candidates by screening (one on a
@@ -217,18 +233,21 @@ class CandidateFitter:
         chi2, wide = comparison.chi2, comparison.footing(cur) > 1
         linear = sorted((c for c in pool if not nonlinear(c)), key=lambda c: screening[c]["chi2"])[: 1 if wide else self.top]
         tried = linear + [c for c in pool if nonlinear(c)]
-        fits, (margin, per_param) = {}, criterion(cur_band)
-        for c in linear:  # each from the distributions where its screening was best
+        margin, per_param = criterion(cur_band)
+
+        def linear_fit(c):  # from the distributions where its screening was best
             budget = PROBE_NFEV if wide else None
-            fits[c] = self.joint(screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
-            if budget and chi2(cur) - chi2(fits[c]) > margin + per_param * len(EFFECTS[c].parameters):
-                fits[c] = self.joint(fits[c].theta_, names + [c], fitted_values(fits[c]))
+            f = self.joint(screening[c]["theta"], names + [c], {**values, c: screening[c]["values"]}, max_nfev=budget)
+            if budget and chi2(cur) - chi2(f) > margin + per_param * len(EFFECTS[c].parameters):
+                f = self.joint(f.theta_, names + [c], fitted_values(f))
+            return f
+
+        fits = dict(zip(linear, self.map(linear_fit, linear)))
         others = [fits[k] for k in linear]
-        self.reach_bar = reach_bar(comparison, cur, others)
-        self.unfinished = {}
-        for c in tried[len(linear):]:  # non-linear: a short joint fit, continued when it is in reach
-            args = (comparison, cur, names + [c], {**values, c: screening[c]["values"]}, others)
-            fits[c], stopped = self._nonlinear_candidate(*args, self.reach_bar)
+        self.reach_bar, self.unfinished = reach_bar(comparison, cur, others), {}
+        # non-linear: a short joint fit, continued when it is in reach
+        args = {c: (comparison, cur, names + [c], {**values, c: screening[c]["values"]}, others) for c in tried[len(linear):]}
+        for c, (fits[c], stopped) in zip(args, self.map(lambda c: self._nonlinear_candidate(*args[c], self.reach_bar), list(args))):
             if stopped:
-                self.unfinished[c] = args
+                self.unfinished[c] = args[c]
         return fits, tried

@@ -221,8 +221,9 @@ def dynamic_pairs(comparison, fitter, cur, cur_band, names, values, fits, screen
     margin, per_param = criterion(cur_band)
     chi2 = comparison.chi2
     pool = sorted((c for c in fits if nonlinear(c)), key=lambda c: chi2(fits[c]))[:PAIR_POOL]
-    probes = {(a, b): fitter.joint(cur.theta_, names + [a, b], {**values, a: list(EFFECTS[a].start), b: list(EFFECTS[b].start)},
-                                   max_nfev=PAIR_PROBE_NFEV) for a, b in combinations(pool, 2)}
+    couples = list(combinations(pool, 2))
+    probes = dict(zip(couples, fitter.map(lambda ab: fitter.joint(cur.theta_, names + list(ab), {**values, **{e: list(EFFECTS[e].start) for e in ab}},
+                                                                  max_nfev=PAIR_PROBE_NFEV), couples)))
     if not probes:
         return None
     a, b = min(probes, key=lambda k: chi2(probes[k]))
@@ -335,17 +336,22 @@ def backward_check(comparison, fitter, steps, cur, cur_band, start_effects, remo
     """Check every added effect of ``steps`` against its removal: refit ``cur`` without it; drop it when the
     chi2 it saves is within its penalty plus the null-calibrated margin. ``removed``: those removed before."""
     steps, removed = list(steps), list(removed)
+    order, refits = [s.name for s in steps], {}
     for step in list(steps):
         added = [s.name for s in steps]
         if len(start_effects) + len(added) < 2:
             break
         margin, per_param = criterion(cur_band)
-        fit = _refit_without(fitter, cur, start_effects, added, step.name, _removal_bar(comparison, fitter, cur, step.name, margin, per_param))
+        if step.name not in refits:  # on workers: the refits of this and every later step from this cur at once (fitter.map)
+            later = [n for n in order[order.index(step.name):] if n in added] if fitter.jobs > 1 else [step.name]
+            refits = dict(zip(later, fitter.map(lambda name: _refit_without(
+                fitter, cur, start_effects, added, name, _removal_bar(comparison, fitter, cur, name, margin, per_param)), later)))
+        fit = refits.pop(step.name)
         saved = comparison.chi2(fit) - comparison.chi2(cur) - per_param * len(EFFECTS[step.name].parameters)
         if saved <= comparison_margin(comparison, step.name, margin, fit, cur):
             removed.append({"effect": family_of(step.name), "registry_name": step.name, "chi2_saved": round(saved, 2)})
             steps = [s for s in steps if s is not step]
-            cur = fit
+            cur, refits = fit, {}
             cur_band, _ = comparison.own_band(fit, key=10 + len(removed))
     return Pruned(tuple(steps), tuple(removed), cur, cur_band)
 
@@ -388,7 +394,7 @@ def size_check(comparison, fitter, steps, base, cur, cur_band, start_effects, re
         if len(added) == 1:
             name, refits = added[0], {added[0]: base}
         else:
-            refits = {k: _refit_without(fitter, cur, start_effects, added, k) for k in weak}
+            refits = dict(zip(weak, fitter.map(lambda k: _refit_without(fitter, cur, start_effects, added, k), list(weak))))
             name = min(weak, key=lambda k: comparison.chi2(refits[k]))
         removed.append({"effect": family_of(name), "registry_name": name, "size": weak[name]})
         steps = [s for s in steps if s.name != name]
