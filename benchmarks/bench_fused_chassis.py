@@ -62,7 +62,7 @@ def _calls(terms, n: int, fused: bool, repeats: int, calls: int = 300):
     return timed
 
 
-def _four_wheel_case(name: str):
+def four_wheel_case(name: str):
     """The case's ensemble and the config discover reads (the packaged one with the car's cg_height and track width)."""
     from uqdrive.studies.four_wheel import amplitude_for, four_wheel_cases, generate, steady_limit
     from uqdrive.vehicle.four_wheel import FourWheelCar
@@ -94,7 +94,7 @@ def main(argv=None):
 
             runs, kw = uqdrive.simulate("nlst", samples=200), {}
         else:
-            runs, config = _four_wheel_case(case)
+            runs, config = four_wheel_case(case)
             kw = dict(config=config, candidates="all", posterior=False)
         discover_cpu(track_extended, True, runs.isel(sample=slice(0, 60)), **kw)  # warm-up: imports, numba's cache
         (old, va), (new, vb) = discover_cpu(track_extended, False, runs, **kw), discover_cpu(track_extended, True, runs, **kw)

@@ -163,6 +163,14 @@ def job_overhead_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def discover_jobs_table() -> str:
+    r = _rec("discover_jobs")
+    lines = ["| case | one process: wall (CPU) | workers | workers: wall (CPU) | wall ratio | same verdict |", "|---|---:|---:|---:|---:|---|"]
+    lines += [f"| {x['case']} | {x['wall_1_s']:.0f} s ({x['cpu_1_s']:.0f} CPU-s) | {x['jobs']} | {x['wall_n_s']:.0f} s ({x['cpu_n_s']:.0f} CPU-s) | "
+              f"{x['wall_1_s'] / x['wall_n_s']:.2f}x | {'yes' if x['same'] else 'no'} |" for x in r["rows"]]
+    return "\n".join(lines) + "\n"
+
+
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
@@ -170,7 +178,7 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
           "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
           "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table,
-          "bench_fused_chassis": lambda: fused_rates_table("fused_chassis")}
+          "bench_fused_chassis": lambda: fused_rates_table("fused_chassis"), "bench_discover_jobs": discover_jobs_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -259,6 +267,8 @@ def substitutions() -> dict[str, str]:
     s.update(bench_ll_machine=ll["machine"], bench_ll_realisations=str(ll["realisations"]), bench_ll_duration=f"{ll['duration_s']:g} s")
     s["bench_fr_machine"] = _rec("fused_rates")["machine"]
     s["bench_fc_machine"] = _rec("fused_chassis")["machine"]
+    jobs = _rec("discover_jobs")
+    s["bench_dj_machine"] = f"{jobs['machine']}, {jobs['cpus']} CPUs"
     lt = _rec("ltv")
     cells = lt["cells"]
     s.update(bench_ltv_machine=lt["machine"], bench_ltv_duration=f"{lt['duration_s']:g} s", bench_ltv_steps=str(lt["steps"]),

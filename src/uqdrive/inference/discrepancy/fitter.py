@@ -124,7 +124,7 @@ class CandidateFitter:
         self.top = int(top)
         self.memo = memo
         self.resolution = None
-        self.reach_bar, self.unfinished, self.probe_stopped = None, {}, False
+        self.reach_bar, self.unfinished, self.probe_stopped, self._unfinished_of = None, {}, False, None
 
     def resolve_at(self, band) -> None:
         """Stop the candidates' fits at the resolution of the comparisons made with ``band``.
@@ -188,22 +188,31 @@ class CandidateFitter:
         self.probe_stopped = any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in starts)
         return min(starts, key=chi2)
 
-    def _nonlinear_candidate(self, comparison, cur, names, values, linear, bar):
-        """A non-linear candidate's fit of :meth:`fit_pool`: its probe (each start stopped out of
-        reach of ``bar``, None: not), finished when in reach; and whether a start stopped."""
-        short = self.probe(cur.theta_, names, values, comparison.chi2, None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide)))
-        stopped = self.probe_stopped
-        if in_reach(comparison, cur, short, linear):
-            short = self.joint(short.theta_, names, fitted_values(short))
-        return short, stopped
+    def _nonlinear_fits(self, comparison, cur, todo: dict, bar) -> dict:
+        """Non-linear candidates' fits of :meth:`fit_pool`, ``todo`` {candidate: (names, values,
+        linear fits)}: each one's :meth:`probe` (each start stopped out of reach of ``bar``, None:
+        not), finished when in reach. Every probe's two starts go to the workers at once, then
+        the fits that finish them. Returns {candidate: (fit, whether a start stopped)}."""
+        hopeless = None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide))
+        starts = [(c, th) for c in todo for th in (cur.theta_, self.start)]
+        made = self.map(lambda s: self.joint(s[1], todo[s[0]][0], todo[s[0]][1], max_nfev=PROBE_NFEV, hopeless_above=hopeless), starts)
+        out = {}
+        for k, c in enumerate(todo):
+            pair = made[2 * k: 2 * k + 2]
+            out[c] = [min(pair, key=comparison.chi2), any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in pair)]
+        ahead = [c for c in todo if in_reach(comparison, cur, out[c][0], todo[c][2])]
+        for c, f in zip(ahead, self.map(lambda c: self.joint(out[c][0].theta_, todo[c][0], fitted_values(out[c][0])), ahead)):
+            out[c][0] = f
+        return {c: tuple(v) for c, v in out.items()}
 
     def finish(self, fits: dict) -> dict:
         """``fits`` with each probe :meth:`fit_pool` stopped out of reach (:attr:`unfinished`)
         fitted as without the stop, for a choice that reads more of them than whether they are
         in reach (their order, a tie, a pair)."""
-        out, todo = dict(fits), list(self.unfinished.items())
-        done = self.map(lambda item: self._nonlinear_candidate(*item[1], None)[0], todo)
-        out.update(zip([c for c, _ in todo], done))
+        out = dict(fits)
+        if self.unfinished:
+            (comparison, cur), todo = self._unfinished_of, {c: args for c, args in self.unfinished.items()}
+            out.update({c: f for c, (f, _) in self._nonlinear_fits(comparison, cur, todo, None).items()})
         self.unfinished = {}
         return out
 
@@ -244,10 +253,10 @@ class CandidateFitter:
 
         fits = dict(zip(linear, self.map(linear_fit, linear)))
         others = [fits[k] for k in linear]
-        self.reach_bar, self.unfinished = reach_bar(comparison, cur, others), {}
+        self.reach_bar, self.unfinished, self._unfinished_of = reach_bar(comparison, cur, others), {}, (comparison, cur)
         # non-linear: a short joint fit, continued when it is in reach
-        args = {c: (comparison, cur, names + [c], {**values, c: screening[c]["values"]}, others) for c in tried[len(linear):]}
-        for c, (fits[c], stopped) in zip(args, self.map(lambda c: self._nonlinear_candidate(*args[c], self.reach_bar), list(args))):
+        todo = {c: (names + [c], {**values, c: screening[c]["values"]}, others) for c in tried[len(linear):]}
+        for c, (fits[c], stopped) in self._nonlinear_fits(comparison, cur, todo, self.reach_bar).items():
             if stopped:
-                self.unfinished[c] = args[c]
+                self.unfinished[c] = todo[c]
         return fits, tried
