@@ -58,8 +58,9 @@ def test_the_first_failing_item_raises_its_exception_here():
             raise ValueError(f"item {i}")
         return i
 
-    with pytest.raises(ValueError, match="item 2"):
+    with pytest.raises(ValueError, match="item 2") as raised:
         fork_map(fn, range(6), 2)
+    assert "in fn" in raised.value.__notes__[0] and "worker process" in raised.value.__notes__[0]
 
 
 def test_a_result_that_cannot_be_pickled_is_computed_here():

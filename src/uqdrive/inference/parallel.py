@@ -6,7 +6,9 @@ kernels are there without being sent. Only the results travel back, pickled; an 
 existed in the parent before the fork (:func:`fork_map`'s ``shared``) is pickled as a reference
 and read back as the parent's own object, so a fit made in a worker holds the same simulator as
 one made in the parent. Each item is computed from the same inputs as in a loop, so the results
-are the loop's, bit for bit; only their computation runs side by side.
+are the loop's, bit for bit, where no item depends on what an earlier one changed (discover's
+shared memo of simulations is such a change that does not matter: a simulation it holds has the
+numbers of one made anew, :class:`uqdrive.inference.discrepancy.fitter.SimulationMemo`).
 """
 
 from __future__ import annotations
@@ -137,8 +139,9 @@ def fork_map(fn: Callable[[Any], Any], items: Sequence, jobs: int, shared: Itera
     list
         The results in the order of ``items``.
 
-    An exception an item raised in its worker is raised here (the first in the items' order); the
-    workers are ended before this returns or raises, whatever happens (an interruption included).
+    An exception an item raised in its worker is raised here (the first in the items' order, the
+    worker's traceback in its notes); the workers are ended before this returns or raises,
+    whatever happens (an interruption included).
     """
     items = list(items)
     workers = min(int(jobs), len(items))
@@ -178,8 +181,10 @@ def fork_map(fn: Callable[[Any], Any], items: Sequence, jobs: int, shared: Itera
                 p.join()
     values = []
     for i, item in enumerate(items):
-        status, payload, _ = out[i]
+        status, payload, trace = out[i]
         if status == "error":
-            raise pickle.loads(payload)
+            error = pickle.loads(payload)
+            error.add_note(f"raised in a worker process of uqdrive.inference.parallel.fork_map (item {i}):\n{trace.rstrip()}")
+            raise error
         values.append(_loads(payload, refs) if status == "ok" else fn(item))
     return values

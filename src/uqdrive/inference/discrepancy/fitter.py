@@ -12,10 +12,10 @@ import numpy as np
 
 from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, ModelStructure
+from ..parallel import fork_map
 from .comparison import Compared, ModelComparison, criterion
 from .effectset import EffectSet, fitted_values
 from .fit import StructureFit
-from ..parallel import fork_map
 from .ranking import RESOLVED_SHARE, ResolutionStop, screen
 
 __all__ = ["PROBE_NFEV", "PROBE_SHARE", "CandidateFitter", "SimulationMemo", "in_reach", "nonlinear", "reach_bar"]
@@ -211,7 +211,7 @@ class CandidateFitter:
         in reach (their order, a tie, a pair)."""
         out = dict(fits)
         if self.unfinished:
-            (comparison, cur), todo = self._unfinished_of, {c: args for c, args in self.unfinished.items()}
+            (comparison, cur), todo = self._unfinished_of, dict(self.unfinished)
             out.update({c: f for c, (f, _) in self._nonlinear_fits(comparison, cur, todo, None).items()})
         self.unfinished = {}
         return out
