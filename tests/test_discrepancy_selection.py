@@ -263,6 +263,7 @@ def test_of_candidates_tied_with_the_best_the_one_with_fewest_parameters_leads()
 
 
 @pytest.mark.long(20)
+@pytest.mark.filterwarnings("ignore:os.fork\\(\\) was called:RuntimeWarning")  # JAX of another test in this process (tests/test_parallel.py)
 def test_worker_processes_give_the_verdict_of_one_process(combined):
     """jobs=2 (the screening's held fits, each step's candidate fits and probes, the backward
     check's refits on two forked workers) gives verdict.json of jobs=1 number for number, timings

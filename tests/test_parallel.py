@@ -16,7 +16,10 @@ from conftest import tiny_config
 from uqdrive.cli.main import main
 from uqdrive.inference.parallel import available, fork_map, resolve_jobs
 
-pytestmark = pytest.mark.skipif(not available(), reason="worker processes need fork (POSIX)")
+# JAX, once another test of the same pytest worker has imported it, warns at every fork of that
+# process (its threads): a warning about the test process, not about uqdrive's workers, which never use JAX.
+pytestmark = [pytest.mark.skipif(not available(), reason="worker processes need fork (POSIX)"),
+              pytest.mark.filterwarnings("ignore:os.fork\\(\\) was called:RuntimeWarning")]
 
 
 class Box:
