@@ -78,6 +78,12 @@ def in_reach(comparison: ModelComparison, cur, probe, others) -> bool:
     return bar is None or comparison.chi2(probe) <= bar
 
 
+def _better_start(starts, chi2):
+    """A probe's result from the fits of its starts: the one lower by ``chi2``, and whether a
+    start stopped out of reach."""
+    return min(starts, key=chi2), any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in starts)
+
+
 class CandidateFitter:
     """Least-squares fits of the distributions, alone or jointly with effects, on one dataset.
 
@@ -153,7 +159,7 @@ class CandidateFitter:
         """``[fn(item) for item in items]`` on :attr:`jobs` worker processes; the fits they return
         hold this fitter's simulators and memo (:func:`uqdrive.inference.parallel.fork_map`)."""
         items = list(items)
-        if self.jobs <= 1 or len(items) <= 1:
+        if self.jobs <= 1 or len(items) <= 1:  # no fork: the shared objects below (a simulator built for them) are not needed
             return [fn(item) for item in items]
         d = self.data
         return fork_map(fn, items, self.jobs, (d, d.sim, d.raw_germs, d.sim_for(True), self.memo, *EFFECTS.values()))
@@ -184,9 +190,9 @@ class CandidateFitter:
         """Short joint fit (:data:`PROBE_NFEV`) from ``theta`` and from the start's distributions, the one lower by ``chi2``: a
         linear baseline lowers mu to mimic saturation, a poor basin for a saturating tyre (the thesis' NLST data: chi2 5x the baseline's).
         ``hopeless_above``: as :meth:`joint`, each start stopped where it cannot reach it."""
-        starts = [self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above) for th in (theta, self.start)]
-        self.probe_stopped = any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in starts)
-        return min(starts, key=chi2)
+        best, self.probe_stopped = _better_start([self.joint(th, names, values, max_nfev=PROBE_NFEV, hopeless_above=hopeless_above)
+                                                  for th in (theta, self.start)], chi2)
+        return best
 
     def _nonlinear_fits(self, comparison, cur, todo: dict, bar) -> dict:
         """Non-linear candidates' fits of :meth:`fit_pool`, ``todo`` {candidate: (names, values,
@@ -196,10 +202,7 @@ class CandidateFitter:
         hopeless = None if bar is None else (lambda wide: comparison.chi2_bar(bar, wide))
         starts = [(c, th) for c in todo for th in (cur.theta_, self.start)]
         made = self.map(lambda s: self.joint(s[1], todo[s[0]][0], todo[s[0]][1], max_nfev=PROBE_NFEV, hopeless_above=hopeless), starts)
-        out = {}
-        for k, c in enumerate(todo):
-            pair = made[2 * k: 2 * k + 2]
-            out[c] = [min(pair, key=comparison.chi2), any(getattr(f, "status_", None) == ResolutionStop.OUT_OF_REACH for f in pair)]
+        out = {c: list(_better_start(made[2 * k: 2 * k + 2], comparison.chi2)) for k, c in enumerate(todo)}
         ahead = [c for c in todo if in_reach(comparison, cur, out[c][0], todo[c][2])]
         for c, f in zip(ahead, self.map(lambda c: self.joint(out[c][0].theta_, todo[c][0], fitted_values(out[c][0])), ahead)):
             out[c][0] = f
