@@ -95,12 +95,28 @@ def second_run(tmp_path_factory, _background, slurm):
 
 
 @pytest.fixture(scope="session")
+def failing_rule_run(tmp_path_factory, slurm):
+    """The folder of the failing-rule run on Slurm (tests/dag_runs.py ``failing_rule_runs``) and
+    its future, in a thread of its own; None where Slurm takes no jobs. Started, not awaited."""
+    from dag_runs import failing_rule_runs
+
+    if slurm is not None:
+        yield None
+        return
+    wd = tmp_path_factory.mktemp("failing_rule")
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
+        yield wd, pool.submit(failing_rule_runs, wd)
+
+
+@pytest.fixture(scope="session")
 def workdir(request, tmp_path_factory):
     """A folder holding one uninterrupted run of the whole DAG on config/test.yaml (2 cores), shared
     by the tests of the "dag" xdist group, so the suite pays for it once. When the session holds
-    tests of the second run, that run starts first and goes on beside this one."""
-    if any("second_run" in item.fixturenames for item in request.session.items):
-        request.getfixturevalue("second_run")
+    tests of the second run or of the failing-rule run on Slurm, those start first and go on
+    beside this one."""
+    for background in ("second_run", "failing_rule_run"):
+        if any(background in item.fixturenames for item in request.session.items):
+            request.getfixturevalue(background)
     wd = tmp_path_factory.mktemp("dag")
     proc = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(wd),
                            "--configfile", str(REPO / "config" / "test.yaml"), "--cores", "2"], capture_output=True, text=True)

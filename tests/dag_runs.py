@@ -13,6 +13,8 @@ import sys
 import shutil
 import time
 
+import yaml
+
 from conftest import REPO
 
 TEST_CONFIG = REPO / "config" / "test.yaml"
@@ -228,3 +230,26 @@ def interrupted_runs(wd, slurm=False):
     _slurm_step(wd, "slurm_2", steps, _scancel_a_running_job)
     _slurm_step(wd, "slurm_3", steps)
     return steps
+
+
+#: Targets of the failing-rule run: the tyre-curve figure (made to fail) and the KLE beside it.
+FAILING_RULE_TARGETS = ["results/figures/fig_2_3.png", "results/data/kle.nc"]
+
+
+def failing_rule_runs(wd):
+    """On Slurm, in folder ``wd``: the two targets with a tyre surface named in broken TeX (only
+    fig_tyre_curves can fail: matplotlib cannot draw the legend), then with the test config again.
+    The failed run, the targets and the rules' logs it left, the rerun (tests/test_slurm.py checks them). conftest.py starts this in a thread
+    of its own when the first DAG run starts: its minute is mostly Slurm's status checks, which
+    then overlap the suite's work instead of holding an xdist worker."""
+    config = yaml.safe_load(TEST_CONFIG.read_text())
+    config["figures"]["tyre_surfaces"]["Ice $\\undefinedmacro$"] = config["figures"]["tyre_surfaces"].pop("Ice")
+    broken = wd / "broken.yaml"
+    broken.write_text(yaml.safe_dump(config, sort_keys=False))  # key order: Snakemake compares params as written
+    command = slurm_command()
+    failed = subprocess.run([str(broken) if a == str(TEST_CONFIG) else a for a in command] + FAILING_RULE_TARGETS, cwd=wd,
+                            capture_output=True, text=True, timeout=900)
+    made = [target for target in FAILING_RULE_TARGETS if (wd / target).is_file()]
+    logs = {str(p.relative_to(wd)): p.read_text() for p in (wd / "results" / "logs").rglob("*.log")}  # the rerun rewrites them
+    rerun = subprocess.run([*command, *FAILING_RULE_TARGETS], cwd=wd, capture_output=True, text=True, timeout=900)
+    return failed, made, logs, rerun

@@ -23,10 +23,9 @@ import sys
 import textwrap
 
 import pytest
-import yaml
 
 from conftest import REPO
-from dag_runs import SLURM_PROFILE, SLURM_SCRIPT, TEST_CONFIG, clock_seconds, slurm_command, slurm_jobids
+from dag_runs import SLURM_PROFILE, SLURM_SCRIPT, clock_seconds, slurm_jobids
 
 pytestmark = pytest.mark.workflow
 
@@ -181,33 +180,27 @@ def test_rule_resources_flags_a_rule_over_its_declaration(tmp_path):
     assert rule_resources.suggest(peaks["fit"]) == (1500, 7)  # 900.5 x 1.5 -> 1500 MB; 130 s x 3 -> 7 min
 
 
-# Not marked long: most of its minute is waiting for Slurm's status checks, and started early its jobs queue beside
-# the second DAG run's on the one-node cluster, so that both wait longer.
-def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_what_is_missing(on_slurm, tmp_path):
+@pytest.mark.xdist_group("dag")
+def test_a_failing_rule_gives_its_slurm_log_and_error_and_a_rerun_submits_only_what_is_missing(on_slurm, failing_rule_run):
     """A tyre surface named with broken TeX makes exactly one rule fail (fig_tyre_curves: matplotlib
-    cannot draw the legend); the KLE beside it succeeds. Fixed, the rerun submits only the figure."""
-    config = yaml.safe_load(TEST_CONFIG.read_text())
-    config["figures"]["tyre_surfaces"]["Ice $\\undefinedmacro$"] = config["figures"]["tyre_surfaces"].pop("Ice")
-    broken = tmp_path / "broken.yaml"
-    broken.write_text(yaml.safe_dump(config, sort_keys=False))  # key order: Snakemake compares params as written
-    targets = ["results/figures/fig_2_3.png", "results/data/kle.nc"]
-    command = slurm_command()
-    failed = subprocess.run([str(broken) if a == str(TEST_CONFIG) else a for a in command] + targets, cwd=tmp_path,
-                            capture_output=True, text=True, timeout=900)
+    cannot draw the legend); the KLE beside it succeeds. Fixed, the rerun submits only the figure.
+    (The runs: tests/dag_runs.py ``failing_rule_runs``, started beside the first DAG run.)"""
+    wd, future = failing_rule_run
+    failed, made, logs, rerun = future.result()
     out = failed.stdout + failed.stderr
     assert failed.returncode != 0, out[-3000:]
     slurm_log = re.search(r"Error in group figures.*?\n\s*log: (\S+/(\d+)\.log)", out, re.DOTALL)
-    assert slurm_log and (tmp_path / slurm_log.group(1)).is_file(), out[-3000:]
+    assert slurm_log and (wd / slurm_log.group(1)).is_file(), out[-3000:]
     rule_log = re.search(r"Error in rule fig_tyre_curves:.*?\n\s*log: (\S+)", out, re.DOTALL)
     assert rule_log, out[-3000:]
-    assert "Unknown symbol: \\undefinedmacro" in (tmp_path / rule_log.group(1)).read_text()
-    assert (tmp_path / "results/data/kle.nc").is_file() and not (tmp_path / "results/figures/fig_2_3.png").exists()
+    assert "Unknown symbol: \\undefinedmacro" in logs[rule_log.group(1)]
+    assert made == ["results/data/kle.nc"]
 
-    rerun = subprocess.run([*command, *targets], cwd=tmp_path, capture_output=True, text=True, timeout=900)
     out = rerun.stdout + rerun.stderr
     assert rerun.returncode == 0, out[-3000:]
     assert sorted(set(re.findall(r"^\s*rule (\w+):$", out, re.MULTILINE))) == ["fig_tyre_curves"], out[-3000:]
     assert len(slurm_jobids(out)) == 1
+    assert (wd / "results/figures/fig_2_3.png").is_file()
 
 
 # --- the profile's sizing, with stand-ins for sinfo and scontrol (no cluster needed) ---
