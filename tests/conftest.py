@@ -126,13 +126,14 @@ def workdir(request, tmp_path_factory):
 
 def pytest_collection_modifyitems(config, items):
     """Longest first, so that the two xdist workers finish together: the DAG group (its runs take
-    ~2-3 min; within it the tests of the first run before those that wait for the second), then
+    ~2-3 min; within it the tests of the first run, then that of the failing-rule run, then those
+    that wait for the second run: each background run has had the first run's time to end), then
     the tests marked ``long(seconds)`` by decreasing time, then the rest in file order. (In file
     order the two-point sweep came last and one core idled for 22 s.)"""
     def rank(item):
         group = item.get_closest_marker("xdist_group")
         if group is not None and group.args and group.args[0] == "dag":
-            return (0, float("second_run" in item.fixturenames))
+            return (0, 1.0 if "second_run" in item.fixturenames else 0.5 if "failing_rule_run" in item.fixturenames else 0.0)
         long = item.get_closest_marker("long")
         return (1, -float(long.args[0])) if long is not None else (2, 0.0)
 
