@@ -11,7 +11,7 @@ import xarray as xr
 
 from uqdrive.inference.discrepancy.band import moment_statistics, statistic_scale
 from uqdrive.inference.discrepancy.fit import StructureFit
-from uqdrive.inference.discrepancy.posterior import AugmentedPosterior, fit_quadratic, likelihood_times, quadratic_features
+from uqdrive.inference.discrepancy.posterior import AugmentedPosterior, fit_quadratic, likelihood_times, quadratic_features, sample_vectorised
 from uqdrive.numerics.threads import single_blas_thread
 from uqdrive.studies.discrepancy import benchmark_dataset, benchmark_rows, case_outcome, thesis_posterior_rows
 from uqdrive.studies.hidden_effects import HiddenEffectCase, generate
@@ -74,6 +74,13 @@ def bank(small):
 
 def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, seed: int = 3, channels=STATES, **sampler):
     """Joint StructureFit of road_bank on M CRN realisations of the measured ``channels``, then its posterior."""
+    fit, x = _joint_fit(model_config, ds, stride, M, seed, channels)
+    with single_blas_thread():
+        return AugmentedPosterior(**{**SAMPLER, **sampler}).fit(fit, x, np.random.default_rng(4))
+
+
+def _joint_fit(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, seed: int = 3, channels=STATES):
+    """Joint StructureFit of road_bank on M CRN realisations of the measured ``channels``, and those channels (C, n, K + 1)."""
     x = np.stack([ds[s].values for s in channels])
     noise = np.array([estimate_noise_variance(x[i], order=4) for i in range(len(channels))])
     K = (x.shape[-1] - 1) // stride
@@ -86,7 +93,7 @@ def _posterior(model_config, ds: xr.Dataset, stride: int = 10, M: int = 300, see
     with single_blas_thread():
         fit = StructureFit(sim, index, noise, 0.2 if "beta" in channels else None, effect=EFFECTS["road_bank"])
         fit.fit(moment_statistics(x, index), statistic_scale(x, index, model_ratio=x.shape[1] / M), theta0)
-        return AugmentedPosterior(**{**SAMPLER, **sampler}).fit(fit, x, np.random.default_rng(4))
+    return fit, x
 
 
 def _interval(post, name):
@@ -111,6 +118,61 @@ def test_posterior_covers_the_truth_and_a_wrong_constant_moves_it_off(small, ban
     wrong["vehicle"]["c_Sf"] *= 0.85
     lo, hi = _interval(_posterior(wrong, bank), "mu_mean")
     assert lo > 1.05, (lo, hi)
+
+
+@pytest.mark.filterwarnings("ignore:os.fork\\(\\) was called:RuntimeWarning")  # JAX of another test in this process
+def test_the_full_model_evaluations_on_workers_are_those_of_one_process(small, bank, tmp_path):
+    """The design's and validation's evaluations in batches on two forked workers (batches of
+    another size than in one process: 21 points in 4 batches of 6, not 3 of 8) give the
+    statistics of one process bit for bit, in the points' order, computed by the workers."""
+    import os
+
+    fit, x = _joint_fit(small, bank, M=100)
+    centre = np.concatenate([fit.theta_, fit.effect_values_])
+    points = centre * (1.0 + 0.02 * np.random.default_rng(0).standard_normal((21, centre.size)))
+    sel = np.arange(0, fit.index.size, 3)
+    one = AugmentedPosterior(batch=8)._statistics(fit, points, sel)
+    batches, simulate = tmp_path / "batches", fit.statistics_many
+
+    def statistics_many(thetas, structures, batch):
+        with open(batches, "a") as fh:  # a worker's changes stay there: the file tells who ran what
+            fh.write(f"{os.getpid()} {len(thetas)}\n")
+        return simulate(thetas, structures, batch)
+
+    fit.statistics_many = statistics_many
+    two = AugmentedPosterior(batch=8, jobs=2)._statistics(fit, points, sel)
+    assert one.shape == (21, 2 * len(STATES) * sel.size) and np.all(np.isfinite(one))
+    assert np.array_equal(two, one)
+    assert not np.array_equal(one[0], one[1])  # each row is its own point's: an order mixed up would show
+    ran = [line.split() for line in batches.read_text().splitlines()]
+    assert sorted(int(size) for _, size in ran) == [3, 6, 6, 6] and str(os.getpid()) not in {pid for pid, _ in ran}
+
+
+@pytest.mark.filterwarnings("ignore:os.fork\\(\\) was called:RuntimeWarning")  # JAX of another test in this process
+def test_the_emcee_ensembles_on_workers_are_those_of_one_process(tmp_path):
+    """Three ensembles on a Gaussian, on two forked workers: the chains of one process bit for
+    bit (each ensemble's seed drawn in order before any runs), each ensemble its own, the
+    generator left in the same state, the ensembles sampled by the workers."""
+    import os
+
+    calls = tmp_path / "calls"
+
+    def log_prob(X):
+        with open(calls, "a") as fh:
+            fh.write(f"{os.getpid()}\n")
+        return -0.5 * np.sum(X**2, axis=1)
+
+    starts = [np.random.default_rng(k).standard_normal((16, 2)) for k in range(3)]
+    one_rng, two_rng = np.random.default_rng(1), np.random.default_rng(1)
+    one = sample_vectorised(log_prob, starts, one_rng, 400, 200)
+    calls.unlink()
+    two = sample_vectorised(log_prob, starts, two_rng, 400, 200, jobs=2)
+    for a, b in zip(one, two, strict=True):
+        assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in ("chain", "log_prob", "tau"))
+        assert (a["burn"], a["thin"], a["acceptance"]) == (b["burn"], b["thin"], b["acceptance"])
+    assert not np.array_equal(one[1]["chain"][-1], one[2]["chain"][-1])
+    assert one_rng.integers(2**31) == two_rng.integers(2**31)
+    assert str(os.getpid()) not in set(calls.read_text().split())
 
 
 def test_a_surrogate_that_fails_its_check_gets_a_second_design(small, bank):

@@ -80,7 +80,8 @@ class DiscrepancyFinder:
         joint fits, verdict, posterior) with its seconds, e.g. ``print`` to a log file.
     jobs : int or "auto"
         Worker processes for the independent fits of each search step (the candidates of a
-        step, the refits of the backward check); the verdict is the same for every count
+        step, the refits of the backward check) and for the posterior (its batches of full-model
+        evaluations, its emcee ensembles); the verdict is the same for every count
         (:mod:`uqdrive.inference.parallel`). ``"auto"``: the CPUs this process may use.
 
     The data may carry any channels of :data:`uqdrive.vehicle.channels.CHANNELS` and a speed ``v``
@@ -241,7 +242,7 @@ class DiscrepancyFinder:
         fitter.release()  # the fits are done: the posterior batches its own simulations
         self.posterior_ = None
         if self.steps_ and self._wants_posterior(self.verdict_["effect"]):
-            self.posterior_ = AugmentedPosterior(**self.settings.discover.posterior).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
+            self.posterior_ = AugmentedPosterior(**self.settings.discover.posterior, jobs=self.jobs).fit(self.augmented_, x, rng_stream(self.seed, "discrepancy_posterior"))
             self.verdict_["posterior"] = self.posterior_.summary()
             lap("posterior")
         self.verdict_["evidence"]["seconds"] = round(_time.perf_counter() - clock, 1)

@@ -46,6 +46,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from ..bayes import MOVES, MomentLikelihood, chain_dataset
+from ..parallel import fork_map
 from ..surrogate import first_order_shift, fit_quadratic, gaussian_design, quadratic_features
 from .fit import StructureFit
 
@@ -67,7 +68,7 @@ def likelihood_times(K: int, n: int, max_times: int, channels: int = 4):
 
 
 def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int, check_every: int = 500, tau_factor: float = 50.0,
-                      burn_in: int = 0, moves: str = "de"):
+                      burn_in: int = 0, moves: str = "de", jobs: int = 1):
     """One emcee ensemble per start, ``log_prob`` vectorised over walkers (emcee ``vectorize``);
     stopping, burn and thinning as :func:`uqdrive.inference.bayes.sample_ensembles`.
 
@@ -77,6 +78,9 @@ def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int
         (B, p) -> (B,) log posterior (-inf outside the prior).
     starts : sequence of ndarray, shape (walkers, p)
         Initial walkers of each ensemble.
+    jobs : int
+        Worker processes for the ensembles (:func:`uqdrive.inference.parallel.fork_map`); each
+        ensemble's seed is drawn from ``rng`` first, in order, so every count gives the same chains.
 
     Returns
     -------
@@ -86,27 +90,31 @@ def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int
     """
     import emcee  # here, not at the top: emcee loads scipy.stats, ~0.8 s of every job's start
 
-    out = []
-    for p0 in starts:
-        walkers, p = p0.shape
-        sampler = emcee.EnsembleSampler(walkers, p, log_prob, moves=MOVES[moves](), vectorize=True)
-        sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
-        state, tau, converged = p0, np.full(p, np.inf), False
-        if burn_in > 0:
-            state = sampler.run_mcmc(state, burn_in, skip_initial_state_check=True)
-            sampler.reset()
-        while sampler.iteration < max_steps:
-            state = sampler.run_mcmc(state, min(check_every, max_steps - sampler.iteration), skip_initial_state_check=True)
-            tau = sampler.get_autocorr_time(tol=0)
-            if np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max():
-                converged = True
-                break
-        finite = np.all(np.isfinite(tau))
-        burn = int(2 * np.nanmax(tau)) if finite else sampler.iteration // 2
-        out.append({"chain": sampler.get_chain(), "log_prob": sampler.get_log_prob(), "tau": tau, "converged": converged,
-                    "burn": min(burn, sampler.iteration - 1), "thin": max(1, int(0.5 * np.nanmin(tau))) if finite else 1,
-                    "acceptance": float(np.mean(sampler.acceptance_fraction)), "burn_in": int(burn_in)})
-    return out
+    seeds = [int(rng.integers(2**31)) for _ in starts]
+    return fork_map(lambda item: _ensemble(emcee, log_prob, *item, max_steps, check_every, tau_factor, burn_in, moves),
+                    list(zip(starts, seeds)), jobs)
+
+
+def _ensemble(emcee, log_prob, p0, seed: int, max_steps: int, check_every: int, tau_factor: float, burn_in: int, moves: str) -> dict:
+    """One ensemble of :func:`sample_vectorised` from walkers ``p0`` (walkers, p), emcee's moves seeded with ``seed``."""
+    walkers, p = p0.shape
+    sampler = emcee.EnsembleSampler(walkers, p, log_prob, moves=MOVES[moves](), vectorize=True)
+    sampler.random_state = np.random.RandomState(seed).get_state()
+    state, tau, converged = p0, np.full(p, np.inf), False
+    if burn_in > 0:
+        state = sampler.run_mcmc(state, burn_in, skip_initial_state_check=True)
+        sampler.reset()
+    while sampler.iteration < max_steps:
+        state = sampler.run_mcmc(state, min(check_every, max_steps - sampler.iteration), skip_initial_state_check=True)
+        tau = sampler.get_autocorr_time(tol=0)
+        if np.all(np.isfinite(tau)) and sampler.iteration > tau_factor * tau.max():
+            converged = True
+            break
+    finite = np.all(np.isfinite(tau))
+    burn = int(2 * np.nanmax(tau)) if finite else sampler.iteration // 2
+    return {"chain": sampler.get_chain(), "log_prob": sampler.get_log_prob(), "tau": tau, "converged": converged,
+            "burn": min(burn, sampler.iteration - 1), "thin": max(1, int(0.5 * np.nanmin(tau))) if finite else 1,
+            "acceptance": float(np.mean(sampler.acceptance_fraction)), "burn_in": int(burn_in)}
 
 
 class AugmentedPosterior:
@@ -138,6 +146,9 @@ class AugmentedPosterior:
         Floor added to the likelihood's covariance, as a fraction of each state's largest std.
     batch : int
         Parameter sets per batched full-model pass.
+    jobs : int
+        Worker processes for the batches of the design and the validation, and for the emcee
+        ensembles (:func:`uqdrive.inference.parallel.fork_map`: the numbers of one process).
 
     Attributes
     ----------
@@ -167,20 +178,26 @@ class AugmentedPosterior:
 
     def __init__(self, times: int = 30, design: int | None = None, spread: float = 1.5, walkers: int | None = None, ensembles: int = 4,
                  burn_in: int = 300, max_steps: int = 4000, check_every: int = 500, tau_factor: float = 50.0, moves: str = "de",
-                 validate: int = 64, tolerance: float = 0.5, rounds: int = 2, model_error: float = 0.01, batch: int = 32):
+                 validate: int = 64, tolerance: float = 0.5, rounds: int = 2, model_error: float = 0.01, batch: int = 32, jobs: int = 1):
         self.times, self.design, self.spread = int(times), design, float(spread)
         self.walkers, self.ensembles = walkers, int(ensembles)
         self.burn_in, self.max_steps, self.check_every, self.tau_factor = int(burn_in), int(max_steps), int(check_every), float(tau_factor)
         self.moves, self.validate, self.tolerance, self.rounds = moves, int(validate), float(tolerance), int(rounds)
         if self.validate < 3:
             raise ValueError(f"validate is the number of posterior draws that check the surrogate, at least 3; got {validate}")
-        self.model_error, self.batch = float(model_error), int(batch)
+        self.model_error, self.batch, self.jobs = float(model_error), int(batch), int(jobs)
 
     # -- pieces ---------------------------------------------------------------------------------
     def _statistics(self, fit: StructureFit, points, sel):
         """Full-model [mean, std] at the likelihood times, flattened as the likelihood's, (B, 8 k)."""
         pairs = [(pt[:6], fit.structure(pt[6:])) for pt in np.atleast_2d(points)]
-        stats = fit.statistics_many([a for a, _ in pairs], [b for _, b in pairs], self.batch)[..., sel]
+        # on workers, batches of one size that fill every worker's rounds (a pass's numbers do not
+        # depend on the pairs that share it: tests/test_discrepancy_posterior.py)
+        rounds = -(-len(pairs) // (self.jobs * self.batch))
+        size = self.batch if self.jobs == 1 else -(-len(pairs) // (self.jobs * rounds))
+        batches = [pairs[start:start + size] for start in range(0, len(pairs), size)]
+        parts = fork_map(lambda b: fit.statistics_many([a for a, _ in b], [s for _, s in b], self.batch)[..., sel], batches, self.jobs)
+        stats = np.concatenate(parts)
         return stats.reshape(stats.shape[0], -1)
 
     def _whiten(self, r):
@@ -323,7 +340,8 @@ class AugmentedPosterior:
             Y = self._statistics(fit, X, sel)
             X, Y = np.vstack([pool_X[near], X]), np.vstack([pool_Y[near], Y])
             self._coef = self._surrogate((X - centre) @ self._inv_factor.T, Y)
-            runs = sample_vectorised(self.log_prob, self._starts(rng, p), rng, self.max_steps, self.check_every, self.tau_factor, self.burn_in, self.moves)
+            runs = sample_vectorised(self.log_prob, self._starts(rng, p), rng, self.max_steps, self.check_every, self.tau_factor, self.burn_in,
+                                     self.moves, self.jobs)
             ds = chain_dataset(runs, names, {})
             pooled = np.concatenate([r["chain"][r["burn"]::r["thin"]].reshape(-1, p) for r in runs])
             points = pooled[rng.choice(pooled.shape[0], size=min(self.validate, pooled.shape[0]), replace=False)]
