@@ -88,15 +88,17 @@ def sample_vectorised(log_prob, starts, rng: np.random.Generator, max_steps: int
         "chain" (steps, walkers, p), "log_prob", "tau" (p,), "converged", "burn", "thin",
         "acceptance", "burn_in" (the format :func:`uqdrive.inference.bayes.chain_dataset` reads).
     """
-    import emcee  # here, not at the top: emcee loads scipy.stats, ~0.8 s of every job's start
+    import emcee  # noqa: F401  (loaded before the workers fork, which would each load it anew)
 
     seeds = [int(rng.integers(2**31)) for _ in starts]
-    return fork_map(lambda item: _ensemble(emcee, log_prob, *item, max_steps, check_every, tau_factor, burn_in, moves),
+    return fork_map(lambda item: _ensemble(log_prob, *item, max_steps, check_every, tau_factor, burn_in, moves),
                     list(zip(starts, seeds)), jobs)
 
 
-def _ensemble(emcee, log_prob, p0, seed: int, max_steps: int, check_every: int, tau_factor: float, burn_in: int, moves: str) -> dict:
+def _ensemble(log_prob, p0, seed: int, max_steps: int, check_every: int, tau_factor: float, burn_in: int, moves: str) -> dict:
     """One ensemble of :func:`sample_vectorised` from walkers ``p0`` (walkers, p), emcee's moves seeded with ``seed``."""
+    import emcee  # here, not at the top: emcee loads scipy.stats, ~0.8 s of every job's start
+
     walkers, p = p0.shape
     sampler = emcee.EnsembleSampler(walkers, p, log_prob, moves=MOVES[moves](), vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()
