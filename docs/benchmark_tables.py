@@ -284,8 +284,10 @@ def substitutions() -> dict[str, str]:
     ts = _rec("test_suite")
     cpu = ts["cpu_s"]
     s.update(bench_ts_latest_total=_clock(ts["total_s"]), bench_ts_latest_tests=str(ts["tests"]), bench_ts_latest_pytest=_clock(ts["pytest_s"]),
-             bench_ts_latest_machine=ts["machine"], bench_ts_spread=f"{_clock(min(ts['pytest_runs_s']))} to {_clock(max(ts['pytest_runs_s']))}",
-             bench_ts_runs=str(len(ts["pytest_runs_s"])),
+             bench_ts_latest_machine=ts["machine"], bench_ts_before=_clock(ts["pytest_runs_s"][0]),
+             bench_ts_after=" and ".join(_clock(v) for v in ts["pytest_runs_s"][1:]),
+             bench_ts_spread=f"{_clock(min(ts['earlier_pytest_runs_s']))} to {_clock(max(ts['earlier_pytest_runs_s']))}",
+             bench_ts_runs=str(len(ts["earlier_pytest_runs_s"])),
              bench_ts_cpu=f"each DAG run of config/test.yaml ~{_span(cpu['dag_run'], '.0f')} CPU-s (Snakemake's own process ~{cpu['snakemake_process']:.0f} of it), "
                           f"the unit tests ~{cpu['unit_one_core']:.0f} CPU-s on one core with numba's kernels compiled, their first compilation "
                           f"~{cpu['numba_first_compile']:.0f} CPU-s more (a clean clone compiles them during the suite), the documentation build ~{cpu['docs']:.0f} CPU-s",
