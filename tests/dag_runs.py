@@ -239,9 +239,10 @@ FAILING_RULE_TARGETS = ["results/figures/fig_2_3.png", "results/data/kle.nc"]
 def failing_rule_runs(wd):
     """On Slurm, in folder ``wd``: the two targets with a tyre surface named in broken TeX (only
     fig_tyre_curves can fail: matplotlib cannot draw the legend), then with the test config again.
-    The failed run, the targets and the rules' logs it left, the rerun (tests/test_slurm.py checks them). conftest.py starts this in a thread
-    of its own when the first DAG run starts: its minute is mostly Slurm's status checks, which
-    then overlap the suite's work instead of holding an xdist worker."""
+    The failed run, the targets and the rules' logs it left, the rerun (tests/test_slurm.py checks
+    them). conftest.py starts this in a thread of its own when the first DAG run starts: its minute
+    is mostly Slurm's status checks, which then overlap the suite's work instead of holding an
+    xdist worker."""
     config = yaml.safe_load(TEST_CONFIG.read_text())
     config["figures"]["tyre_surfaces"]["Ice $\\undefinedmacro$"] = config["figures"]["tyre_surfaces"].pop("Ice")
     broken = wd / "broken.yaml"
