@@ -107,3 +107,35 @@ def test_the_magic_formula_loop_stays_numpy_where_it_is_not_arithmetic(config, t
     assert not _rhs(config, _structure("magic_formula", terms), rng, 8, None)()._compiled_loop
     assert _rhs(config, _structure("linear", terms), rng, 8, None)()._compiled_loop
     assert not _rhs(config, _structure("magic_formula", ("tyre_relaxation",)), rng, 8, None)()._compiled_loop  # no loads: no loop
+
+
+@pytest.mark.parametrize("tyre", ["linear", "magic_formula"])
+def test_the_compiled_loop_where_an_axle_is_unloaded_and_where_a_state_is_nan(config, tyre, monkeypatch):
+    """Braking and driving at 0.95 g with the mass 2.5 m up: the pitch takes more than its static
+    load from one axle (its load clamped at zero) and the friction ellipse draws on the braking and
+    the driving shares; two realisations hold NaN states. The compiled loop (its Newton steps and
+    final pass each a loop of its own) gives the NumPy loop's numbers, NaN where NumPy has NaN."""
+    rng = np.random.default_rng(11)
+    n = 129
+    s = _structure(tyre, ("longitudinal_load_transfer", "combined_slip"))
+    p = VehicleParameters.from_settings(Settings.from_config(config), mu=rng.uniform(0.6, 1.0, n), l_f=rng.uniform(1.4, 1.7, n), v_c=V)
+    speed, F_w = (np.full(3, V), np.array([0.0, -9.3, 9.3])), rng.uniform(-300.0, 300.0, (3, n))
+
+    def make():
+        return track_extended.ExtendedSingleTrackRHS(p, s, 0.97, np.deg2rad([2.0, 4.0, 6.0]), F_w, True, np.zeros(n), 2.5, T_W, speed_half=speed)
+
+    x = np.vstack([rng.normal(0, 0.2, n), rng.normal(0, 0.6, n), rng.normal(0, 0.08, n), rng.normal(0, 1, n)])
+    x[1, 5] = np.nan
+    x[2, 17] = np.nan
+    for half in (1, 2):
+        out = {}
+        for compiled in (False, True):
+            monkeypatch.setattr(track_extended, "COMPILED_LOOP", compiled)
+            rhs = make()
+            out[compiled] = np.empty((rhs.n_states, n))
+            rhs(x, half, out[compiled])
+            assert rhs._compiled_loop == compiled
+        np.testing.assert_array_equal(out[True], out[False])
+        assert np.all(np.isnan(out[True][:, [5, 17]]).any(axis=0)) and np.isfinite(np.delete(out[True], [5, 17], axis=1)).all()
+        shift = p.m * 9.3 * 2.5 / p.wheelbase  # what the pitch moves at 0.95 g, against the lighter axle's static load
+        assert np.any(shift > (rhs.static[1] if half == 1 else rhs.static[0]))

@@ -75,7 +75,8 @@ def _loads(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L, pitching, transferring, 
         a_x = v_dot * cos_b - tan_b * (a_y - v_dot * sin_b)
         shift = m * a_x * K[H_X, i] / L
         raw_f, raw_r = s_f + -shift, s_r + shift
-        F_zf, F_zr = _at_least(raw_f, 0.0), _at_least(raw_r, 0.0)
+        # np.maximum(raw, 0) written so that LLVM vectorises the loops that inline it (as _at_least it did not)
+        F_zf, F_zr = raw_f if not (raw_f < 0.0) else 0.0, raw_r if not (raw_r < 0.0) else 0.0
         d_shift = -tan_b * K[H_X, i] / L if slope else 0.0
     if not transferring:
         if not slope or not pitching:
@@ -99,7 +100,10 @@ def _capacity(T, i, K, P_f, P_r, tan_b, cos_b, sin_b, v_dot, F_w):
     m, mu = K[M, i], K[MU, i]
     a_y = (T + F_w) / m + K[A_LAT, i]
     F_x = m * (v_dot * cos_b - tan_b * (a_y - v_dot * sin_b))
-    share_f, share_r = (K[DRIVE_F, i], K[DRIVE_R, i]) if F_x > 0 else (K[BRAKE_F, i], K[BRAKE_R, i])
+    # both pairs loaded, then chosen: a load on one branch only keeps LLVM from vectorising the loop
+    drive_f, drive_r, brake_f, brake_r = K[DRIVE_F, i], K[DRIVE_R, i], K[BRAKE_F, i], K[BRAKE_R, i]
+    share_f = drive_f if F_x > 0 else brake_f
+    share_r = drive_r if F_x > 0 else brake_r
     used_f = K[KAPPA_X, i] * share_f * F_x / _at_least(mu * P_f, 1e-3 * K[STATIC_F, i])
     used_r = K[KAPPA_X, i] * share_r * F_x / _at_least(mu * P_r, 1e-3 * K[STATIC_R, i])
     return np.sqrt(_at_least(1.0 - used_f * used_f, 0.0)), np.sqrt(_at_least(1.0 - used_r * used_r, 0.0))
@@ -124,14 +128,15 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
     """The loop of ExtendedSingleTrackRHS._forces for one combination of terms (see :func:`newton_loads`).
 
     The terms are constants of the compiled loop, not arguments: a branch on an argument inside
-    the loop over realisations keeps LLVM from vectorising it (4x slower). Each combination is
-    compiled at its first use and cached on disk (numba keys a closure's cache by its values)."""
+    the loop over realisations keeps LLVM from vectorising it (4x slower). So is the kind of pass:
+    the Newton steps (T updated) and the final pass (the loads stored) are loops of their own; in
+    one loop that branched on the step, LLVM vectorised only the lateral transfer alone (the other
+    combinations 2-5x slower, benchmarks/bench_load_loop.py). Each combination is compiled at its
+    first use and cached on disk (numba keys a closure's cache by its values)."""
 
-    def loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C):
-        n = T.shape[0]
-        for step in range(steps + 1):
-            slope = step < steps
-            for i in range(n):
+    def one_pass(slope: bool):
+        def each(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C):
+            for i in range(T.shape[0]):
                 t = T[i]
                 tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
                 P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, slope)
@@ -171,6 +176,15 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
                     T[i] = t + (fr * F_f + F_r - t) / _at_least(1.0 - gain, 0.05)
                 else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
                     T[i] = t + (fr * F_f + F_r - t) / 1.0
+
+        return compiled(each)
+
+    newton, final = one_pass(True), one_pass(False)
+
+    def loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C):
+        for _ in range(steps):
+            newton(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C)
+        final(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C)
 
     return compiled(loop)
 
