@@ -4,11 +4,15 @@ the loop is not arithmetic alone."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
+from numba import njit
 
 from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
+from uqdrive.vehicle.dynamics.load_newton import ROWS, loads_step
 from uqdrive.vehicle.effects import ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 
@@ -139,3 +143,17 @@ def test_the_compiled_loop_where_an_axle_is_unloaded_and_where_a_state_is_nan(co
         assert np.all(np.isnan(out[True][:, [5, 17]]).any(axis=0)) and np.isfinite(np.delete(out[True], [5, 17], axis=1)).all()
         shift = p.m * 9.3 * 2.5 / p.wheelbase  # what the pitch moves at 0.95 g, against the lighter axle's static load
         assert np.any(shift > (rhs.static[1] if half == 1 else rhs.static[0]))
+
+
+@pytest.mark.parametrize("terms", [(False, True, False, True), (True, True, True, False)])
+def test_llvm_vectorises_a_loads_step_that_needs_hundreds_of_alias_checks(terms):
+    """The loads' step of the load-sensitive tyre (lateral transfer) and of the Magic Formula with
+    pitch, lateral transfer and combined slip stores to 14 rows: LLVM vectorises it only within
+    the raised limit of runtime alias checks (jit.MEMORY_CHECKS; at LLVM's own limits its IR has
+    no vector of doubles). Compiled anew here: numba's disk cache keeps machine code, not IR."""
+    fresh = njit(error_model="numpy")(loads_step(*terms).py_func)
+    n = 16
+    one, rows = np.ones(n), lambda r=2: np.zeros((r, n))
+    fresh(one.copy(), np.ones((len(ROWS), n)), one, one, one, rows(), one, True, 0.0, 2.85, 10.6, 30.4, rows(), rows(), rows(), rows(), rows(),
+          rows(4))
+    assert re.search(r"<\d+ x double>", fresh.inspect_llvm(fresh.signatures[0]))

@@ -12,10 +12,22 @@ checkout's tests/test_fused_chassis.py compile for 65-85 s instead of 40-55 s, f
 
 from __future__ import annotations
 
+import llvmlite.binding as llvm
 import numpy as np
 from numba import njit
 
-__all__ = ["compiled", "realisations"]
+__all__ = ["MEMORY_CHECKS", "compiled", "realisations"]
+
+#: The runtime alias checks LLVM's loop vectoriser may add to one loop. numba cannot tell LLVM that
+#: the arrays it passes do not overlap, so a loop that stores to ~14 rows and reads ~20 (the loads'
+#: step of the load-sensitive tyre, :func:`.load_newton.loads_step`) needs some 400 checks of their
+#: address ranges; LLVM's limits (8, up to 128 where its cost model finds them paid for) left such
+#: loops scalar (benchmarks/bench_memory_checks.py). The checks cost a few hundred comparisons a
+#: call, and where arrays do overlap the scalar loop runs: the numbers are the same either way.
+#: LLVM's options are global: set at import, for every loop compiled after it in the process.
+MEMORY_CHECKS = 512
+for _option in ("runtime-memory-check-threshold", "vectorize-memory-check-threshold"):
+    llvm.set_option("uqdrive", f"--{_option}={MEMORY_CHECKS}")
 
 
 def compiled(py_func):
