@@ -21,6 +21,8 @@ import signal
 import traceback
 from typing import Any, Callable, Iterable, Sequence
 
+from ..numerics.threads import no_spare_core
+
 __all__ = ["available", "fork_map", "resolve_jobs"]
 
 #: Set in a worker: a map called inside a worker's item runs as a loop (no workers of workers).
@@ -99,6 +101,7 @@ def _worker(fn, items, shared, tasks, results, parent: int) -> None:
     for signum in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, signal.SIG_DFL)
     _IN_WORKER["yes"] = True
+    no_spare_core()  # the other workers hold the other cores
     while True:
         i = tasks.get()
         if i is None or os.getppid() != parent:

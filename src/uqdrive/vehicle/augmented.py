@@ -18,6 +18,7 @@ from .effects.terms import CHASSIS_FIELDS
 from .single_track import STATES, VehicleParameters
 from .dynamics.engine import EnsembleSimulator
 from .track_rk4 import measured_channels, rk4_lateral_acceleration
+from ..numerics.threads import beside, has_spare_core, spare_core
 from ..numerics.sampled_input import INTERPOLATIONS, actual_steering, held_index, held_integral, reconstruction_error
 from .uncertainty import Germs, kle_of_wind, uniform_from_germ
 
@@ -129,9 +130,38 @@ class AugmentedSimulator(EnsembleSimulator):
     def _shapes_many(self, thetas, structures, groups) -> list:
         """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each group's pairs of one shape in one call."""
         out = [None] * len(thetas)
-        for m in shape_parts(structures, groups):
+        parts = shape_parts(structures, groups)
+        if has_spare_core():  # the parts on two cores
+            return self._on_two_cores(thetas, structures, parts)
+        for m in parts:
             for i, x in zip(m, self.simulate_many([thetas[i] for i in m], [structures[i] for i in m])):
                 out[i] = x
+        return out
+
+    def _on_two_cores(self, thetas, structures, parts) -> list:
+        """:meth:`simulate_many` of each part (lists of pair indices) on two cores (:func:`beside`),
+        the largest part of chassis pairs (each pair its own group in its pass, :meth:`_in_passes`)
+        cut in two, the parts shared out longest first by their cost: a pass costs about one pair
+        more than its pairs (the per-step calls), so a pair alone costs nearly twice its share."""
+        units = sorted(parts, key=len, reverse=True)
+        if len(units[0]) > 1 and all(structures[i].uses_chassis and structures[i].nonlinear for i in units[0]):
+            half = (len(units[0]) + 1) // 2
+            units = sorted([units[0][:half], units[0][half:], *units[1:]], key=len, reverse=True)
+        sides, cost = ([], []), [0, 0]
+        for m in units:
+            k = cost.index(min(cost))
+            sides[k].append(m)
+            cost[k] += 1 + len(m)
+
+        def run(side):
+            with spare_core(False):
+                return [self.simulate_many([thetas[i] for i in m], [structures[i] for i in m]) for m in side]
+
+        out = [None] * len(thetas)
+        for side, sims in zip(sides, beside(run, sides)):
+            for m, xs in zip(side, sims):
+                for i, x in zip(m, xs):
+                    out[i] = x
         return out
 
     def _in_passes(self, thetas, structures, kind, per_pass: int | None = None, **options) -> list:
@@ -152,7 +182,12 @@ class AugmentedSimulator(EnsembleSimulator):
                 if len(part) == 1:
                     out[part[0]] = self.simulate(thetas[part[0]], structures[part[0]])
                     continue
-                sims = self._one_pass([thetas[i] for i in part], [structures[i] for i in part], [self.germs.n] * len(part), **options)
+                one_pass = lambda m: self._one_pass([thetas[i] for i in m], [structures[i] for i in m], [self.germs.n] * len(m), **options)  # noqa: E731
+                if has_spare_core():  # half the pairs on the spare core: a pass of either half gives each pair the same numbers
+                    half = (len(part) + 1) // 2
+                    sims = [x for sims in beside(one_pass, [part[:half], part[half:]]) for x in sims]
+                else:
+                    sims = one_pass(part)
                 for i, x_i in zip(part, sims):
                     out[i] = x_i
         return out

@@ -10,6 +10,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ...numerics.threads import spare_core
 from ...vehicle.augmented import THETA_NAMES
 from ...vehicle.effects import EFFECTS, ModelStructure
 from ..parallel import fork_map
@@ -160,7 +161,8 @@ class CandidateFitter:
         hold this fitter's simulators and memo (:func:`uqdrive.inference.parallel.fork_map`)."""
         items = list(items)
         if self.jobs <= 1 or len(items) <= 1:  # no fork: the shared objects below (a simulator built for them) are not needed
-            return [fn(item) for item in items]
+            with spare_core(self.jobs > 1):  # one item on several workers: its RK4 passes in halves on two cores
+                return [fn(item) for item in items]
         d = self.data
         return fork_map(fn, items, self.jobs, (d, d.sim, d.raw_germs, d.sim_for(True), self.memo, *EFFECTS.values()))
 

@@ -1,0 +1,121 @@
+"""Half of a batch on a spare core (uqdrive.numerics.threads.beside): the loop's results computed
+by a forked child beside this process only where a caller declared a core spare, errors raised
+here, the child reaped whatever happens; the simulator's RK4 passes split that way give every
+pair the numbers of one pass, and a search's lone item declares the spare core."""
+
+import os
+import time
+
+import numpy as np
+import pytest
+
+from uqdrive.numerics import threads
+from uqdrive.numerics.threads import beside, has_spare_core, spare_core
+from uqdrive.settings import Settings
+from uqdrive.vehicle import augmented
+from uqdrive.vehicle.augmented import AugmentedSimulator
+from uqdrive.vehicle.effects import ModelStructure, effect
+
+pytestmark = [pytest.mark.skipif(not hasattr(os, "fork"), reason="a spare core's process needs fork (POSIX)"),
+              pytest.mark.filterwarnings("ignore:os.fork\\(\\) was called:RuntimeWarning")]
+
+
+def test_the_second_item_runs_in_a_child_only_within_spare_core():
+    here = os.getpid()
+    assert beside(lambda i: (i * 3, os.getpid()), [1, 2]) == [(3, here), (6, here)]
+    with spare_core():
+        assert has_spare_core()
+        (a, pid_a), (b, pid_b) = beside(lambda i: (i * 3, os.getpid()), [1, 2])
+        with spare_core(False):
+            assert not has_spare_core()
+        assert has_spare_core()
+    assert not has_spare_core()
+    assert (a, b, pid_a) == (3, 6, here) and pid_b != here
+    with spare_core():
+        assert beside(lambda i: i, [5]) == [5]  # not two items: a loop
+
+
+def test_the_childs_exception_is_raised_here_with_its_type():
+    def fn(i):
+        if i == 2:
+            raise KeyError("second item")
+        return i
+
+    with spare_core(), pytest.raises(KeyError, match="second item"):
+        beside(fn, [1, 2])
+
+
+def test_the_child_is_ended_and_reaped_when_the_first_item_fails(tmp_path):
+    mark = tmp_path / "child.pid"
+
+    def fn(i):
+        if i == 2:
+            mark.write_text(str(os.getpid()))
+            time.sleep(60)
+        while not mark.exists():
+            time.sleep(0.01)
+        raise ValueError("first item")
+
+    with spare_core(), pytest.raises(ValueError, match="first item"):
+        beside(fn, [1, 2])
+    with pytest.raises(ProcessLookupError):  # ended and reaped: no such process, not a zombie
+        os.kill(int(mark.read_text()), 0)
+
+
+def test_the_simulators_passes_in_halves_give_the_numbers_of_one_pass(config, monkeypatch):
+    """Five pairs of one chassis kind (lateral transfer on the Magic Formula, the distributions
+    and the transfer's size moved), one RK4 pass each way: the pairs computed in two halves, the
+    second by the child, equal the one pass's bit for bit (the right-hand side is element-wise in
+    the realisations); without a spare core one pass."""
+    t = np.arange(201) * 0.01
+    delta = np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5)
+    settings = Settings.from_config({**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}})
+    sim = AugmentedSimulator.drawn(settings, t, delta, 19.4, 6, np.random.default_rng(0))
+    base = effect("tyre_saturation").augment(ModelStructure(), [0.97])
+    thetas = [[0.8 + 0.01 * k, 0.05, 1.55, 0.1, -50.0, 50.0] for k in range(5)]
+    structures = [effect("lateral_load_transfer").augment(base, [0.5 + 0.05 * k, -0.2]) for k in range(5)]
+    calls = []
+    monkeypatch.setattr(augmented, "beside", lambda fn, items: calls.append([list(m) for m in items]) or threads.beside(fn, items))
+    whole = sim.simulate_many(thetas, structures)
+    assert calls == []
+    with spare_core():
+        halves = sim.simulate_many(thetas, structures)
+    assert calls == [[[0, 1, 2], [3, 4]]]
+    for a, b in zip(whole, halves):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(whole[0], whole[4])  # the pairs differ: a swapped half would show
+
+
+def test_pairs_of_several_tyre_shapes_on_two_cores_get_the_numbers_of_one_process(config, monkeypatch):
+    """A Jacobian's pairs on the tyre's whole shape with lateral transfer: five of one shape and
+    the neighbours in b and C, one pass each. On two cores the five are cut in two passes and the
+    parts shared out by cost (three pairs and the neighbour in C here, two and the one in b in the
+    child), each pair with the numbers of one process, bit for bit."""
+    t = np.arange(201) * 0.01
+    delta = np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5)
+    settings = Settings.from_config({**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}})
+    sim = AugmentedSimulator.drawn(settings, t, delta, 19.4, 6, np.random.default_rng(1))
+    shapes = [[1.0, 1.6, 0.5]] * 5 + [[1.05, 1.6, 0.5], [1.0, 1.65, 0.5]]
+    structures = [effect("lateral_load_transfer").augment(effect("tyre_shape").augment(ModelStructure(), v), [0.5 + 0.05 * k, -0.2])
+                  for k, v in enumerate(shapes)]
+    thetas = [[0.8 + 0.01 * k, 0.05, 1.55, 0.1, -50.0, 50.0] for k in range(7)]
+    sides = []
+    monkeypatch.setattr(augmented, "beside", lambda fn, items: sides.append(items) or threads.beside(fn, items))
+    whole = sim.simulate_many(thetas, structures)
+    with spare_core():
+        shared = sim.simulate_many(thetas, structures)
+    assert sides == [([[0, 1, 2], [6]], [[3, 4], [5]])]
+    for a, b in zip(whole, shared):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(whole[5], whole[6])
+
+
+def test_a_search_step_with_one_item_on_workers_declares_the_spare_core():
+    from uqdrive.inference.discrepancy.fitter import CandidateFitter
+
+    fitter = CandidateFitter.__new__(CandidateFitter)
+    fitter.jobs = 2
+    assert fitter.map(lambda _: has_spare_core(), [0]) == [True]
+    fitter.jobs = 1
+    assert fitter.map(lambda _: has_spare_core(), [0]) == [False]
+    assert not has_spare_core()
