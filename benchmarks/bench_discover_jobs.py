@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import resource
 import subprocess
 import sys
@@ -26,7 +25,7 @@ from pathlib import Path
 import yaml
 
 from bench_fused_chassis import four_wheel_case
-from timing import without
+from timing import record_arguments, without
 
 from uqdrive.io import write_dataset
 
@@ -58,8 +57,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--case", action="append", help="tour or a four-wheel case (repeatable; default tour and fw_step_030)")
-    ap.add_argument("--json")
-    ap.add_argument("--machine", default=f"{platform.machine()} machine, Python {platform.python_version()}", help="the record's machine, in words")
+    record_arguments(ap)
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -18,11 +18,10 @@
 from __future__ import annotations
 
 import argparse
-import platform
 
 import numpy as np
 
-from timing import discover_cpu, per_call, report_compiled, without
+from timing import discover_cpu, per_call, record_arguments, report_compiled, without
 from uqdrive.config import load_config
 from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
@@ -79,8 +78,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--case", action="append", help="a four-wheel case or tour (repeatable; default fw_step_030 and tour)")
     ap.add_argument("--no-discover", action="store_true")
-    ap.add_argument("--json")
-    ap.add_argument("--machine", default=f"{platform.machine()} machine, Python {platform.python_version()}", help="the record's machine, in words")
+    record_arguments(ap)
     args = ap.parse_args(argv)
     rows = []
     for terms in TERMS:

@@ -14,11 +14,10 @@
 from __future__ import annotations
 
 import argparse
-import platform
 
 import numpy as np
 
-from timing import discover_cpu, per_call, report_compiled, without
+from timing import discover_cpu, per_call, record_arguments, report_compiled, without
 from uqdrive.config import load_config
 from uqdrive.settings import Settings
 from uqdrive.vehicle.dynamics import rhs as rhs_module
@@ -46,8 +45,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-discover", action="store_true")
-    ap.add_argument("--json")
-    ap.add_argument("--machine", default=f"{platform.machine()} machine, Python {platform.python_version()}", help="the record's machine, in words")
+    record_arguments(ap)
     args = ap.parse_args(argv)
     rows = []
     for n in (300, 2400):

@@ -60,6 +60,15 @@ def per_call(rhs, x, repeats: int, calls: int):
     return seconds / calls, rates
 
 
+def record_arguments(ap) -> None:
+    """``--json FILE`` (where to write the record) and ``--machine TEXT`` (the record's machine,
+    in words; default: the architecture and Python version) on the parser ``ap``."""
+    import platform
+
+    ap.add_argument("--json", help="write the record here")
+    ap.add_argument("--machine", default=f"{platform.machine()} machine, Python {platform.python_version()}", help="the record's machine, in words")
+
+
 def discover_cpu(module, fused: bool, runs, **kwargs):
     """CPU seconds of ``uqdrive.discover(runs, **kwargs)`` with ``module.FUSED`` set to ``fused``
     (restored to True after) and the verdict as a dict."""

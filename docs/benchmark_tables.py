@@ -171,6 +171,18 @@ def discover_jobs_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def memory_checks_table() -> str:
+    r = _rec("memory_checks")
+    lines = ["| case | LLVM's limits | uqdrive's limit | ratio | same numbers |", "|---|---:|---:|---:|---|"]
+    for x in r["rows"]:
+        if x["case"].startswith("rhs"):
+            old, new = f"{x['llvm_s'] * 1e6:.1f} us", f"{x['uqdrive_s'] * 1e6:.1f} us"
+        else:
+            old, new = f"{x['llvm_s']:.0f} s ({x['cpu_llvm_s']:.0f} CPU-s)", f"{x['uqdrive_s']:.0f} s ({x['cpu_uqdrive_s']:.0f} CPU-s)"
+        lines.append(f"| {x['case']} | {old} | {new} | {x['ratio']:.2f}x | {'yes' if x['same'] else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
@@ -178,7 +190,8 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_reproduce_jobs_footing": lambda: reproduce_jobs_table("reproduce_jobs_footing"),
           "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
           "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table,
-          "bench_fused_chassis": lambda: fused_rates_table("fused_chassis"), "bench_discover_jobs": discover_jobs_table}
+          "bench_fused_chassis": lambda: fused_rates_table("fused_chassis"), "bench_discover_jobs": discover_jobs_table,
+          "bench_memory_checks": memory_checks_table}
 
 
 def substitutions() -> dict[str, str]:
@@ -267,6 +280,8 @@ def substitutions() -> dict[str, str]:
     s.update(bench_ll_machine=ll["machine"], bench_ll_realisations=str(ll["realisations"]), bench_ll_duration=f"{ll['duration_s']:g} s")
     s["bench_fr_machine"] = _rec("fused_rates")["machine"]
     s["bench_fc_machine"] = _rec("fused_chassis")["machine"]
+    mk = _rec("memory_checks")
+    s.update(bench_mchk_machine=mk["machine"], bench_mchk_llvm=" and ".join(str(v) for v in mk["llvm_limits"].values()))
     jobs = _rec("discover_jobs")
     s["bench_dj_machine"] = f"{jobs['machine']}, {jobs['cpus']} CPUs"
     lt = _rec("ltv")
