@@ -8,6 +8,9 @@ the posterior as configured) and the four-wheel cases of docs/four_wheel.md (500
 independent four-wheel car, every candidate, no posterior), fw_step_030 by default.
 
     python benchmarks/bench_discover_jobs.py [--jobs 2] [--case NAME ...] [--json FILE] [--machine TEXT]
+
+The record in docs/measurements/benchmarks_discover_jobs.json adds fw_slalom_090 (--case tour --case
+fw_step_030 --case fw_slalom_090), numba's cache filled beforehand by untimed discovers of 60 runs.
 """
 
 from __future__ import annotations
