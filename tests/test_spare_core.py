@@ -35,6 +35,19 @@ def test_the_second_item_runs_in_a_child_only_within_spare_core():
         assert beside(lambda i: i, [5]) == [5]  # not two items: a loop
 
 
+def test_the_childs_arrays_are_this_processs_own_copy_on_write():
+    """The child's arrays come back through a shared memory file, mapped privately: writable here,
+    and a process forked later that writes into one changes its own copy only."""
+    from uqdrive.inference.parallel import fork_map
+
+    with spare_core():
+        _, b = beside(lambda k: np.arange(1000.0) * k, [1, 2])
+    np.testing.assert_array_equal(b, np.arange(1000.0) * 2)
+    b[1] = 5.0
+    assert fork_map(lambda _: (b.__setitem__(0, -1.0), float(b[0]))[1], [0, 1], 2) == [-1.0, -1.0]
+    assert b[0] == 0.0 and b[1] == 5.0
+
+
 def test_the_childs_exception_is_raised_here_with_its_type():
     def fn(i):
         if i == 2:

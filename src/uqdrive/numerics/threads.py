@@ -89,7 +89,8 @@ def _receive(payload: bytes, memory: int | None):
     data, sizes = pickle.loads(payload)
     if not sum(sizes):  # no buffers, or empty ones (a file cannot map zero bytes)
         return pickle.loads(data, buffers=[bytearray()] * len(sizes))
-    pages = mmap.mmap(memory, sum(sizes))
+    # private pages (copy on write): a later worker that wrote into an array would not change this process's
+    pages = mmap.mmap(memory, sum(sizes), access=mmap.ACCESS_COPY)
     views, start = [], 0
     for size in sizes:
         views.append(memoryview(pages)[start:start + size])
