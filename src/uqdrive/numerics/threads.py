@@ -14,6 +14,7 @@ import mmap
 import os
 import pickle
 import signal
+from os import _exit
 from typing import Any, Callable, Sequence
 
 from threadpoolctl import ThreadpoolController
@@ -137,7 +138,7 @@ def _fork_second(fn, items, memory):
                 _send(("error", RuntimeError(f"{type(error).__name__}: {error}")), write, None)
             status = 0
         finally:
-            os._exit(status)
+            _exit(status)
     os.close(write)
     done = False
     try:
