@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from timing import record_arguments, without
+from timing import moved, record_arguments, without
 
 #: LLVM's own limits on a loop's runtime alias checks (its options' defaults).
 LLVM_LIMITS = {"runtime-memory-check-threshold": 8, "vectorize-memory-check-threshold": 128}
@@ -70,15 +70,6 @@ def _child(argv: list[str]) -> int:
     from uqdrive.cli.main import main
 
     return main([what, *rest])
-
-
-def _moved(a, b, path: str = "") -> list[str]:
-    """Where two verdicts (their clock readings aside) differ: the paths of the differing entries."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return [p for k in sorted(set(a) | set(b)) for p in (_moved(a[k], b[k], f"{path}/{k}") if k in a and k in b else [f"{path}/{k}"])]
-    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        return [p for i, (x, y) in enumerate(zip(a, b)) for p in _moved(x, y, f"{path}[{i}]")]
-    return [] if a == b or (a != a and b != b) else [path]
 
 
 def _run(variant: str, cache: Path, args: list[str]) -> tuple[float, float]:
@@ -133,7 +124,8 @@ def main(argv=None):
                 timed[variant] = (wall, cpu, json.loads((out / "verdict.json").read_text()))
             (w0, c0, v0), (w1, c1, v1) = timed["llvm"], timed["uqdrive"]
             rows.append({"case": f"discover, {case}, every candidate, --jobs {args.jobs} (wall s)", "llvm_s": w0, "uqdrive_s": w1,
-                         "ratio": w0 / w1, "same": not _moved(without(v0), without(v1)), "moved": _moved(without(v0), without(v1)),
+                         "ratio": w0 / w1, "same": not moved(without(v0), without(v1), rtol=0.0),
+                         "moved": [path for path, _, _ in moved(without(v0), without(v1), rtol=0.0)],
                          "cpu_llvm_s": c0, "cpu_uqdrive_s": c1})
     print(f"{'case':<80}{'LLVM limits':>13}{'uqdrive':>10}{'ratio':>8}  same")
     for r in rows:

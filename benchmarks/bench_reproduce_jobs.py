@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 from unittest import mock
 
-from timing import without
+from timing import moved, without
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import ranking
 from uqdrive.inference.discrepancy.comparison import NullBands
@@ -43,19 +43,6 @@ DEFAULT_JOBS = ("cell:actuator_lag_200ms:imu_speed:20", "cell:sensor_scale_psi_d
                 "discover:combined_saturation_lag", "discover:tyre_saturation_5deg", "discover:actuator_delay_150ms", "discover:none_step")
 #: What a verdict says, as opposed to how well it fits: these must be equal between the variants.
 VERDICT_KEYS = ("effect", "verdict", "correct", "untestable", "ambiguous_with", "decision", "named", "significant", "rejected", "removed")
-
-
-def moved(old, new, path="", rtol=1e-6):
-    """(path, old, new) of every number of ``new`` that differs from ``old`` by more than ``rtol``
-    relative, and of every other value that differs (a name, a structure)."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        return [m for k in sorted(set(old) | set(new)) for m in moved(old.get(k), new.get(k), f"{path}.{k}", rtol)]
-    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
-        return [m for i, (a, b) in enumerate(zip(old, new)) for m in moved(a, b, f"{path}[{i}]", rtol)]
-    numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (old, new))
-    if numbers and abs(old - new) <= rtol * max(abs(old), abs(new), 1e-300):
-        return []
-    return [] if not numbers and old == new else [(path, old, new)]
 
 
 def null_sd(output):

@@ -60,6 +60,20 @@ def per_call(rhs, x, repeats: int, calls: int):
     return seconds / calls, rates
 
 
+def moved(old, new, path="", rtol=1e-6):
+    """(path, old, new) of every number of ``new`` that differs from ``old`` by more than ``rtol``
+    relative (``rtol`` 0: any difference; NaN equals NaN), and of every other value that differs
+    (a name, a structure)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [m for k in sorted(set(old) | set(new)) for m in moved(old.get(k), new.get(k), f"{path}.{k}", rtol)]
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        return [m for i, (a, b) in enumerate(zip(old, new)) for m in moved(a, b, f"{path}[{i}]", rtol)]
+    numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (old, new))
+    if numbers and (abs(old - new) <= rtol * max(abs(old), abs(new), 1e-300) or (old != old and new != new)):  # NaN on both sides: not moved
+        return []
+    return [] if not numbers and old == new else [(path, old, new)]
+
+
 def record_arguments(ap) -> None:
     """``--json FILE`` (where to write the record) and ``--machine TEXT`` (the record's machine,
     in words; default: the architecture and Python version) on the parser ``ap``."""

@@ -119,6 +119,8 @@ def beside(fn: Callable[[Any], Any], items: Sequence) -> list:
 
 
 def _fork_second(fn, items, memory):
+    """:func:`beside`'s fork: ``fn(items[1])`` in the child, sent through ``memory`` (or the pipe);
+    ``fn(items[0])`` here; the child reaped, or killed and reaped where this side raises."""
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: compute, send, end without running the parent's exit handlers
