@@ -1,7 +1,8 @@
 """Half of a batch on a spare core (uqdrive.numerics.threads.beside): the loop's results computed
 by a forked child beside this process only where a caller declared a core spare, errors raised
 here, the child reaped whatever happens; the simulator's RK4 passes split that way give every
-pair the numbers of one pass, and a search's lone item declares the spare core."""
+pair the numbers of one pass, a search's lone item declares the spare core, and a map's last
+items borrow the cores its idle workers left."""
 
 import os
 import time
@@ -133,4 +134,53 @@ def test_a_search_step_with_one_item_on_workers_declares_the_spare_core():
     assert fitter.map(lambda _: has_spare_core(), [0]) == [True]
     fitter.jobs = 1
     assert fitter.map(lambda _: has_spare_core(), [0]) == [False]
+    assert not has_spare_core()
+
+
+def _wait_for(condition, seconds: float = 20.0) -> bool:
+    """Poll ``condition`` until it holds or ``seconds`` pass; whether it held."""
+    end = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def test_a_maps_last_item_borrows_the_core_a_worker_left_idle():
+    """Two workers, two items: while the first worker holds its item, the second's has no core
+    to borrow; once the first found no item left, the second's batch runs half in a child, and
+    the borrowed core is counted again when the child is done."""
+    from uqdrive.inference.parallel import fork_map
+
+    def item(k):
+        if k == 0:
+            return None
+        alone = has_spare_core()
+        here = os.getpid()
+        assert _wait_for(has_spare_core), "the idle worker's core was never lent"
+        pids = [pid for _, pid in beside(lambda i: (i, os.getpid()), [0, 1])]
+        return alone, here, pids, has_spare_core()
+
+    _, (alone, here, pids, again) = fork_map(item, [0, 1], 2)
+    assert pids[0] == here and pids[1] != here
+    assert again
+    # alone may be True only if the other worker had already finished; a worker with items left keeps its core
+    busy = fork_map(lambda k: (_wait_for(lambda: False, 0.3), has_spare_core())[1], [0, 1, 2, 3], 2)
+    assert busy[:2] == [False, False]
+
+
+def test_a_borrowed_core_is_not_lent_on_to_the_childs_half_or_outside_a_map():
+    from uqdrive.inference.parallel import fork_map
+
+    def item(k):
+        if k == 0:
+            return None
+        assert _wait_for(has_spare_core)
+        inner = beside(lambda i: (has_spare_core(), os.getpid()), [0, 1])
+        with spare_core(False):
+            held = has_spare_core()
+        return [flag for flag, _ in inner], held, has_spare_core()
+
+    assert fork_map(item, [0, 1], 2)[1] == ([False, False], False, True)
     assert not has_spare_core()

@@ -21,7 +21,7 @@ import signal
 import traceback
 from typing import Any, Callable, Iterable, Sequence
 
-from ..numerics.threads import no_spare_core
+from ..numerics.threads import borrow_idle_cores, no_spare_core
 
 __all__ = ["available", "fork_map", "resolve_jobs"]
 
@@ -89,22 +89,27 @@ def _loads(data: bytes, shared: dict):
     return _ReferenceUnpickler(io.BytesIO(data), shared).load()
 
 
-def _worker(fn, items, shared, tasks, results, parent: int) -> None:
+def _worker(fn, items, shared, tasks, results, parent: int, idle=None) -> None:
     """A worker's loop: take an item's index, compute it, send ("ok", bytes), ("error", the
     exception pickled, its traceback) or ("local", None) for a result that cannot be pickled,
     which the parent then computes itself.
 
     The parent alone answers an interruption: a terminal's Ctrl-C reaches the whole process
     group, so the workers ignore it and end, silently, when the parent ends them (SIGTERM) or
-    is gone (checked between items)."""
+    is gone (checked between items). A worker that finds no item left counts its core in the
+    semaphore ``idle`` (None: none), which the others borrow for the fits they still compute."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     for signum in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, signal.SIG_DFL)
     _IN_WORKER["yes"] = True
     no_spare_core()  # the other workers hold the other cores
+    if idle is not None:
+        borrow_idle_cores(idle)
     while True:
         i = tasks.get()
         if i is None or os.getppid() != parent:
+            if i is None and idle is not None:
+                idle.release()  # this core, to the workers still computing
             return
         try:
             value = fn(items[i])
@@ -152,12 +157,12 @@ def fork_map(fn: Callable[[Any], Any], items: Sequence, jobs: int, shared: Itera
         return [fn(item) for item in items]
     refs = {id(obj): obj for obj in shared}
     ctx = multiprocessing.get_context("fork")
-    tasks, results = ctx.SimpleQueue(), ctx.SimpleQueue()
+    tasks, results, idle = ctx.SimpleQueue(), ctx.SimpleQueue(), ctx.Semaphore(0)
     for i in range(len(items)):
         tasks.put(i)
     for _ in range(workers):
         tasks.put(None)
-    procs = [ctx.Process(target=_worker, args=(fn, items, refs, tasks, results, os.getpid()), daemon=True) for _ in range(workers)]
+    procs = [ctx.Process(target=_worker, args=(fn, items, refs, tasks, results, os.getpid(), idle), daemon=True) for _ in range(workers)]
     out: dict[int, tuple] = {}
     try:
         for p in procs:

@@ -1,5 +1,6 @@
 """The cores a computation uses: one BLAS thread for the small-matrix kernels, and a forked process
-beside this one for half of a batch where the caller has a core to spare (:func:`spare_core`).
+beside this one for half of a batch where the caller has a core to spare (:func:`spare_core`) or
+another worker left its core idle (:func:`borrow_idle_cores`).
 
 OpenBLAS threads make products and solves of tens-by-tens matrices about twice as slow on a
 2-core machine; a batch of independent parts (the RK4 passes of a fit's Jacobian) computed on two
@@ -9,6 +10,7 @@ cores while the other core would idle takes about half the time.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import mmap
 import os
@@ -19,10 +21,13 @@ from typing import Any, Callable, Sequence
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["beside", "has_spare_core", "no_spare_core", "single_blas_thread", "spare_core", "with_single_blas_thread"]
+__all__ = ["beside", "borrow_idle_cores", "has_spare_core", "no_spare_core", "single_blas_thread", "spare_core", "with_single_blas_thread"]
 
-#: Whether this process may fork one more process now (set by :func:`spare_core`).
-_SPARE = {"core": False}
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+#: Whether this process may fork one more process now (set by :func:`spare_core`), and the
+#: semaphore counting the idle cores it may borrow one of (:func:`borrow_idle_cores`).
+_SPARE: dict = {"core": False, "idle": None}
 
 
 @functools.cache
@@ -50,23 +55,45 @@ def with_single_blas_thread(function):
 @contextlib.contextmanager
 def spare_core(spare: bool = True):
     """Within: :func:`beside` may fork a process (``spare``), e.g. while a search computes one
-    item alone with a worker's core idle. Restores the previous setting on exit."""
-    before = _SPARE["core"]
+    item alone with a worker's core idle; without ``spare``, no core is borrowed either (the
+    half of a batch that this process computes beside its child). Restores both on exit."""
+    before = dict(_SPARE)
     _SPARE["core"] = bool(spare) and hasattr(os, "fork")
+    if not spare:
+        _SPARE["idle"] = None
     try:
         yield
     finally:
-        _SPARE["core"] = before
+        _SPARE.update(before)
+
+
+def _idle_now(idle) -> bool:
+    """Whether the semaphore ``idle`` counts a core now (without taking it)."""
+    try:
+        return idle.get_value() > 0
+    except NotImplementedError:  # macOS has no sem_getvalue
+        if not idle.acquire(False):
+            return False
+        idle.release()
+        return True
 
 
 def has_spare_core() -> bool:
-    """Whether :func:`beside` would compute its second item in a process of its own now."""
-    return _SPARE["core"]
+    """Whether :func:`beside` would compute its second item in a process of its own now (a
+    borrowed core may be taken by another worker before: then :func:`beside` computes both here)."""
+    return _SPARE["core"] or (_SPARE["idle"] is not None and _idle_now(_SPARE["idle"]))
 
 
 def no_spare_core() -> None:
     """Forbid :func:`beside`'s fork in this process from now on (a worker process's first call)."""
-    _SPARE["core"] = False
+    _SPARE["core"], _SPARE["idle"] = False, None
+
+
+def borrow_idle_cores(idle) -> None:
+    """From now on :func:`beside` may borrow a core that ``idle`` counts (a semaphore the
+    workers of one map share, released by each worker that found no item left), returning it
+    when its child is done: the last fits of a map run on the cores the others left."""
+    _SPARE["idle"] = idle if hasattr(os, "fork") else None
 
 
 def _send(value, pipe: int, memory: int | None) -> None:
@@ -108,7 +135,10 @@ def beside(fn: Callable[[Any], Any], items: Sequence) -> list:
     included). Each item is computed from the same inputs as in the loop, so the results are the
     loop's, bit for bit, where ``fn`` changes nothing the other item reads."""
     items = list(items)
-    if len(items) != 2 or not _SPARE["core"]:
+    if len(items) != 2:
+        return [fn(item) for item in items]
+    idle = None if _SPARE["core"] else _SPARE["idle"]
+    if not _SPARE["core"] and not (idle is not None and idle.acquire(False)):
         return [fn(item) for item in items]
     memory = os.memfd_create("uqdrive-beside") if hasattr(os, "memfd_create") else None
     try:
@@ -116,12 +146,24 @@ def beside(fn: Callable[[Any], Any], items: Sequence) -> list:
     finally:
         if memory is not None:
             os.close(memory)  # a mapping of it stays valid
+        if idle is not None:
+            idle.release()  # the borrowed core, for the next batch (of this worker or another)
+
+
+def _end_with(parent: int) -> None:
+    """Have this (forked) process killed when its parent ends (Linux's PR_SET_PDEATHSIG): a
+    worker that a map ends by SIGTERM runs no ``finally`` that could end its child."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent:  # the parent ended before the request
+        _exit(1)
 
 
 def _fork_second(fn, items, memory):
     """:func:`beside`'s fork: ``fn(items[1])`` in the child, sent through ``memory`` (or the pipe);
     ``fn(items[0])`` here; the child reaped, or killed and reaped where this side raises."""
     read, write = os.pipe()
+    parent = os.getpid()
     pid = os.fork()
     if pid == 0:  # the child: compute, send, end without running the parent's exit handlers
         status = 1
@@ -129,7 +171,8 @@ def _fork_second(fn, items, memory):
             os.close(read)
             with contextlib.suppress(ValueError):  # a terminal's Ctrl-C is the parent's to answer
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
-            _SPARE["core"] = False
+            _end_with(parent)
+            no_spare_core()
             try:
                 value = ("ok", fn(items[1]))
             except BaseException as error:  # noqa: BLE001  (raised in the parent)
