@@ -535,8 +535,9 @@ def test_half_angle_sine_and_cosine_are_numpys_to_rounding():
     """The chassis right-hand side takes sin and cos from the tangent of the half angle (NumPy
     vectorises tan, not the float64 sine): within 4 eps of np.sin and np.cos on |angle| < pi (tan
     and the three operations after it round once each, and cos = (1 - t^2) / (1 + t^2) loses no
-    more near pi / 2); a course turned beyond 3 rad takes np.sin itself, where the half angle's
-    tangent grows without bound."""
+    more near pi / 2); a course turned beyond 3 rad (or NaN) takes np.sin itself, where the half
+    angle's tangent grows without bound, each realisation by its own angle: the sines of a batch
+    are those of its parts computed apart."""
     from uqdrive.vehicle.axle_loads import course_sine as _sine, half_angle_sin_cos
 
     rng = np.random.default_rng(5)
@@ -546,5 +547,8 @@ def test_half_angle_sine_and_cosine_are_numpys_to_rounding():
     assert np.abs(s - np.sin(angle)).max() <= 4 * eps and np.abs(c - np.cos(angle)).max() <= 4 * eps
     near = angle[-10:]  # within 3 rad
     assert np.array_equal(_sine(near), half_angle_sin_cos(near)[0])
-    far = np.array([0.1, 7.5, -12.0])
-    assert np.array_equal(_sine(far), np.sin(far))
+    far = np.array([0.1, 7.5, -12.0, np.nan])
+    np.testing.assert_array_equal(_sine(far), [half_angle_sin_cos(0.1)[0], np.sin(7.5), np.sin(-12.0), np.nan])
+    batch = np.concatenate([angle[:7], far])
+    np.testing.assert_array_equal(_sine(batch), np.concatenate([_sine(angle[:7]), _sine(far)]))
+    assert not np.array_equal(np.sin(angle[:7]), half_angle_sin_cos(angle[:7])[0])  # NumPy's sine for all would differ

@@ -107,9 +107,9 @@ def test_the_simulators_passes_in_halves_give_the_numbers_of_one_pass(config, mo
 
 def test_pairs_of_several_tyre_shapes_on_two_cores_get_the_numbers_of_one_process(config, monkeypatch):
     """A Jacobian's pairs on the tyre's whole shape with lateral transfer: five of one shape and
-    the neighbours in b and C, one pass each. On two cores the five are cut in two passes and the
-    parts shared out by cost (three pairs and the neighbour in C here, two and the one in b in the
-    child), each pair with the numbers of one process, bit for bit."""
+    the neighbours in b and C, one chassis pass (each realisation its pair's factors). On two cores
+    the pass is cut in halves, each pair with the numbers of one process, bit for bit; a pass of
+    single-track pairs (no chassis term) has one shape: its parts are shared out by cost."""
     sim = _slalom(config, 1)
     shapes = [[1.0, 1.6, 0.5]] * 5 + [[1.05, 1.6, 0.5], [1.0, 1.65, 0.5]]
     structures = [effect("lateral_load_transfer").augment(effect("tyre_shape").augment(ModelStructure(), v), [0.5 + 0.05 * k, -0.2])
@@ -120,10 +120,18 @@ def test_pairs_of_several_tyre_shapes_on_two_cores_get_the_numbers_of_one_proces
     whole = sim.simulate_many(thetas, structures)
     with spare_core():
         shared = sim.simulate_many(thetas, structures)
-    assert sides == [([[0, 1, 2], [6]], [[3, 4], [5]])]
+    assert sides == [[[0, 1, 2, 3], [4, 5, 6]]]
     for a, b in zip(whole, shared):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(whole[5], whole[6])
+    single = [effect("tyre_shape").augment(ModelStructure(), v) for v in shapes]
+    sides.clear()
+    whole = sim.simulate_many(thetas, single)
+    with spare_core():
+        shared = sim.simulate_many(thetas, single)
+    assert sides == [([[0, 1, 2, 3, 4]], [[5], [6]])]  # a non-chassis part moves whole
+    for a, b in zip(whole, shared):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_a_search_step_with_one_item_on_workers_declares_the_spare_core():

@@ -122,3 +122,48 @@ def test_a_batch_is_split_by_group_then_by_shape():
     a, b, c = _shape(), _shape(0.8, 1.6, 0.2), ModelStructure()
     assert shape_parts([a, b, a, c]) == [[0, 2], [1], [3]]
     assert shape_parts([a, b, a, a], groups=[2, 2]) == [[0], [1], [2, 3]]
+
+
+#: Chassis structures whose compiled rates read B and C in different loops: the loads' Newton
+#: loop (lateral, longitudinal transfer and combined slip), the front's yield on those loads and
+#: on static ones, the load-sensitive tyre's stepwise loop, the relaxing tyre with roll steer.
+CHASSIS = {"lateral transfer": [("lateral_load_transfer", [0.5, -0.2])],
+           "yield on the loads": [("lateral_load_transfer", [0.5, -0.2]), ("compliance_steer", [0.4])],
+           "yield on static loads": [("compliance_steer", [0.4])],
+           "pitch and combined slip": [("longitudinal_load_transfer", [0.5]), ("combined_slip", [1.0, 0.5])],
+           "load-sensitive tyre": [("load_sensitive_tyre", [-0.3, -0.1])],
+           "relaxation and roll steer": [("tyre_relaxation", [0.5]), ("roll_steer", [0.3, 2.0, 0.6])]}
+
+
+@pytest.mark.parametrize("terms", list(CHASSIS), ids=list(CHASSIS))
+def test_chassis_pairs_of_three_shapes_share_one_pass_with_the_numbers_of_each_alone(config, monkeypatch, terms):
+    """A Jacobian's pairs on the tyre's shape with a chassis term (the point and its neighbours in
+    b and in C and E) in one RK4 pass, each realisation with its pair's B and C: each pair's
+    channels those it gets alone, bit for bit, compiled and by the NumPy reference alike; a pass
+    that gave every pair the first pair's factors would differ (the shapes move the channels)."""
+    from uqdrive.vehicle import augmented, track_extended
+
+    t = np.arange(201) * 0.01
+    delta = np.deg2rad(4.0) * np.sin(2 * np.pi * t / 1.5)
+    settings = Settings.from_config({**config, "vehicle": {**config["vehicle"], "cg_height": 0.55, "track_width": 1.6}})
+    sim = AugmentedSimulator.drawn(settings, t, delta, 22.0, 5, np.random.default_rng(3))
+    structures = []
+    for shape in ([1.0, 1.6, 0.5], [1.05, 1.6, 0.5], [1.0, 1.7, 0.3]):
+        s = _shape(*shape)
+        for name, values in CHASSIS[terms]:
+            s = effect(name).augment(s, values)
+        structures.append(s)
+    thetas = [THETA * [1.0 - 0.02 * k, 1, 1, 1, 1, 1] for k in range(3)]
+    passes = []
+    one_pass = AugmentedSimulator._one_pass
+    monkeypatch.setattr(AugmentedSimulator, "_one_pass", lambda self, th, *a, **k: passes.append(len(th)) or one_pass(self, th, *a, **k))
+    shared = sim.simulate_many(thetas, structures)
+    assert passes == [3]
+    alone = [sim.simulate(th, s) for th, s in zip(thetas, structures)]
+    for a, b in zip(shared, alone):
+        np.testing.assert_array_equal(a, b)
+    assert all(np.abs(alone[k] - alone[0]).max() > 1e-6 * np.abs(alone[0]).max() for k in (1, 2))
+    monkeypatch.setattr(track_extended, "FUSED", False)
+    for a, b in zip(sim.simulate_many(thetas, structures), alone):
+        np.testing.assert_array_equal(a, b)
+    assert augmented.shape_parts(structures) == [[0], [1], [2]]  # the single-track model's passes stay one shape each

@@ -103,7 +103,8 @@ class AugmentedSimulator(EnsembleSimulator):
         """:meth:`simulate` for several (theta, structure) pairs, as one batch where the model
         is integrated numerically (one RK4 pass over all realisations of all pairs: a step's
         NumPy call overhead is paid once; at 300 realisations it is half the cost of a pass);
-        pairs of different tyre shapes (b, C) in passes of one shape each.
+        pairs of different tyre shapes (b, C) in passes of one shape each, but chassis pairs in
+        one pass whose realisations each carry their pair's stiffness and shape factors.
 
         ``groups``: numbers of consecutive pairs (summing to their count) that are computed as
         if each group were a call of its own: the pairs of a group get the same numbers, to the
@@ -111,7 +112,8 @@ class AugmentedSimulator(EnsembleSimulator):
         Default: one group.
         """
         thetas, n = [np.asarray(th, float) for th in thetas], self.germs.n
-        if len({s.tyre_shape() for s in structures}) > 1:
+        chassis = all(s.uses_chassis and s.nonlinear for s in structures)
+        if len({s.tyre_shape() for s in structures}) > 1 and not (chassis and len(thetas) > 1):
             return self._shapes_many(thetas, structures, groups)
         if self.speed is not None and len(thetas) > 1 and not any(s.nonlinear for s in structures):
             return self._profile_many(thetas, structures)
@@ -128,7 +130,8 @@ class AugmentedSimulator(EnsembleSimulator):
         return self._one_pass(thetas, structures, None if groups is None else [g * n for g in groups])
 
     def _shapes_many(self, thetas, structures, groups) -> list:
-        """:meth:`simulate_many` of pairs of different tyre shapes (a pass shares one B and C): each group's pairs of one shape in one call."""
+        """:meth:`simulate_many` of pairs of different tyre shapes on the single-track model (its pass shares one B and C): each group's
+        pairs of one shape in one call."""
         out = [None] * len(thetas)
         parts = shape_parts(structures, groups)
         if has_spare_core():  # the parts on two cores
@@ -217,18 +220,24 @@ class AugmentedSimulator(EnsembleSimulator):
 
     def _batch(self, thetas, structures, chassis: bool = False):
         """Parameters, mean wind, gust coefficients and one structure (its per-pair fields as
-        arrays of n per pair) of the pairs' realisations side by side."""
+        arrays of n per pair) of the pairs' realisations side by side; pairs of different tyre
+        shapes (chassis passes) give each realisation its pair's stiffness and shape factors."""
         n = self.germs.n
         parts = [self.parameters(th) for th in thetas]
         p = replace(parts[0][0], mu=np.concatenate([q[0].mu for q in parts]), l_f=np.concatenate([q[0].l_f for q in parts]),
                     m_load=np.concatenate([np.broadcast_to(q[0].m_load, (n,)) for q in parts]))
+        if len({s.tyre_shape() for s in structures}) > 1:
+            shaped = [with_tyre_shape(p, s) for s in structures]
+            p = replace(p, **{f: np.repeat([getattr(q, f) for q in shaped], n) for f in ("c_Sf", "c_Sr", "C")})
+        else:
+            p = with_tyre_shape(p, structures[0])
         wind = np.concatenate([q[1] for q in parts])
         coeffs = np.concatenate([q[2] * s.gust_scale for q, s in zip(parts, structures)])
         per = lambda attr, default: np.repeat([default if getattr(s, attr) is None else getattr(s, attr) for s in structures], n)  # noqa: E731
         fields = {"tyre_curvature": self.car.E, "lateral_acceleration": 0.0, "course_weight": 0.0}
         if chassis:
             fields.update({f: 0.0 for f in CHASSIS_FIELDS})
-        return with_tyre_shape(p, structures[0]), wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
+        return p, wind, coeffs, replace(structures[0], **{f: per(f, d) for f, d in fields.items()})
 
     def _chassis_kind(self, s: ModelStructure):
         """What must be equal for pairs to share an RK4 pass of the chassis right-hand side: the

@@ -48,11 +48,15 @@ def half_angle_sin_cos(angle):
 
 
 def course_sine(angle):
-    """sin(angle) (n,): by :func:`half_angle_sin_cos` while every angle is within 3 rad of zero
-    (a course that has turned further takes NumPy's sine)."""
-    if np.abs(angle).max(initial=0.0) < 3.0:
+    """sin(angle) (n,): by :func:`half_angle_sin_cos` where the angle is within 3 rad of zero, by
+    NumPy's sine where a course has turned further (or is NaN): each realisation by its own angle,
+    so that a realisation's numbers do not depend on the others simulated with it."""
+    near = np.abs(angle) < 3.0
+    if near.all():
         return half_angle_sin_cos(angle)[0]
-    return np.sin(angle)
+    out = np.sin(angle)
+    out[near] = half_angle_sin_cos(angle[near])[0]
+    return out
 
 
 def yielded_front_slip(q0, peak, B, C, E, kappa, saturating: bool):

@@ -91,6 +91,14 @@ FUSED = True  # the compiled rates where they serve (False: the NumPy path, the 
 __all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
 
 
+def _stiffness_factors(p: VehicleParameters) -> np.ndarray:
+    """B_f and B_r (-): (2, 1) where the car has one tyre, (2, n) where the realisations of a pass
+    of several tyre shapes each have their own (per-realisation ``c_Sf``, ``c_Sr``)."""
+    if np.ndim(p.c_Sf) == 0 and np.ndim(p.c_Sr) == 0:
+        return np.array([[p.c_Sf], [p.c_Sr]], float)
+    return np.stack(np.broadcast_arrays(np.asarray(p.c_Sf, float), np.asarray(p.c_Sr, float)))
+
+
 def _load_sensitive(s) -> bool:  # q or p_Dz of the load-sensitive tyre not 0
     return term_of("stiffness_load_sensitivity").active(s)
 
@@ -126,7 +134,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         self.lever = np.stack(np.broadcast_arrays(self.balance.l_f, -p.l_r))
         self.m, self.L, self.g = p.m, p.wheelbase, p.g
         self.static = np.stack(np.broadcast_arrays(p.F_fz, p.F_rz))  # (2, n) static axle loads
-        self.mu, self.B, self.C, self.E = p.mu, np.array([[p.c_Sf], [p.c_Sr]]), p.C, E
+        self.mu, self.B, self.C, self.E = p.mu, _stiffness_factors(p), p.C, E
         self.saturating = s.tyre == "magic_formula"
         self.course_sine = self.saturating or bool(s.course_exact)
         self.h_x = np.asarray(s.pitch_height, float)
@@ -169,7 +177,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         self._sigma_or_inf = np.where(self.sigma > 0, self.sigma, np.inf) if self.relaxed else None
         # the compiled loop where it is arithmetic alone: the linear tyre, or the Magic Formula at
         # slip angles the loads leave alone (not its load-sensitive stiffness, not yielding wheels)
-        self._loop_compiles = self.loaded and COMPILED_LOOP and all(np.ndim(a) == 0 for a in (p.c_Sf, p.c_Sr, self.C))
+        self._loop_compiles = self.loaded and COMPILED_LOOP and all(np.ndim(a) <= 1 for a in (p.c_Sf, p.c_Sr, self.C))
         self._compiled_loop = self._loop_compiles and not (self.saturating and (self.sensitive or self.compliant))
         self._constants, self._fused = None, None if FUSED else False  # the compiled rates, built at the first call
 
@@ -296,7 +304,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
                                      self.load_factors(T, beta, v_dot, F_w), unit)
             dF = F / np.maximum(P, floor)
             if self.compliant and lagged is None:
-                dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0, 0] * self.C
+                dF[0] /= 1.0 + self.kappa * P[0] * self.mu * self.B[0] * self.C
             front = self._cos_of(d) if self.saturating else 1.0
             gain = front * dF[0] * dP[0] + dF[1] * dP[1] if np.ndim(dP) else 0.0  # static loads (combined slip alone): none
             T = T + (front * F[0] + F[1] - T) / (self._at_least(1.0 - gain, 0.05) if np.ndim(gain) else max(1.0 - gain, 0.05))
@@ -316,7 +324,7 @@ class ExtendedSingleTrackRHS(AxleLoads):
         trig = np.stack([full(beta.tan), full(beta.cos), full(beta.sin)]) if needs_trig else np.zeros((3, n))
         front = full(self._cos_of(delta)) if self.saturating else np.ones(n)
         return newton_loads(T, self.load_constants(n), trig, front, np.ascontiguousarray(slip, float), np.zeros((0, n)) if unit is None else
-                            np.ascontiguousarray(unit, float), full(F_w), LOAD_NEWTON_STEPS, v_dot, self.L, self.B[0, 0], self.B[1, 0], self.C,
+                            np.ascontiguousarray(unit, float), full(F_w), LOAD_NEWTON_STEPS, v_dot, self.L, self.B[0], self.B[1], self.C,
                             pitching=self.pitching, transferring=self.transferring, slipping=self.slipping, sensitive=self.sensitive,
                             yielding=self.compliant and not self.relaxed)
 

@@ -23,10 +23,11 @@ from numba import njit
 
 from .fused_rates import half_angle_sine, item, side_slip_at
 from .fused_yield import FrontYield, yielding_newton
-from .jit import compiled, realisations
+from .jit import compiled, factor, realisations
 from .load_newton import curve_tangent, newton_loop, sensitive_newton
 
-__all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "fused_chassis_rates", "load_guess_at", "near_sine", "roll_mode_at"]
+__all__ = ["ChassisConstants", "FusedChassisRates", "chassis_arguments", "course_sine_into", "fused_chassis_rates", "load_guess_at", "near_sine",
+           "roll_mode_at"]
 
 
 @njit(inline="always", error_model="numpy")
@@ -93,8 +94,8 @@ def _slip_angles(q, delta, eps, lag, sigma, B_f, B_r, steady, slip, bx, wheel, h
             a_f, a_r = lag[0, i], lag[1, i]
         slip[0, i] = a_f
         slip[1, i] = a_r
-        bx[0, i] = B_f * a_f
-        bx[1, i] = B_r * a_r
+        bx[0, i] = item(B_f, i) * a_f
+        bx[1, i] = item(B_r, i) * a_r
         if wheel:
             t = half_wheel[i]
             t2 = t * t
@@ -177,6 +178,18 @@ def _scaled_sine(t, v, out):
         out[i] = v * half_angle_sine(t[i])
 
 
+def course_sine_into(course, t, v: float, far: bool) -> None:
+    """v sin(course) into ``course`` (n,) (rad in, m/s out), each realisation as
+    :func:`uqdrive.vehicle.axle_loads.course_sine` times v, to the bit: the half-angle identity from
+    ``t`` = NumPy's tan(course / 2) where |course| < 3 rad, NumPy's sine where a course turned
+    further or is NaN (``far``: whether any may have; False: none)."""
+    away = ~(np.abs(course) < 3.0) if far else None
+    turned = None if away is None else np.sin(course[away])
+    _scaled_sine(t, v, course)
+    if away is not None:
+        course[away] = v * turned
+
+
 @compiled
 def near_sine(angle, t, v) -> bool:
     """v sin(angle) into ``angle`` (n,) from t = tan(angle / 2) by the half-angle identity where
@@ -250,7 +263,7 @@ class ChassisConstants:
         self._rows = tuple(self.trig)
         self._terms = () if loads is None else tuple(bool(loads[k]) for k in ("pitching", "transferring", "slipping", "sensitive"))
 
-    def newton_loads(self, front, unit, F_w, v_dot: float, B_f: float, B_r: float, C: float, yielding: bool):
+    def newton_loads(self, front, unit, F_w, v_dot: float, B_f, B_r, C, yielding: bool):
         """:func:`.load_newton.newton_loads` from ``self.T`` (the steady guess), ``self.trig`` and
         ``self.slip`` with the constants of ``loads``, into ``self.P``, ``self.capacity`` and
         ``self.factors`` (returned): no arrays made per call (~4 us a call less at 300
@@ -259,18 +272,21 @@ class ChassisConstants:
         loop = newton_loop(*self._terms, unit.shape[0] == 2, bool(yielding))
         tan_b, cos_b, sin_b = self._rows
         loop(self.T, a["K"], tan_b, cos_b, sin_b, front, self.slip, unit, F_w, self.P, self.capacity, self.factors, a["steps"], float(v_dot),
-             a["L"], float(B_f), float(B_r), float(C))
+             a["L"], B_f, B_r, C)
         return self.P, self.capacity, self.factors
 
 
-def chassis_arguments(rhs, x, steps: int, per_run=()):
+def chassis_arguments(rhs, x, steps: int, per_run=(), shapes: bool = False):
     """The arguments of :class:`ChassisConstants` that a chassis right-hand side ``rhs`` gives
-    (``roll`` and ``loads`` built from it), or None where a compiled loop cannot read them: per-realisation
-    stiffness or shape factors, per-axle constants (also among ``per_run``), anything but float64."""
+    (``roll`` and ``loads`` built from it), or None where a compiled loop cannot read them:
+    per-realisation stiffness or shape factors (unless ``shapes``: B (2, n) and C (n,) are read per
+    realisation), per-axle constants (also among ``per_run``), anything but float64."""
     n = x.shape[1]
     per_run = (rhs.mu, rhs.sigma, rhs.roll_omega, rhs.roll_gain, rhs.roll_zeta, rhs.k, rhs.m, rhs.a_lat, rhs.balance.l_f, rhs.balance.l_r,
                rhs.balance.M_c, rhs.balance.yaw_factor, *per_run)
-    if (x.dtype != np.float64 or np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
+    one_shape = np.shape(rhs.B) == (2, 1) and np.ndim(rhs.C) == 0
+    per_realisation = shapes and np.shape(rhs.B) == (2, n) and np.shape(rhs.C) in ((), (n,))
+    if (x.dtype != np.float64 or not (one_shape or per_realisation) or rhs.lever.shape != (2, n) or np.shape(rhs.static) != (2, n)
             or any(np.ndim(a) > 1 or np.asarray(a).dtype.kind not in "iuf" for a in per_run)):
         return None
     loads = None
@@ -291,8 +307,8 @@ class FusedChassisRates(ChassisConstants):
     ----------
     E : float or ndarray, shape (n,)
         The curvature factor (-).
-    B, C : tuple of two floats, float
-        The front and rear stiffness factors and the shape factor (-).
+    B, C : ndarray, shapes (2, 1) or (2, n), and float or ndarray, shape (n,)
+        The front and rear stiffness factors and the shape factor (-), one for all realisations or each its own.
     kappa : float or ndarray, shape (n,), optional
         Compliance steer (static loads, no relaxation): front wheel angle (rad) per newton of the
         front axle's force; None: the wheels do not yield.
@@ -303,7 +319,7 @@ class FusedChassisRates(ChassisConstants):
     def __init__(self, E, B, C, kappa=None, **constants):
         super().__init__(**constants)
         n = self.n
-        self.E, self.B_f, self.B_r, self.C = realisations(E, n), float(B[0]), float(B[1]), float(C)
+        self.E, self.B_f, self.B_r, self.C = realisations(E, n), factor(B[0], n), factor(B[1], n), factor(C, n)
         self.front_peak = self.static[0] * self.mu  # the yielding front's peak on static loads (N)
         self.front_yield = None if kappa is None else FrontYield(n, self.B_f, self.C, self.E, realisations(kappa, n))
         self.half_wheel, self.cos_delta = np.empty(n), np.empty(n)
@@ -373,14 +389,9 @@ class FusedChassisRates(ChassisConstants):
                      trig[1], trig[2], self.i_roll, self.omega, self.gain, self.zeta, self.l_f, self.l_r, F_w, self.M_c,
                      0.0 if M_w is None else realisations(M_w, n), M_w is not None, self.yaw_factor, inv_mv, a_v,
                      v_dot / v, profile, self.k, self.total)
-        course = out[3]
-        if far:
-            np.sin(course, course)
-            course *= v
-        else:
-            np.multiply(course, 0.5, t)
-            np.tan(t, t)
-            _scaled_sine(t, v, course)
+        np.multiply(out[3], 0.5, t)
+        np.tan(t, t)
+        course_sine_into(out[3], t, v, far)
 
 
 def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
@@ -393,7 +404,7 @@ def fused_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     if (not rhs.saturating or (rhs.loaded and not compiled_loop)
             or (rhs.compliant and (rhs.relaxed or (rhs.loaded and rhs.sensitive)))):
         return None
-    constants = chassis_arguments(rhs, x, steps, (rhs.E, rhs.kappa))
+    constants = chassis_arguments(rhs, x, steps, (rhs.E, rhs.kappa), shapes=True)
     if constants is None:
         return None
-    return FusedChassisRates(rhs.E, rhs.B[:, 0], rhs.C, rhs.kappa if rhs.compliant else None, **constants)
+    return FusedChassisRates(rhs.E, rhs.B, rhs.C, rhs.kappa if rhs.compliant else None, **constants)

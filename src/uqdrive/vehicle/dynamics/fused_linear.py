@@ -18,7 +18,7 @@ import numpy as np
 
 from numba import njit
 
-from .fused_chassis import ChassisConstants, chassis_arguments, load_guess_at, near_sine, roll_mode_at
+from .fused_chassis import ChassisConstants, chassis_arguments, course_sine_into, load_guess_at, near_sine, roll_mode_at
 from .fused_rates import half_angle_pair, item
 from .jit import compiled, realisations
 
@@ -213,8 +213,7 @@ class FusedLinearChassisRates(ChassisConstants):
             np.multiply(course, 0.5, t)
             np.tan(t, t)
             if not near_sine(course, t, v):
-                np.sin(course, course)
-                course *= v
+                course_sine_into(course, t, v, True)
 
 
 def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
@@ -222,7 +221,7 @@ def fused_linear_chassis_rates(rhs, x, steps: int, compiled_loop: bool):
     (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`) for states ``x`` (n_states, n),
     or None where it does not serve: the Magic Formula, a loads' loop not compiled
     (``compiled_loop``), constants :func:`.fused_chassis.chassis_arguments` refuses. ``steps``: the loads' Newton steps."""
-    if rhs.saturating or (rhs.loaded and not compiled_loop):
+    if rhs.saturating or (rhs.loaded and not compiled_loop) or np.shape(rhs.B) != (2, 1) or np.ndim(rhs.C):  # one tyre for all
         return None
     constants = chassis_arguments(rhs, x, steps, (rhs.kappa,))
     if constants is None:

@@ -83,8 +83,8 @@ def _stiffness_argument(q, delta, B_f, B_r, bx):
     for i in range(q.shape[1]):
         a_f = -q[0, i]
         a_f = a_f + item(delta, i)
-        bx[0, i] = B_f * a_f
-        bx[1, i] = B_r * -q[1, i]
+        bx[0, i] = item(B_f, i) * a_f
+        bx[1, i] = item(B_r, i) * -q[1, i]
 
 
 @compiled
@@ -100,10 +100,11 @@ def curvature_from_atan(bx, E, F):
 
 @compiled
 def half_tyre_angle(F, C, t):
-    """Half the tyre's angle C atan(u) into ``t`` (2, n), ``F`` holding atan(u)."""
+    """Half the tyre's angle C atan(u) into ``t`` (2, n), ``F`` holding atan(u); ``C`` a number or (n,)."""
     for i in range(F.shape[1]):
+        c = item(C, i)
         for r in range(2):
-            a = F[r, i] * C
+            a = F[r, i] * c
             t[r, i] = a * 0.5
 
 

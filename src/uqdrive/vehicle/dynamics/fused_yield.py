@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fused_rates import half_angle_pair, half_angle_sine
-from .jit import compiled
+from .fused_rates import half_angle_pair, half_angle_sine, item
+from .jit import compiled, factor
 from .load_newton import KAPPA, MU, STATIC_F, STATIC_R, stepwise_newton
 
 __all__ = ["FrontYield", "yielding_newton"]
@@ -26,13 +26,14 @@ NEWTON_STEPS = 3  # axle_loads.yielded_front_slip's
 def _first(q0, peak, B, C, kappa, q, bx):
     """The linear tyre's yield q = q0 / max(1 + kappa peak B C, 0.05), and B q into ``bx``."""
     for i in range(q0.shape[0]):
-        stiff = peak[i] * B
-        stiff = stiff * C
+        b = item(B, i)
+        stiff = peak[i] * b
+        stiff = stiff * item(C, i)
         den = kappa[i] * stiff
         den = 1.0 + den
         den = 0.05 if den < 0.05 else den
         q[i] = q0[i] / den
-        bx[i] = B * q[i]
+        bx[i] = b * q[i]
 
 
 @compiled
@@ -48,7 +49,7 @@ def _argument(bx, atan_bx, E, u):
 def _half_angle(atan_u, C, h):
     """Half the tyre's angle, 0.5 (C atan(u))."""
     for i in range(atan_u.shape[0]):
-        a = C * atan_u[i]
+        a = item(C, i) * atan_u[i]
         h[i] = 0.5 * a
 
 
@@ -57,11 +58,12 @@ def _newton_step(t, u, bx, q0, peak, B, C, E, kappa, q):
     """One Newton step q <- q - (q - q0 + kappa peak sin a) / max(1 + kappa dF/dq, 0.05) from
     t = tan(a / 2), and B q into ``bx``."""
     for i in range(t.shape[0]):
+        b, c = item(B, i), item(C, i)
         sin_a, cos_a = half_angle_pair(t[i])
         slope = peak[i] * cos_a
-        slope = slope * C
+        slope = slope * c
         slope = slope / (1.0 + u[i] * u[i])
-        slope = slope * B
+        slope = slope * b
         g = 1.0 - E[i]
         g = g + E[i] / (1.0 + bx[i] * bx[i])
         slope = slope * g
@@ -70,7 +72,7 @@ def _newton_step(t, u, bx, q0, peak, B, C, E, kappa, q):
         den = 1.0 + kappa[i] * slope
         den = 0.05 if den < 0.05 else den
         q[i] = q[i] - num / den
-        bx[i] = B * q[i]
+        bx[i] = b * q[i]
 
 
 @compiled
@@ -98,14 +100,14 @@ class FrontYield:
     ----------
     n : int
         Realisations.
-    B, C : float
-        The front's stiffness factor and the shape factor (-).
+    B, C : float or ndarray, shape (n,)
+        The front's stiffness factor and the shape factor (-), one for all realisations or each its own.
     E, kappa : ndarray, shape (n,)
         The curvature factor (-) and the front wheel angle per newton of the front axle's force (rad/N).
     """
 
-    def __init__(self, n: int, B: float, C: float, E, kappa):
-        self.B, self.C, self.E, self.kappa = float(B), float(C), E, kappa
+    def __init__(self, n: int, B, C, E, kappa):
+        self.B, self.C, self.E, self.kappa = factor(B, n), factor(C, n), E, kappa
         self.q, self.bx, self.at, self.u, self.h, self.t = (np.empty(n) for _ in range(6))
 
     def _tangent(self) -> None:
@@ -143,7 +145,7 @@ def _yield_step(T, K, front, P, dP, peak, unit, B_f, C, has_slope):
         floor_f, floor_r = 1e-3 * K[STATIC_F, i], 1e-3 * K[STATIC_R, i]
         dF_f = F_f / (floor_f if P[0, i] < floor_f else P[0, i])
         dF_r = F_r / (floor_r if P[1, i] < floor_r else P[1, i])
-        dF_f /= 1.0 + K[KAPPA, i] * P[0, i] * K[MU, i] * B_f * C
+        dF_f /= 1.0 + K[KAPPA, i] * P[0, i] * K[MU, i] * item(B_f, i) * item(C, i)
         fr, x = front[i], T[i]
         if has_slope:
             den = 1.0 - (fr * dF_f * dP[0, i] + dF_r * dP[1, i])
@@ -152,7 +154,7 @@ def _yield_step(T, K, front, P, dP, peak, unit, B_f, C, has_slope):
             T[i] = x + (fr * F_f + F_r - x) / 1.0
 
 
-def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, L: float, B_f: float, C: float, front_yield, out,
+def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, L: float, B_f, C, front_yield, out,
                     *, pitching: bool, transferring: bool, slipping: bool) -> None:
     """Newton's method on the tyres' lateral force T (N) of a Magic-Formula chassis model whose
     front wheels yield to their force (compliance steer) on loads that follow T.
@@ -183,8 +185,10 @@ def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, 
         Side wind (N) at the half step.
     steps : int
         Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
-    v_dot, L, B_f, C : float
-        Speed rate (m/s^2), wheelbase (m), the front's stiffness factor (-) and the shape factor (-).
+    v_dot, L : float
+        Speed rate (m/s^2) and wheelbase (m).
+    B_f, C : float or ndarray, shape (n,)
+        The front's stiffness factor (-) and the shape factor (-) (:func:`.jit.factor`).
     front_yield : callable
         ``front_yield(q0, peak, wheel, unit, cos_wheel)`` (:class:`FrontYield`).
     out : tuple of ndarray
@@ -198,5 +202,5 @@ def yielding_newton(T, K, trig, q0, wheel, unit, F_w, steps: int, v_dot: float, 
     # the slip angles and B_r (here unit and B_f) are read by the load-sensitive tyre's step alone
     stepwise_newton(T, K, trig, unit, F_w, steps, v_dot, L, B_f, B_f, (P, dP, peak, bx, capacity, factors),
                     lambda: front_yield(q0, peak[0], wheel, unit[0], cos_wheel),
-                    lambda has_slope: _yield_step(T, K, cos_wheel, P, dP, peak, unit, float(B_f), float(C), has_slope),
+                    lambda has_slope: _yield_step(T, K, cos_wheel, P, dP, peak, unit, B_f, C, has_slope),
                     pitching=pitching, transferring=transferring, slipping=slipping, sensitive=False)

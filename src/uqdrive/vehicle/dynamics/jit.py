@@ -16,7 +16,7 @@ import llvmlite.binding as llvm
 import numpy as np
 from numba import njit
 
-__all__ = ["MEMORY_CHECKS", "compiled", "realisations"]
+__all__ = ["MEMORY_CHECKS", "compiled", "factor", "realisations"]
 
 #: The runtime alias checks LLVM's loop vectoriser may add to one loop. numba cannot tell LLVM that
 #: the arrays it passes do not overlap, so a loop that stores to ~14 rows and reads ~20 (the loads'
@@ -58,3 +58,10 @@ def realisations(a, n: int):
         return a if flags.writeable else a.copy()
     out = np.ascontiguousarray(np.broadcast_to(np.asarray(a, float), (n,)))
     return out if out.flags.writeable else out.copy()  # an (n,) array comes back as its read-only broadcast view
+
+
+def factor(a, n: int):
+    """A tyre factor (B, C) as a compiled loop reads it through ``item``: one float where ``a``
+    holds one value (the loop compiled for a number, as before), else :func:`realisations` (n,):
+    a pass of pairs whose tyres differ gives each realisation its own."""
+    return float(np.reshape(a, ())) if np.size(a) == 1 else realisations(a, n)

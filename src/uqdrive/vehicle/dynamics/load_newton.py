@@ -22,8 +22,8 @@ import functools
 import numpy as np
 from numba import njit
 
-from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle
-from .jit import compiled
+from .fused_rates import curvature_from_atan, half_angle_sine, half_tyre_angle, item
+from .jit import compiled, factor
 
 __all__ = ["ROWS", "curve_tangent", "newton_loads", "newton_loop", "loads_step", "sensitive_newton", "stepwise_newton"]
 
@@ -155,21 +155,22 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
                 peak_f, peak_r = P_f * mu, P_r * mu
                 if slipping:
                     peak_f, peak_r = peak_f * c_f, peak_r * c_r
-                b_f, b_r = B_f, B_r
+                B_f_i, B_r_i, C_i = item(B_f, i), item(B_r, i), item(C, i)
+                b_f, b_r = B_f_i, B_r_i
                 if sensitive:
                     peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
-                    b_f, b_r = B_f * (f1_f / f0_f), B_r * (f1_r / f0_r)
+                    b_f, b_r = B_f_i * (f1_f / f0_f), B_r_i * (f1_r / f0_r)
                 q_f, q_r = slip[0, i], slip[1, i]
                 if saturating:
                     F_f, F_r = peak_f * unit[0, i], peak_r * unit[1, i]
                 else:
                     if yielding:  # linear tyre, the front wheels yielding to their force: q0 / (1 + kappa c)
-                        q_f = q_f / _at_least(1.0 + K[KAPPA, i] * (peak_f * b_f * C), 0.05)
-                    F_f, F_r = peak_f * b_f * C * q_f, peak_r * b_r * C * q_r
+                        q_f = q_f / _at_least(1.0 + K[KAPPA, i] * (peak_f * b_f * C_i), 0.05)
+                    F_f, F_r = peak_f * b_f * C_i * q_f, peak_r * b_r * C_i * q_r
                 dF_f = F_f / _at_least(P_f, 1e-3 * K[STATIC_F, i])
                 dF_r = F_r / _at_least(P_r, 1e-3 * K[STATIC_R, i])
                 if yielding:
-                    dF_f /= 1.0 + K[KAPPA, i] * P_f * mu * B_f * C
+                    dF_f /= 1.0 + K[KAPPA, i] * P_f * mu * B_f_i * C_i
                 fr = front[i]
                 if has_slope:
                     gain = fr * dF_f * dP_f + dF_r * dP_r
@@ -189,7 +190,7 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
     return compiled(loop)
 
 
-def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, C: float, *,
+def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L: float, B_f, B_r, C, *,
                  pitching: bool, transferring: bool, slipping: bool, sensitive: bool, yielding: bool):
     """Newton's method on the tyres' lateral force T (N) of the chassis right-hand side, and the
     loads of its result.
@@ -219,8 +220,10 @@ def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L
         Side wind (N) at the half step.
     steps : int
         Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
-    v_dot, L, B_f, B_r, C : float
-        Speed rate (m/s^2), wheelbase (m), stiffness factors (-) and shape factor (-).
+    v_dot, L : float
+        Speed rate (m/s^2) and wheelbase (m).
+    B_f, B_r, C : float or ndarray, shape (n,)
+        Stiffness factors (-) and shape factor (-), one for all realisations or each its own.
     pitching, transferring, slipping, sensitive, yielding : bool
         Longitudinal transfer, lateral transfer (or load-sensitive peak), combined slip,
         load-sensitive tyre, front wheels yielding to their steady force (linear tyre only).
@@ -234,8 +237,8 @@ def newton_loads(T, K, trig, front, slip, unit, F_w, steps: int, v_dot: float, L
     n = T.shape[0]
     P, capacity, factors = np.empty((2, n)), np.empty((2, n)), np.empty((4, n))
     loop = newton_loop(bool(pitching), bool(transferring), bool(slipping), bool(sensitive), unit.shape[0] == 2, bool(yielding))
-    loop(T, K, trig[0], trig[1], trig[2], front, slip, unit, F_w, P, capacity, factors, int(steps), float(v_dot), float(L), float(B_f),
-         float(B_r), float(C))
+    loop(T, K, trig[0], trig[1], trig[2], front, slip, unit, F_w, P, capacity, factors, int(steps), float(v_dot), float(L), factor(B_f, n),
+         factor(B_r, n), factor(C, n))
     return P, capacity, factors
 
 
@@ -259,11 +262,11 @@ def newton_loop(pitching: bool, transferring: bool, slipping: bool, sensitive: b
     return _kernel(pitching, transferring, slipping, sensitive, saturating, yielding)
 
 
-def curve_tangent(bx, E, C: float, work) -> None:
+def curve_tangent(bx, E, C, work) -> None:
     """tan of half the Magic Formula's angle C atan(u), u = B x - E (B x - atan(B x)), into ``bx``
     (2, n), which holds B x (-): :func:`uqdrive.vehicle.single_track.curvature_argument`'s and
     :func:`uqdrive.vehicle.axle_loads.half_angle_sin_cos`'s order, NumPy's arctan and tan.
-    ``E`` (n,) the curvature factor, ``work`` (2, n) overwritten."""
+    ``C`` a float or (n,) (:func:`.jit.factor`), ``E`` (n,) the curvature factor, ``work`` (2, n) overwritten."""
     np.arctan(bx, work)
     curvature_from_atan(bx, E, work)
     np.arctan(work, work)
@@ -297,8 +300,8 @@ def loads_step(pitching: bool, transferring: bool, slipping: bool, sensitive: bo
                 peak_f, peak_r = peak_f * c_f, peak_r * c_r
             if sensitive:
                 peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
-                bx[0, i] = (B_f * (f1_f / f0_f)) * slip[0, i]
-                bx[1, i] = (B_r * (f1_r / f0_r)) * slip[1, i]
+                bx[0, i] = (item(B_f, i) * (f1_f / f0_f)) * slip[0, i]
+                bx[1, i] = (item(B_r, i) * (f1_r / f0_r)) * slip[1, i]
             peak[0, i], peak[1, i] = peak_f, peak_r
             P[0, i], P[1, i], dP[0, i], dP[1, i] = P_f, P_r, dP_f, dP_r
             capacity[0, i], capacity[1, i] = c_f, c_r
@@ -324,7 +327,7 @@ def _newton_step(T, K, front, P, dP, peak, t, has_slope):
             T[i] = x + (fr * F_f + F_r - x) / 1.0
 
 
-def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, C: float, E, out,
+def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: float, B_f, B_r, C, E, out,
                      *, pitching: bool, transferring: bool, slipping: bool) -> None:
     """Newton's method on the tyres' lateral force T (N) of a Magic-Formula chassis model with the
     load-sensitive tyre, and its forces' peaks and curve at the result.
@@ -351,8 +354,10 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
         Side wind (N) at the half step.
     steps : int
         Newton steps (:data:`uqdrive.vehicle.track_extended.LOAD_NEWTON_STEPS`).
-    v_dot, L, B_f, B_r, C : float
-        Speed rate (m/s^2), wheelbase (m), the load-free stiffness factors (-) and the shape factor (-).
+    v_dot, L : float
+        Speed rate (m/s^2) and wheelbase (m).
+    B_f, B_r, C : float or ndarray, shape (n,)
+        The load-free stiffness factors (-) and the shape factor (-) (:func:`.jit.factor`).
     E : ndarray, shape (n,)
         The curvature factor (-).
     out : tuple of ndarray
@@ -368,7 +373,7 @@ def sensitive_newton(T, K, trig, front, slip, F_w, steps: int, v_dot: float, L: 
                     slipping=slipping, sensitive=True)
 
 
-def stepwise_newton(T, K, trig, slip, F_w, steps: int, v_dot: float, L: float, B_f: float, B_r: float, work, between, update, *,
+def stepwise_newton(T, K, trig, slip, F_w, steps: int, v_dot: float, L: float, B_f, B_r, work, between, update, *,
                     pitching: bool, transferring: bool, slipping: bool, sensitive: bool) -> None:
     """Newton's method on the tyres' lateral force T (N) one step at a time, for a tyre whose
     curve the loads move (:func:`sensitive_newton`, :func:`.fused_yield.yielding_newton`): at each
@@ -381,7 +386,7 @@ def stepwise_newton(T, K, trig, slip, F_w, steps: int, v_dot: float, L: float, B
     has_slope = bool(transferring or pitching)
     for step in range(steps + 1):
         slope = step < steps
-        kernel(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, float(v_dot), float(L), float(B_f), float(B_r), P, dP, peak, bx, capacity, factors)
+        kernel(T, K, tan_b, cos_b, sin_b, slip, F_w, slope, float(v_dot), float(L), B_f, B_r, P, dP, peak, bx, capacity, factors)
         between()
         if slope:
             update(has_slope)
