@@ -263,7 +263,8 @@ def _add_discover(sub) -> None:
                         "only (a batch of recordings: matplotlib is never loaded)")
     p.add_argument("--jobs", type=jobs_count, default=1, metavar="N|auto",
                    help="worker processes for the fits of each search step and the posterior's model evaluations (a step's "
-                        "single fit: its simulations in halves on two processes) (default 1; 'auto': every CPU this process may use); "
+                        "single fit, and its last fits on the cores of idle workers: their simulations in halves on two processes) "
+                        "(default 1; 'auto': every CPU this process may use); "
                         "the verdict is the same for every N")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))
