@@ -7,10 +7,13 @@ command and its workers, and whether the two verdict.json files are equal number
 the posterior as configured) and the four-wheel cases of docs/four_wheel.md (500 runs of the
 independent four-wheel car, every candidate, no posterior), fw_step_030 by default.
 
-    python benchmarks/bench_discover_jobs.py [--jobs 2] [--case NAME ...] [--json FILE] [--machine TEXT]
+    python benchmarks/bench_discover_jobs.py [--jobs 2] [--case NAME ...] [--json FILE [--merge]] [--machine TEXT]
 
-The record in docs/measurements/benchmarks_discover_jobs.json adds fw_slalom_090 (--case tour --case
-fw_step_030 --case fw_slalom_090), numba's cache filled beforehand by untimed discovers of 60 runs.
+``--merge`` keeps the rows of other cases already in ``--json`` (a case run again replaces its
+row), in the order tour, then the four-wheel cases as uqdrive.studies.four_wheel lists them. The
+record in docs/measurements/benchmarks_discover_jobs.json has the tour and every four-wheel case
+(--case tour --case fw_step_030 --case fw_slalom_090, then the other four with --merge, on one
+machine and day), numba's cache filled beforehand by untimed discovers of 60 runs of each case.
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ def main(argv=None):
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--case", action="append", help="tour or a four-wheel case (repeatable; default tour and fw_step_030)")
     record_arguments(ap)
+    ap.add_argument("--merge", action="store_true", help="keep the rows of other cases already in --json")
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -75,10 +79,23 @@ def main(argv=None):
             print(f"{case:<14} 1 process {r['wall_1_s']:7.1f} s ({r['cpu_1_s']:.1f} CPU-s)   {args.jobs} workers {r['wall_n_s']:7.1f} s "
                   f"({r['cpu_n_s']:.1f} CPU-s)   {r['wall_1_s'] / r['wall_n_s']:.2f}x   same verdict: {r['same']}", flush=True)
     if args.json:
+        if args.merge and Path(args.json).exists():
+            rows = _merged(json.loads(Path(args.json).read_text())["rows"], rows)
         record = {"command": "python benchmarks/bench_discover_jobs.py", "machine": args.machine,
                   "cpus": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(), "rows": rows}
         Path(args.json).write_text(json.dumps(record, indent=1) + "\n")
     return 0
+
+
+def _merged(old: list, new: list) -> list:
+    """The rows of ``old`` and ``new`` by case (``new`` replacing a case of ``old``), the tour
+    first, then the four-wheel cases in the order of uqdrive.studies.four_wheel."""
+    from uqdrive.config import load_config
+    from uqdrive.studies.four_wheel import four_wheel_cases
+
+    order = ["tour"] + [c.name for c in four_wheel_cases(load_config(None))]
+    rows = {r["case"]: r for r in old} | {r["case"]: r for r in new}
+    return sorted(rows.values(), key=lambda r: order.index(r["case"]) if r["case"] in order else len(order))
 
 
 if __name__ == "__main__":
