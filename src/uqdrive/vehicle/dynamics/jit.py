@@ -1,6 +1,6 @@
 """How the compiled loops of the dynamics (:mod:`.ltv_rk4`, :mod:`.load_newton`, :mod:`.fused_rates`)
-are compiled (numba's njit, cached on disk where a place is writable) and how they are given a
-value per realisation.
+are compiled (numba's njit, cached on disk where a place is writable, :class:`KernelCache`) and how
+they are given a value per realisation.
 
 Their helpers are plain ``njit`` functions, which LLVM inlines; ``inline="always"`` (numba inlines
 the helper's code and types it anew at each call site) is kept for the helpers that take a term's
@@ -12,11 +12,19 @@ checkout's tests/test_fused_chassis.py compile for 65-85 s instead of 40-55 s, f
 
 from __future__ import annotations
 
+import functools
+import hashlib
+from pathlib import Path
+
 import llvmlite.binding as llvm
 import numpy as np
-from numba import njit
+from numba.core import config as numba_config
+from numba.core.caching import FunctionCache
+from numba.core.dispatcher import Dispatcher
+from numba.core.registry import CPUDispatcher
+from numba.core.serialize import dumps
 
-__all__ = ["MEMORY_CHECKS", "compiled", "factor", "realisations"]
+__all__ = ["MEMORY_CHECKS", "KernelCache", "closure_key", "compiled", "factor", "realisations", "sources_digest"]
 
 #: The runtime alias checks LLVM's loop vectoriser may add to one loop. numba cannot tell LLVM that
 #: the arrays it passes do not overlap, so a loop that stores to ~14 rows and reads ~20 (the loads'
@@ -30,17 +38,69 @@ for _option in ("runtime-memory-check-threshold", "vectorize-memory-check-thresh
     llvm.set_option("uqdrive", f"--{_option}={MEMORY_CHECKS}")
 
 
+@functools.lru_cache(maxsize=None)
+def sources_digest(folder: str) -> str:
+    """sha256 of the sources of every module in ``folder`` (a package of compiled loops and the
+    helpers they call: :mod:`uqdrive.vehicle.dynamics`), read once per process."""
+    h = hashlib.sha256()
+    for path in sorted(Path(folder).glob("*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
+
+
+def closure_key(py_func) -> bytes:
+    """What a closure's machine code depends on beyond its own bytecode: the values of its cells,
+    a compiled loop among them by the function it compiles (module, name, and its own
+    :func:`closure_key`). numba's own key pickles a compiled loop with an identifier drawn per
+    process: a closure over loops (:func:`.load_newton.newton_loop`'s) would never find its
+    cached code, compiled anew in every process and stored in one file more each time."""
+    cells = []
+    for cell in py_func.__closure__ or ():
+        value = cell.cell_contents
+        if isinstance(value, Dispatcher):
+            value = ("compiled", value.py_func.__module__, value.py_func.__qualname__, closure_key(value.py_func))
+        cells.append(value)
+    return dumps(tuple(cells))
+
+
+class KernelCache(FunctionCache):
+    """numba's cache of a compiled loop, its index keyed also by :func:`closure_key` and by the
+    :func:`sources_digest` of the loop's package.
+
+    numba keys a function's machine code by its own bytecode and its source file's time stamp:
+    the helpers it calls in other modules (:mod:`.fused_rates`' half angles in every chassis
+    loop) would keep their old code in its cached machine code after an edit of theirs alone.
+    The digest of the package's sources keys every loop by all the code it can call."""
+
+    def _index_key(self, sig, codegen):
+        code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
+        cells = hashlib.sha256(closure_key(self._py_func)).hexdigest()
+        return sig, codegen.magic_tuple(), (code, cells, sources_digest(str(Path(self._py_func.__code__.co_filename).parent)))
+
+
+class _Kernel(CPUDispatcher):
+    """numba's CPU dispatcher cached by :class:`KernelCache`."""
+
+    def enable_caching(self):
+        self._cache = KernelCache(self.py_func)
+
+
 def compiled(py_func):
     """``py_func`` compiled at its first call, the machine code cached beside the module (or in
-    the user's cache); with no writable place numba refuses to cache: then compiled anew per process.
+    the user's cache, :class:`KernelCache`); with no writable place numba refuses to cache: then
+    compiled anew per process.
 
     error_model "numpy": a division by zero gives inf or nan as NumPy's does, and the loop carries
     no branch to raise it (a branch there keeps LLVM from vectorising the loop).
     """
+    if numba_config.DISABLE_JIT:  # NUMBA_DISABLE_JIT=1: the Python loop, as numba's njit gives it
+        return py_func
+    kernel = _Kernel(py_func=py_func, locals={}, targetoptions={"nopython": True, "nogil": True, "error_model": "numpy", "boundscheck": None})
     try:
-        return njit(cache=True, nogil=True, error_model="numpy")(py_func)
+        kernel.enable_caching()
     except RuntimeError:  # "cannot cache function ...: no locator available"
-        return njit(nogil=True, error_model="numpy")(py_func)
+        pass
+    return kernel
 
 
 _FLOAT64 = np.dtype(np.float64)
