@@ -22,9 +22,8 @@ from numba.core import config as numba_config
 from numba.core.caching import FunctionCache
 from numba.core.dispatcher import Dispatcher
 from numba.core.registry import CPUDispatcher
-from numba.core.serialize import dumps
 
-__all__ = ["MEMORY_CHECKS", "KernelCache", "closure_key", "compiled", "factor", "realisations", "sources_digest"]
+__all__ = ["MEMORY_CHECKS", "KernelCache", "calls_closures", "compiled", "factor", "realisations", "sources_digest"]
 
 #: The runtime alias checks LLVM's loop vectoriser may add to one loop. numba cannot tell LLVM that
 #: the arrays it passes do not overlap, so a loop that stores to ~14 rows and reads ~20 (the loads'
@@ -48,34 +47,29 @@ def sources_digest(folder: str) -> str:
     return h.hexdigest()
 
 
-def closure_key(py_func) -> bytes:
-    """What a closure's machine code depends on beyond its own bytecode: the values of its cells,
-    a compiled loop among them by the function it compiles (module, name, and its own
-    :func:`closure_key`). numba's own key pickles a compiled loop with an identifier drawn per
-    process: a closure over loops (:func:`.load_newton.newton_loop`'s) would never find its
-    cached code, compiled anew in every process and stored in one file more each time."""
-    cells = []
-    for cell in py_func.__closure__ or ():
-        value = cell.cell_contents
-        if isinstance(value, Dispatcher):
-            value = ("compiled", value.py_func.__module__, value.py_func.__qualname__, closure_key(value.py_func))
-        cells.append(value)
-    return dumps(tuple(cells))
+def calls_closures(py_func) -> bool:
+    """Whether ``py_func`` closes over compiled loops (:func:`.load_newton.newton_loop`'s loop over its passes).
+
+    Such a loop is compiled anew in every process, never cached: the machine code of a cached
+    loop calls the loops it closes over by their symbols, which name the function and a counter
+    of the compiling process, not the values of its cells. Two variants of a loop compiled in
+    processes forked from one state (a discover's workers) get one symbol, and a process that
+    loads both callers from the cache links both to the variant it loaded first (numba keys the
+    caller's cache by its cells' values; the callee's code comes with it)."""
+    return any(isinstance(cell.cell_contents, Dispatcher) for cell in py_func.__closure__ or ())
 
 
 class KernelCache(FunctionCache):
-    """numba's cache of a compiled loop, its index keyed also by :func:`closure_key` and by the
-    :func:`sources_digest` of the loop's package.
+    """numba's cache of a compiled loop, its index keyed also by the :func:`sources_digest` of
+    the loop's package.
 
-    numba keys a function's machine code by its own bytecode and its source file's time stamp:
-    the helpers it calls in other modules (:mod:`.fused_rates`' half angles in every chassis
-    loop) would keep their old code in its cached machine code after an edit of theirs alone.
-    The digest of the package's sources keys every loop by all the code it can call."""
+    numba keys a function's machine code by its own bytecode, its closure's values and its
+    source file's time stamp: a loop's cached code would keep the old code of a helper it calls
+    in another module (:mod:`.fused_rates`' half angles in every chassis loop) after an edit
+    of that module alone. The digest keys every loop by all the code it can call."""
 
     def _index_key(self, sig, codegen):
-        code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
-        cells = hashlib.sha256(closure_key(self._py_func)).hexdigest()
-        return sig, codegen.magic_tuple(), (code, cells, sources_digest(str(Path(self._py_func.__code__.co_filename).parent)))
+        return (*super()._index_key(sig, codegen), sources_digest(str(Path(self._py_func.__code__.co_filename).parent)))
 
 
 class _Kernel(CPUDispatcher):
@@ -87,8 +81,8 @@ class _Kernel(CPUDispatcher):
 
 def compiled(py_func):
     """``py_func`` compiled at its first call, the machine code cached beside the module (or in
-    the user's cache, :class:`KernelCache`); with no writable place numba refuses to cache: then
-    compiled anew per process.
+    the user's cache, :class:`KernelCache`); with no writable place numba refuses to cache, and a
+    loop that :func:`calls_closures` is not cached: then compiled anew per process.
 
     error_model "numpy": a division by zero gives inf or nan as NumPy's does, and the loop carries
     no branch to raise it (a branch there keeps LLVM from vectorising the loop).
@@ -96,6 +90,8 @@ def compiled(py_func):
     if numba_config.DISABLE_JIT:  # NUMBA_DISABLE_JIT=1: the Python loop, as numba's njit gives it
         return py_func
     kernel = _Kernel(py_func=py_func, locals={}, targetoptions={"nopython": True, "nogil": True, "error_model": "numpy", "boundscheck": None})
+    if calls_closures(py_func):
+        return kernel
     try:
         kernel.enable_caching()
     except RuntimeError:  # "cannot cache function ...: no locator available"

@@ -132,7 +132,8 @@ def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool,
     the Newton steps (T updated) and the final pass (the loads stored) are loops of their own; in
     one loop that branched on the step, LLVM vectorised only the lateral transfer alone (the other
     combinations several times slower: benchmarks/bench_load_loop.py). Each combination is
-    compiled at its first use and cached on disk (:class:`.jit.KernelCache` keys a closure by its values)."""
+    compiled at its first use and cached on disk (numba keys a closure's cache by its values); the loop over
+    the passes is compiled anew in each process (:func:`.jit.calls_closures`)."""
 
     def one_pass(slope: bool):
         def each(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C):
