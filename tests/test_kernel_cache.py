@@ -14,7 +14,6 @@ import pytest
 
 import uqdrive
 from uqdrive.vehicle.dynamics import jit
-from uqdrive.vehicle.dynamics.load_newton import newton_loop
 
 #: numba's sine and NumPy's may differ in the last bit of a few of the 105 steps; the other variant
 #: (or the old helper) moves the sum by more than a tenth
@@ -125,10 +124,17 @@ def test_a_loop_is_loaded_from_the_cache_in_a_new_process(tmp_path):
     assert _run(tmp_path, code)[1:] == ["0", "1"]  # outer compiled, inner loaded
 
 
-def test_the_loads_loop_calls_closures_and_its_passes_do_not():
-    loop = newton_loop(pitching=False, transferring=True, slipping=False, sensitive=False, saturating=True, yielding=False)
-    assert jit.calls_closures(loop.py_func)
-    assert not any(jit.calls_closures(cell.cell_contents.py_func) for cell in loop.py_func.__closure__)
+def test_the_loads_loop_is_loaded_from_the_cache_in_a_new_process(tmp_path):
+    """The loads' Newton loop closes over its terms alone (its passes inlined, no compiled loop
+    among its cells): a second process loads it instead of compiling it."""
+    code = ("import numpy as np\nfrom uqdrive.vehicle.dynamics import jit, load_newton as L\n"
+            "loop = L.newton_loop(False, True, False, False, True, False)\nn = 3\n"
+            "K = np.ones((len(L.ROWS), n)); T = np.zeros(n); z = np.zeros(n); pair = np.zeros((2, n))\n"
+            "loop(T, K, z, np.ones(n), z, np.ones(n), pair, pair.copy(), z, pair.copy(), pair.copy(), np.zeros((4, n)), 2, 0.0, 2.5, 10.0, 11.0, 1.3)\n"
+            "print(jit.calls_closures(loop.py_func), sum(loop.stats.cache_hits.values()))\n")
+    env = {**os.environ, "PYTHONPATH": SRC, "NUMBA_CACHE_DIR": str(tmp_path)}
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300) for _ in range(2)]
+    assert [r.stdout.split() for r in runs] == [["False", "0"], ["False", "1"]], [r.stderr[-2000:] for r in runs]
 
 
 def test_the_sources_digest_reads_every_module_of_the_folder(tmp_path):

@@ -48,7 +48,8 @@ def sources_digest(folder: str) -> str:
 
 
 def calls_closures(py_func) -> bool:
-    """Whether ``py_func`` closes over compiled loops (:func:`.load_newton.newton_loop`'s loop over its passes).
+    """Whether ``py_func`` closes over compiled loops (none of this package does:
+    :func:`.load_newton.newton_loop` inlines its passes).
 
     Such a loop is compiled anew in every process, never cached: the machine code of a cached
     loop calls the loops it closes over by their symbols, which name the function and a counter

@@ -123,70 +123,74 @@ def _factors(T, i, K, tan_b, cos_b, sin_b, v_dot, F_w, L):
             _at_least(1.0 + q_K * dfz_f, 0.05), _at_least(1.0 + q_K * dfz_r, 0.05))
 
 
+@njit(inline="always", error_model="numpy")
+def _one_pass(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C,
+              pitching, transferring, slipping, sensitive, saturating, yielding, slope):
+    """One pass of the loads' loop over the realisations: a Newton step of T (``slope``) or the
+    loads, shares and factors of the converged T stored (not ``slope``). Inlined where a loop of
+    :func:`_kernel` calls it with its constant terms, which fold away before LLVM vectorises it."""
+    for i in range(T.shape[0]):
+        t = T[i]
+        tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
+        P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, slope)
+        c_f = c_r = 1.0
+        if slipping:
+            c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
+        f0_f = f0_r = f1_f = f1_r = 1.0
+        if sensitive:
+            f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
+        if not slope:  # the loads of the converged T: the caller's _at_loads takes them
+            P[0, i], P[1, i] = P_f, P_r
+            capacity[0, i], capacity[1, i] = c_f, c_r
+            factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
+            continue
+        mu = K[MU, i]
+        peak_f, peak_r = P_f * mu, P_r * mu
+        if slipping:
+            peak_f, peak_r = peak_f * c_f, peak_r * c_r
+        B_f_i, B_r_i, C_i = item(B_f, i), item(B_r, i), item(C, i)
+        b_f, b_r = B_f_i, B_r_i
+        if sensitive:
+            peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
+            b_f, b_r = B_f_i * (f1_f / f0_f), B_r_i * (f1_r / f0_r)
+        q_f, q_r = slip[0, i], slip[1, i]
+        if saturating:
+            F_f, F_r = peak_f * unit[0, i], peak_r * unit[1, i]
+        else:
+            if yielding:  # linear tyre, the front wheels yielding to their force: q0 / (1 + kappa c)
+                q_f = q_f / _at_least(1.0 + K[KAPPA, i] * (peak_f * b_f * C_i), 0.05)
+            F_f, F_r = peak_f * b_f * C_i * q_f, peak_r * b_r * C_i * q_r
+        dF_f = F_f / _at_least(P_f, 1e-3 * K[STATIC_F, i])
+        dF_r = F_r / _at_least(P_r, 1e-3 * K[STATIC_R, i])
+        if yielding:
+            dF_f /= 1.0 + K[KAPPA, i] * P_f * mu * B_f_i * C_i
+        fr = front[i]
+        if has_slope:
+            gain = fr * dF_f * dP_f + dF_r * dP_r
+            T[i] = t + (fr * F_f + F_r - t) / _at_least(1.0 - gain, 0.05)
+        else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
+            T[i] = t + (fr * F_f + F_r - t) / 1.0
+
+
 @functools.lru_cache(maxsize=None)
 def _kernel(pitching: bool, transferring: bool, slipping: bool, sensitive: bool, saturating: bool, yielding: bool):
     """The loop of ExtendedSingleTrackRHS._forces for one combination of terms (see :func:`newton_loads`).
 
     The terms are constants of the compiled loop, not arguments: a branch on an argument inside
     the loop over realisations keeps LLVM from vectorising it (4x slower). So is the kind of pass:
-    the Newton steps (T updated) and the final pass (the loads stored) are loops of their own; in
-    one loop that branched on the step, LLVM vectorised only the lateral transfer alone (the other
-    combinations several times slower: benchmarks/bench_load_loop.py). Each combination is
-    compiled at its first use and cached on disk (numba keys a closure's cache by its values); the loop over
-    the passes is compiled anew in each process (:func:`.jit.calls_closures`)."""
-
-    def one_pass(slope: bool):
-        def each(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C):
-            for i in range(T.shape[0]):
-                t = T[i]
-                tb, cb, sb, fw = tan_b[i], cos_b[i], sin_b[i], F_w[i]
-                P_f, P_r, dP_f, dP_r, has_slope = _loads(t, i, K, tb, cb, sb, v_dot, fw, L, pitching, transferring, slope)
-                c_f = c_r = 1.0
-                if slipping:
-                    c_f, c_r = _capacity(t, i, K, P_f, P_r, tb, cb, sb, v_dot, fw)
-                f0_f = f0_r = f1_f = f1_r = 1.0
-                if sensitive:
-                    f0_f, f0_r, f1_f, f1_r = _factors(t, i, K, tb, cb, sb, v_dot, fw, L)
-                if not slope:  # the loads of the converged T: the caller's _at_loads takes them
-                    P[0, i], P[1, i] = P_f, P_r
-                    capacity[0, i], capacity[1, i] = c_f, c_r
-                    factors[0, i], factors[1, i], factors[2, i], factors[3, i] = f0_f, f0_r, f1_f, f1_r
-                    continue
-                mu = K[MU, i]
-                peak_f, peak_r = P_f * mu, P_r * mu
-                if slipping:
-                    peak_f, peak_r = peak_f * c_f, peak_r * c_r
-                B_f_i, B_r_i, C_i = item(B_f, i), item(B_r, i), item(C, i)
-                b_f, b_r = B_f_i, B_r_i
-                if sensitive:
-                    peak_f, peak_r = peak_f * f0_f, peak_r * f0_r
-                    b_f, b_r = B_f_i * (f1_f / f0_f), B_r_i * (f1_r / f0_r)
-                q_f, q_r = slip[0, i], slip[1, i]
-                if saturating:
-                    F_f, F_r = peak_f * unit[0, i], peak_r * unit[1, i]
-                else:
-                    if yielding:  # linear tyre, the front wheels yielding to their force: q0 / (1 + kappa c)
-                        q_f = q_f / _at_least(1.0 + K[KAPPA, i] * (peak_f * b_f * C_i), 0.05)
-                    F_f, F_r = peak_f * b_f * C_i * q_f, peak_r * b_r * C_i * q_r
-                dF_f = F_f / _at_least(P_f, 1e-3 * K[STATIC_F, i])
-                dF_r = F_r / _at_least(P_r, 1e-3 * K[STATIC_R, i])
-                if yielding:
-                    dF_f /= 1.0 + K[KAPPA, i] * P_f * mu * B_f_i * C_i
-                fr = front[i]
-                if has_slope:
-                    gain = fr * dF_f * dP_f + dF_r * dP_r
-                    T[i] = t + (fr * F_f + F_r - t) / _at_least(1.0 - gain, 0.05)
-                else:  # NumPy's scalar slope 0: max(1 - 0, 0.05)
-                    T[i] = t + (fr * F_f + F_r - t) / 1.0
-
-        return compiled(each)
-
-    newton, final = one_pass(True), one_pass(False)
+    the Newton steps (T updated) and the final pass (the loads stored) are loops of their own
+    (:func:`_one_pass` inlined twice); in one loop that branched on the step, LLVM vectorised only
+    the lateral transfer alone (the other combinations several times slower:
+    benchmarks/bench_load_loop.py). Each combination is compiled at its first use and cached on
+    disk (numba keys a closure's cache by its values; its cells are the terms alone, no compiled
+    loop: :func:`.jit.calls_closures`)."""
 
     def loop(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, steps, v_dot, L, B_f, B_r, C):
         for _ in range(steps):
-            newton(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C)
-        final(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C)
+            _one_pass(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C,
+                      pitching, transferring, slipping, sensitive, saturating, yielding, True)
+        _one_pass(T, K, tan_b, cos_b, sin_b, front, slip, unit, F_w, P, capacity, factors, v_dot, L, B_f, B_r, C,
+                  pitching, transferring, slipping, sensitive, saturating, yielding, False)
 
     return compiled(loop)
 
