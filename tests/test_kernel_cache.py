@@ -78,8 +78,9 @@ def _package(tmp_path, step: float) -> None:
     (pkg / "helper.py").write_text(HELPER.format(step=step))
 
 
-def _expected(flag: bool, step: float) -> float:
-    """``outer``'s number computed in Python, the same operations in the same order."""
+def _expected(flag: bool, step: float, passes: int = 0) -> float:
+    """``outer``'s number computed in Python, the same operations in the same order (``passes``
+    1: a variant's one pass, no helper)."""
     x, out = np.linspace(0.0, 1.0, 5), np.zeros(5)
 
     def inner(src, dst):
@@ -88,6 +89,9 @@ def _expected(flag: bool, step: float) -> float:
             for _ in range(7):
                 a = np.sin(a) * (2.0 if flag else 3.0) + np.cos(a * 1.1) - np.tanh(a)
             dst[i] = a
+    if passes == 1:
+        inner(x, out)
+        return float(out.sum())
     for _ in range(3):
         inner(x, out)
         inner(out, x)
@@ -106,6 +110,52 @@ def test_a_loop_that_calls_closures_is_right_whichever_processes_compiled_them(t
         np.testing.assert_allclose([float(v) for v in got[::2]], [_expected(f, 1.0) for f in flags], rtol=RTOL)
     assert not list((tmp_path / "kpkg" / "__pycache__").glob("*outer*.nbc"))  # compiled per process: no file more each time
     assert len(list((tmp_path / "kpkg" / "__pycache__").glob("*inner*.nbc"))) == 2  # the callees are cached
+
+
+# two variants of one closure called by one loop, as the loads' loop once called its Newton pass and its final pass
+VARIANTS = textwrap.dedent("""
+    import functools
+    import numpy as np
+    from uqdrive.vehicle.dynamics.jit import compiled
+
+    @functools.lru_cache(maxsize=None)
+    def variant(flag):
+        def each(x, out):
+            for i in range(x.shape[0]):
+                a = x[i]
+                for _ in range(7):
+                    a = np.sin(a) * (2.0 if flag else 3.0) + np.cos(a * 1.1) - np.tanh(a)
+                out[i] = a
+        return compiled(each)
+
+    @functools.lru_cache(maxsize=None)
+    def both():
+        first, second = variant(True), variant(False)
+
+        def outer(x, out, other):
+            first(x, out)
+            second(x, other)
+        return compiled(outer)
+""")
+
+
+def test_a_loop_calls_each_variant_of_a_closure_that_forked_workers_compiled(tmp_path):
+    """Each variant compiled and cached by a worker of its own, forked from one state (numba's
+    counter in their symbols alike); a new process loads both and compiles the loop that calls
+    them. With one symbol for both variants the loop called the first loaded for both (checked:
+    both sums the True variant's; :func:`uqdrive.vehicle.dynamics.jit.variant_name` tells them apart)."""
+    pkg = tmp_path / "vpkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kernels.py").write_text(VARIANTS)
+    _run(tmp_path, "import os\nimport numpy as np\nimport vpkg.kernels as k\nfor flag in (True, False):\n    pid = os.fork()\n"
+                   "    if pid == 0:\n        k.variant(flag)(np.linspace(0.0, 1.0, 5), np.zeros(5))\n        os._exit(0)\n    os.waitpid(pid, 0)\n")
+    assert len(list((pkg / "__pycache__").glob("*each*.nbc"))) == 2
+    got = _run(tmp_path, "import numpy as np\nimport vpkg.kernels as k\nx, a, b = np.linspace(0.0, 1.0, 5), np.zeros(5), np.zeros(5)\n"
+                         "k.both()(x, a, b)\nprint(repr(float(a.sum())), repr(float(b.sum())), sum(k.variant(True).stats.cache_hits.values()))\n")
+    first, second = _expected(True, 0.0, passes=1), _expected(False, 0.0, passes=1)
+    np.testing.assert_allclose([float(got[0]), float(got[1])], [first, second], rtol=RTOL)
+    assert got[2] == "1" and abs(first - second) > 1.0  # loaded from the workers' cache; the variants far apart
 
 
 def test_a_cached_loop_follows_an_edit_of_a_helper_in_another_module(tmp_path):

@@ -22,8 +22,9 @@ from numba.core import config as numba_config
 from numba.core.caching import FunctionCache
 from numba.core.dispatcher import Dispatcher
 from numba.core.registry import CPUDispatcher
+from numba.core.serialize import dumps
 
-__all__ = ["MEMORY_CHECKS", "KernelCache", "calls_closures", "compiled", "factor", "realisations", "sources_digest"]
+__all__ = ["MEMORY_CHECKS", "KernelCache", "calls_closures", "compiled", "variant_name", "factor", "realisations", "sources_digest"]
 
 #: The runtime alias checks LLVM's loop vectoriser may add to one loop. numba cannot tell LLVM that
 #: the arrays it passes do not overlap, so a loop that stores to ~14 rows and reads ~20 (the loads'
@@ -48,16 +49,27 @@ def sources_digest(folder: str) -> str:
 
 
 def calls_closures(py_func) -> bool:
-    """Whether ``py_func`` closes over compiled loops (none of this package does:
-    :func:`.load_newton.newton_loop` inlines its passes).
-
-    Such a loop is compiled anew in every process, never cached: the machine code of a cached
-    loop calls the loops it closes over by their symbols, which name the function and a counter
-    of the compiling process, not the values of its cells. Two variants of a loop compiled in
-    processes forked from one state (a discover's workers) get one symbol, and a process that
-    loads both callers from the cache links both to the variant it loaded first (numba keys the
-    caller's cache by its cells' values; the callee's code comes with it)."""
+    """Whether ``py_func`` closes over compiled loops (none of this package's loops do:
+    :func:`.load_newton.newton_loop` inlines its passes). Such a loop is compiled anew in every
+    process, never cached: numba keys a closure's cache by its cells' values, and pickles a
+    compiled loop with an identifier drawn per process, so its cache would never be found again
+    and would hold one file more per process."""
     return any(isinstance(cell.cell_contents, Dispatcher) for cell in py_func.__closure__ or ())
+
+
+def variant_name(py_func) -> str:
+    """The name a closure is compiled under: its own, tagged by the values of its cells.
+
+    numba names a compiled function's symbol by its qualified name and a counter of the
+    compiling process. Two variants of a closure (the same code, other values in its cells)
+    compiled in processes forked from one state (a discover's workers) got one symbol, and a
+    loop compiled in a process that loaded both from the cache called one variant for both: the
+    loads' Newton loop of the slipping Magic-Formula tyre ran its final pass in place of its
+    Newton steps, T never updated (found so; :mod:`tests.test_kernel_cache` rebuilds the case)."""
+    if not py_func.__closure__:
+        return py_func.__qualname__
+    cells = dumps(tuple(cell.cell_contents for cell in py_func.__closure__))
+    return f"{py_func.__qualname__}_{hashlib.sha256(cells).hexdigest()[:12]}"
 
 
 class KernelCache(FunctionCache):
@@ -81,15 +93,17 @@ class _Kernel(CPUDispatcher):
 
 
 def compiled(py_func):
-    """``py_func`` compiled at its first call, the machine code cached beside the module (or in
-    the user's cache, :class:`KernelCache`); with no writable place numba refuses to cache, and a
-    loop that :func:`calls_closures` is not cached: then compiled anew per process.
+    """``py_func`` compiled at its first call under its :func:`variant_name`, the machine code
+    cached beside the module (or in the user's cache, :class:`KernelCache`); with no writable
+    place numba refuses to cache, and a loop that :func:`calls_closures` is not cached: then
+    compiled anew per process.
 
     error_model "numpy": a division by zero gives inf or nan as NumPy's does, and the loop carries
     no branch to raise it (a branch there keeps LLVM from vectorising the loop).
     """
     if numba_config.DISABLE_JIT:  # NUMBA_DISABLE_JIT=1: the Python loop, as numba's njit gives it
         return py_func
+    py_func.__qualname__ = variant_name(py_func)
     kernel = _Kernel(py_func=py_func, locals={}, targetoptions={"nopython": True, "nogil": True, "error_model": "numpy", "boundscheck": None})
     if calls_closures(py_func):
         return kernel
