@@ -62,10 +62,10 @@ def variant_name(py_func) -> str:
 
     numba names a compiled function's symbol by its qualified name and a counter of the
     compiling process. Two variants of a closure (the same code, other values in its cells)
-    compiled in processes forked from one state (a discover's workers) got one symbol, and a
-    loop compiled in a process that loaded both from the cache called one variant for both: the
-    loads' Newton loop of the slipping Magic-Formula tyre ran its final pass in place of its
-    Newton steps, T never updated (found so; :mod:`tests.test_kernel_cache` rebuilds the case)."""
+    compiled in processes forked from one state (a discover's workers) would get one symbol, and
+    a loop compiled in a process that loaded both from the cache would call one variant for both
+    (a Newton pass and a final pass: the final pass twice, the Newton step never taken).
+    tests/test_kernel_cache.py builds that case."""
     if not py_func.__closure__:
         return py_func.__qualname__
     cells = dumps(tuple(cell.cell_contents for cell in py_func.__closure__))
