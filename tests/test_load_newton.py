@@ -12,7 +12,7 @@ from numba import njit
 
 from uqdrive.settings import Settings
 from uqdrive.vehicle import track_extended
-from uqdrive.vehicle.dynamics.load_newton import ROWS, loads_step
+from uqdrive.vehicle.dynamics.load_newton import ROWS, loads_step, newton_loop
 from uqdrive.vehicle.effects import ModelStructure, effect
 from uqdrive.vehicle.single_track import VehicleParameters
 
@@ -157,3 +157,17 @@ def test_llvm_vectorises_a_loads_step_that_needs_hundreds_of_alias_checks(terms)
     fresh(one.copy(), np.ones((len(ROWS), n)), one, one, one, rows(), one, True, 0.0, 2.85, 10.6, 30.4, rows(), rows(), rows(), rows(), rows(),
           rows(4))
     assert re.search(r"<\d+ x double>", fresh.inspect_llvm(fresh.signatures[0]))
+
+
+@pytest.mark.parametrize("terms", [(False, True, False, False, True, False), (True, True, True, False, False, True), (True, True, False, True, False, False)])
+def test_llvm_vectorises_both_passes_of_the_loads_loop(terms):
+    """The loads' loop inlines its Newton pass and its final pass (load_newton._one_pass, the
+    terms constants): LLVM vectorises each of the two loops over the realisations (the lateral
+    transfer on the Magic Formula; pitch, transfer, combined slip and the yielding front on the
+    linear tyre; the load-sensitive tyre). Compiled anew here, as above."""
+    fresh = njit(error_model="numpy")(newton_loop(*terms).py_func)
+    n = 16
+    one, rows = np.ones(n), lambda r=2: np.zeros((r, n))
+    fresh(one.copy(), np.ones((len(ROWS), n)), one, one, one, one, rows(), rows(), one, rows(), rows(), rows(4), 2, 0.0, 2.85, 10.6, 30.4, 1.3)
+    loops = set(re.findall(r"^(vector\.body[0-9.]*):", fresh.inspect_llvm(fresh.signatures[0]), re.M))
+    assert len(loops) >= 2, loops
