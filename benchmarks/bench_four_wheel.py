@@ -4,7 +4,7 @@ inputs, each given to `uqdrive discover` as a new user would (file names carry n
 are written to a separate folder discover never reads), each verdict judged against the reality.
 
     python benchmarks/bench_four_wheel.py --out DIR [--samples 500] [--cases a,b] [--json FILE]
-        [--no-discover] [--candidates a,b,...] [--quick] [--channels a,b]
+        [--no-discover] [--candidates a,b,...] [--quick] [--channels a,b] [--device cpu|gpu|auto] [--jobs N|auto]
     python benchmarks/bench_four_wheel.py --out DIR --table     # the results table of DIR/summary.json
     python benchmarks/bench_four_wheel.py --out DIR --rejudge [--json FILE]   # rows again from DIR's verdicts
 
@@ -23,6 +23,7 @@ import json
 import math
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import yaml
@@ -177,6 +178,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help=f"discover with the reduced settings {QUICK} (about 4x faster)")
     ap.add_argument("--table", action="store_true", help="print the results table of DIR/summary.json and exit")
     ap.add_argument("--rejudge", action="store_true", help="rebuild the rows of DIR/summary.json from DIR's verdicts, keeping their CPU times")
+    ap.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"), help="discover's --device (default cpu)")
+    ap.add_argument("--jobs", default="1", help="discover's --jobs (default 1)")
     ap.add_argument("--channels", default=None,
                     help="comma-separated measured channels written to the data (default: all the generator records, "
                          "psi, psi_dot, beta, y, a_y), e.g. --channels psi,psi_dot,beta,y for the four states only")
@@ -219,18 +222,18 @@ def main(argv=None):
         if args.no_discover:
             continue
         target = out / "discover" / tag
-        cpu0 = judgement.children_cpu()
+        cpu0, wall0 = judgement.children_cpu(), time.perf_counter()
         run = subprocess.run([sys.executable, "-m", "uqdrive.cli.main", "discover", str(data), "--config", str(out / "config.yaml"),
-                              "--candidates", args.candidates, "--out", str(target), "--no-posterior", "--force"],
-                             capture_output=True, text=True)
-        cpu = round(judgement.children_cpu() - cpu0, 1)
+                              "--candidates", args.candidates, "--out", str(target), "--no-posterior", "--force", "--device", args.device,
+                              "--jobs", args.jobs], capture_output=True, text=True)
+        cpu, wall = round(judgement.children_cpu() - cpu0, 1), round(time.perf_counter() - wall0, 1)
         (out / "labels" / f"{tag}.discover.log").write_text(run.stderr)  # the progress lines: which candidates each step fitted
         if run.returncode:
             row = {"case": tag, "name": case.name, "level": case.level,
                    "error": run.stderr.strip().splitlines()[-1] if run.stderr.strip() else f"exit {run.returncode}"}
         else:
             row = case_row(out, tag, case.name, m_load)
-        rows[case.name] = {**row, "cpu_seconds": cpu}
+        rows[case.name] = {**row, "cpu_seconds": cpu, "wall_seconds": wall, "device": args.device, "jobs": args.jobs}
         print(json.dumps(rows[case.name], default=str), flush=True)
         _write(rows, order, out, args.json)
     if not args.no_discover:

@@ -24,7 +24,7 @@ __all__ = ["Estimate", "Verdict", "identify", "discover", "simulate", "resolve_c
 #: The settings of :func:`identify` (the flags of ``uqdrive identify``) and their defaults.
 IDENTIFY_SETTINGS = {"cost": "std", "m_load": None, "starts": 0, "state_scale": "rms_mean"}
 #: The settings of :func:`discover` (the flags of ``uqdrive discover``) and their defaults.
-DISCOVER_SETTINGS = {"posterior": None, "jobs": 1}
+DISCOVER_SETTINGS = {"posterior": None, "jobs": 1, "device": "cpu"}
 
 
 def resolve_config(config: str | Path | Mapping[str, Any] | None = None, vehicle: str | Path | None = None) -> dict:
@@ -279,21 +279,26 @@ def discover(data: str | Path | xr.Dataset, *, config=None, vehicle=None, candid
     **settings
         ``posterior`` (True, False or None: as the config says); ``jobs``, worker processes for
         the fits of each search step (a count or ``"auto"``, the CPUs this process may use;
-        default 1), the same verdict for every count.
+        default 1), the same verdict for every count; ``device`` who integrates the non-linear
+        models, ``"cpu"`` (default), ``"gpu"`` (JAX, the same numbers to 1e-10; the fits in this
+        process) or ``"auto"``, as :func:`simulate`'s.
 
     Returns
     -------
     Verdict
     """
+    from ..numerics.backend import resolve_device
     from .discover import discover_dataset
 
     s = _settings(settings, DISCOVER_SETTINGS, "discover")
+    resolve_device(s["device"])  # refused before any work
     cfg = resolve_config(config, vehicle)
     if progress is not None:
         progress("reading the ensemble")
     ds, source = _dataset(data)
     names = candidate_names(candidates)
-    finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model), s["jobs"])
+    finder, verdict = discover_dataset(cfg, ds, source, names, s["posterior"], progress, None if model is None else Path(model), s["jobs"],
+                                       s["device"])
     return Verdict(_with_car(verdict, ds, cfg), finder)
 
 

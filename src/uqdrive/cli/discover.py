@@ -75,7 +75,8 @@ def candidates_for_car(names: Sequence[str], vehicle: Vehicle) -> tuple[list[str
 
 
 def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequence[str] | None, out: Path, posterior: bool | None = None,
-                  log: Callable[[str], None] | None = None, model: Path | None = None, figures: bool = True, jobs: int | str = 1) -> dict:
+                  log: Callable[[str], None] | None = None, model: Path | None = None, figures: bool = True, jobs: int | str = 1,
+                  device: str = "cpu") -> dict:
     """Discover what the model misses in ``measured``; write the outputs into ``out`` atomically.
 
     ``posterior``: sample the emcee posterior of the augmented model into ``verdict.json``
@@ -83,7 +84,8 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     a progress line per stage (the workflow's log file). ``model``: a ``model.yaml`` written by
     discover to start from (its effects refitted, further ones added on top). ``figures``: draw
     bands.png and localisation.png too (False: verdict.json and model.yaml only). ``jobs``: worker
-    processes for the fits of each search step (:class:`~uqdrive.inference.discrepancy.DiscrepancyFinder`).
+    processes for the fits of each search step, ``device`` who integrates the non-linear models
+    (:class:`~uqdrive.inference.discrepancy.DiscrepancyFinder`).
 
     The whole folder is written beside ``out`` and renamed onto it only when everything
     succeeded, so a failure leaves no verdict behind. The data's speed (``v``, else the attribute
@@ -94,13 +96,14 @@ def discover_file(config: Mapping[str, Any], measured: Path, candidates: Sequenc
     on exactly those channels along that speed; ``verdict.json``'s ``untestable`` names the
     candidates the channels cannot test (``lateral_kinematics`` without y).
     """
-    finder, verdict = discover_dataset(config, read_ensemble(measured), str(measured), candidates, posterior, log, model, jobs)
+    finder, verdict = discover_dataset(config, read_ensemble(measured), str(measured), candidates, posterior, log, model, jobs, device)
     write_outputs(finder, verdict, out, figures)
     return verdict
 
 
 def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: Sequence[str] | None = None, posterior: bool | None = None,
-                     log: Callable[[str], None] | None = None, model: Path | None = None, jobs: int | str = 1) -> tuple[DiscrepancyFinder, dict]:
+                     log: Callable[[str], None] | None = None, model: Path | None = None, jobs: int | str = 1,
+                     device: str = "cpu") -> tuple[DiscrepancyFinder, dict]:
     """:func:`discover_file` on the validated ensemble ``ds`` (named ``measured`` in messages and
     in the verdict), writing nothing: the fitted finder and the verdict.json fields.
     ``model_fits`` says whether the final model leaves no unexplained gap (no ``unrecognised``)."""
@@ -119,7 +122,8 @@ def discover_dataset(config: Mapping[str, Any], ds, measured: str, candidates: S
     names, lacking = candidates_for_car(requested, settings.vehicle)
     if not names:
         raise DataError(f"no candidate can be tested on this car: {'; '.join(u['reason'] for u in lacking)}")
-    finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start, jobs=jobs)
+    finder = DiscrepancyFinder(settings, candidates=names, posterior=posterior, inputs=separating_inputs(ds["time"].values), log=log, start_model=start, jobs=jobs,
+                               device=device)
     if "beta" in ds and int(np.sum(~np.any(np.abs(ds["beta"].values) > settings.spin.threshold, axis=-1))) < MIN_SAMPLES:
         raise DataError(f"{measured}: fewer than {MIN_SAMPLES} realisations kept control (|beta| <= spin_threshold)")
     finder.fit(ds)

@@ -6,7 +6,11 @@ from __future__ import annotations
 import argparse
 import re
 
-__all__ = ["HelpFormatter", "EXAMPLES", "CANDIDATES_TEXT", "candidate_listing", "epilog"]
+__all__ = ["HelpFormatter", "EXAMPLES", "CANDIDATES_TEXT", "DEVICE_HELP", "candidate_listing", "epilog"]
+
+#: --device of simulate and discover, formatted with what runs where and what else the GPU implies.
+DEVICE_HELP = ("where {what} integrated: cpu, {cpu} (default); gpu, JAX in float64 on a GPU (install with pip install \"uqdrive[gpu]\"; "
+               "the same numbers as cpu to 1e-10 relative{gpu}); auto, the GPU when JAX sees one, else cpu{tail}")
 
 
 class HelpFormatter(argparse.HelpFormatter):

@@ -21,7 +21,7 @@ from .._version import __version__
 from ..config import DEFAULT_CONFIG_NAME, ConfigError, default_config_text, load_config
 from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_folder, check_writable
 from ..interrupts import Interrupted, deliver, shielded, forget_signals, raise_if_interrupted, signal_received
-from .help_text import CANDIDATES_TEXT, HelpFormatter, candidate_listing, epilog
+from .help_text import CANDIDATES_TEXT, DEVICE_HELP, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
 from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, jobs_count, registry_choice, stderr_line
 from ..settings import Settings
@@ -108,10 +108,8 @@ def _add_simulate(sub) -> None:
                    help="realisations, 2..10^7 (default: config montecarlo.samples)")
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
                    help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
-    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"),
-                   help="where the NLST is integrated: cpu, the NumPy reference (default, the same bits on every machine); "
-                        "gpu, JAX in float64 on a GPU (install with pip install \"uqdrive[gpu]\"; the same numbers as cpu to 1e-10 relative); "
-                        "auto, the GPU when JAX sees one, else cpu. The LST always runs on the CPU")
+    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
+        what="the NLST is", cpu="the NumPy reference, the same bits on every machine", gpu="", tail=". The LST always runs on the CPU"))
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file (its folder must exist)")
@@ -266,6 +264,8 @@ def _add_discover(sub) -> None:
                         "single fit, and its last fits on the cores of idle workers: their simulations in halves on two processes) "
                         "(default 1; 'auto': every CPU this process may use); "
                         "the verdict is the same for every N")
+    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
+        what="the non-linear models are", cpu="the compiled CPU path", gpu="; the fits then run in one process, --jobs 1", tail=""))
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))
     p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
@@ -281,7 +281,7 @@ def _discover(args) -> int:
     out = check_replaced_folder(args.out, overwrite=args.force, names=DISCOVER_OUTPUTS)
     candidates = None if args.candidates is None else [c.strip() for c in args.candidates.split(",") if c.strip()]
     verdict = discover(args.measured, config=config, candidates=candidates, model=args.model, progress=progress,
-                       posterior=args.posterior, jobs=args.jobs)
+                       posterior=args.posterior, jobs=args.jobs, device=args.device)
     progress("writing verdict.json, model.yaml" + (" and the figures" if args.figures else ""))
     verdict.save(out, figures=args.figures)
     progress("done")

@@ -41,8 +41,8 @@ class AugmentedSimulator(EnsembleSimulator):
         the mass only through F_w / m), the wind and its KLE settings.
     germs : Germs
         Fixed germs of the realisations (common random numbers).
-    time, delta, v_c, stride, interpolation, channels, speed
-        The grid, the commanded steering, the speed and the output, as
+    time, delta, v_c, stride, interpolation, channels, speed, backend
+        The grid, the commanded steering, the speed, the output and who integrates, as
         :class:`~uqdrive.vehicle.dynamics.engine.EnsembleSimulator` takes them.
 
     Attributes
@@ -52,8 +52,8 @@ class AugmentedSimulator(EnsembleSimulator):
     """
 
     def __init__(self, settings: Settings, time, delta, v_c: float, germs: Germs, stride: int = 1, interpolation: str = "linear",
-                 channels=STATES, speed=None):
-        super().__init__(settings, time, delta, v_c, stride, interpolation, channels, speed)
+                 channels=STATES, speed=None, backend: str = "numpy"):
+        super().__init__(settings, time, delta, v_c, stride, interpolation, channels, speed, backend=backend)
         if germs.kle.shape[1] < self.kle.n_modes:
             raise ValueError(f"germs hold {germs.kle.shape[1]} KLE modes; the wind needs {self.kle.n_modes}")
         self.germs = germs
@@ -62,11 +62,11 @@ class AugmentedSimulator(EnsembleSimulator):
 
     @classmethod
     def drawn(cls, settings: Settings, time, delta, v_c: float, n: int, rng: np.random.Generator, stride: int = 1,
-              matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None) -> "AugmentedSimulator":
+              matched: bool = False, interpolation: str = "linear", channels=STATES, speed=None, backend: str = "numpy") -> "AugmentedSimulator":
         """A simulator on ``n`` germs drawn from ``rng`` (as many KLE modes as the horizon needs),
         moment-matched if ``matched`` (:meth:`Germs.matched`: for model ensembles, not for data)."""
         n_modes = kle_of_wind(settings.wind, float(np.asarray(time)[-1])).n_modes
-        return cls(settings, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed)
+        return cls(settings, time, delta, v_c, Germs.draw(rng, n, n_modes, matched), stride, interpolation, channels, speed, backend)
 
     def with_germs(self, germs: Germs) -> "AugmentedSimulator":
         """The same model on other germs (the KLE is reused)."""

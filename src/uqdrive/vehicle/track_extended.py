@@ -83,12 +83,11 @@ from .single_track import VehicleParameters, tyre_angle
 #: guess (its error is the transient m v beta_dot) two steps leave the yaw rate of a 0.6 g slalom
 #: within 1.2e-5 of its range of the converged loop (three: 1e-8; none, the steady loads: 2e-2).
 LOAD_NEWTON_STEPS = 2
-#: Whether the loop runs compiled (:mod:`uqdrive.vehicle.dynamics.load_newton`) where it can: the same numbers
-#: as the NumPy loop, which False keeps (the reference its tests compare with).
+#: The loop compiled (:mod:`uqdrive.vehicle.dynamics.load_newton`) where it can, the same numbers; False: NumPy's (the tests' reference).
 COMPILED_LOOP = True
 FUSED = True  # the compiled rates where they serve (False: the NumPy path, the reference of their tests)
 
-__all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "integrate_chassis"]
+__all__ = ["LOAD_NEWTON_STEPS", "ExtendedSingleTrackRHS", "chassis_rhs", "integrate_chassis"]
 
 
 def _stiffness_factors(p: VehicleParameters) -> np.ndarray:
@@ -392,23 +391,26 @@ class ExtendedSingleTrackRHS(AxleLoads):
         out[3] = v * (course_sine(course) if self.course_sine else course)
 
 
-def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
-                      n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None, reference_loads=None):
-    """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
-    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half``
-    its speed profile), plus the car's settings whose cg_height and track_width the lateral
-    load transfer needs (the load-sensitive tyre its cg_height) and ``reference_loads``, the
-    load-sensitive tyre's F_z0 (:class:`ExtendedSingleTrackRHS`).
-
-    With ``with_rhs``: every state (n_states, n, K + 1), the lagged slip angles included, and the
-    right-hand side, whose ``lateral_acceleration`` gives a_y from them."""
+def chassis_rhs(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, speed_half=None,
+                reference_loads=None) -> ExtendedSingleTrackRHS:
+    """The right-hand side :func:`integrate_chassis` integrates, with the car's cg_height and
+    track_width where the terms need them (an error naming the effect where the car lacks one)."""
     h_t = (0.0, 1.0)
     if np.any(np.asarray(s.load_sensitivity) != 0):
         purpose = "the effect lateral_load_transfer"
         h_t = (vehicle.require("cg_height", purpose), vehicle.require("track_width", purpose))
     h_s = vehicle.require("cg_height", "the effect load_sensitive_tyre") if _load_sensitive(s) else 0.0
-    rhs = ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads,
-                                 tyre_load_height=h_s)
+    return ExtendedSingleTrackRHS(p, s, E, delta_half, F_w_half, yaw_gust, wind, *h_t, speed_half=speed_half, reference_loads=reference_loads,
+                                  tyre_load_height=h_s)
+
+
+def integrate_chassis(vehicle: Vehicle, p: VehicleParameters, s, E, delta_half, F_w_half, yaw_gust: bool, wind, h: float,
+                      n_steps: int, record_every: int, with_rhs: bool = False, speed_half=None, reference_loads=None):
+    """States (4, n, K + 1) (a time-major view) of the model with chassis effects from rest by
+    RK4; arguments as :func:`uqdrive.vehicle.track_rk4.integrate_single_track` (``speed_half`` its
+    speed profile), the car and the load-sensitive tyre's F_z0 ``reference_loads`` as :func:`chassis_rhs`.
+    With ``with_rhs``: every state (n_states, n, K + 1) and the right-hand side (a_y from them)."""
+    rhs = chassis_rhs(vehicle, p, s, E, delta_half, F_w_half, yaw_gust, wind, speed_half, reference_loads)
     step = rk4_fixed_step_into
     if FUSED:  # the stepper's arithmetic compiled too, the same numbers
         from .dynamics.fused_rk4 import rk4_fused_into as step

@@ -10,6 +10,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ...numerics.backend import resolve_device
 from ...numerics.threads import single_blas_thread
 from ...rng import rng_stream
 from ...settings import Settings
@@ -83,6 +84,10 @@ class DiscrepancyFinder:
         step, the refits of the backward check) and for the posterior (its batches of full-model
         evaluations, its emcee ensembles); the verdict is the same for every count
         (:mod:`uqdrive.inference.parallel`). ``"auto"``: the CPUs this process may use.
+    device : {"cpu", "gpu", "auto"}
+        Who integrates the non-linear models (:func:`uqdrive.numerics.backend.resolve_device`): the
+        CPU path, or JAX on a GPU (:mod:`uqdrive.vehicle.accelerated.chassis`, the same numbers to
+        1e-10; the fits then run in this process, ``jobs`` 1: a forked worker cannot use the GPU).
 
     The data may carry any channels of :data:`uqdrive.vehicle.channels.CHANNELS` and a speed ``v``
     that changes: model, null band and fits compare exactly those channels along that speed.
@@ -124,9 +129,10 @@ class DiscrepancyFinder:
                  nonlinear_samples: int | None = None, bootstrap: int | None = None, level: float | None = None,
                  max_times: int | None = None, top: int | None = None, seed: int | None = None, posterior: bool | None = None,
                  inputs: Mapping[str, Any] | None = None, log: Callable[[str], None] | None = None, max_effects: int | None = None,
-                 start_model: Mapping[str, Any] | None = None, jobs: int | str = 1):
+                 start_model: Mapping[str, Any] | None = None, jobs: int | str = 1, device: str = "cpu"):
         d = settings.discover
-        self.jobs = resolve_jobs(jobs)
+        self.device, self.backend = device, resolve_device(device)
+        self.jobs = 1 if self.backend == "jax" else resolve_jobs(jobs)
         self.settings = settings
         default = DEFAULT_CANDIDATES if d.candidates is None else list(d.candidates)
         self.candidates = expand_names(candidates if candidates is not None else default)
@@ -180,7 +186,7 @@ class DiscrepancyFinder:
         m = self.model_samples_ = model_realisations(n, self.model_samples, self.nonlinear_samples, self.model_ratio)
         raw = AugmentedSimulator.drawn(self.settings, t, delta, v_c, m, rng_stream(self.seed, "discrepancy_model"),
                                        stride=self.stride_, interpolation=self.interpolation_,
-                                       channels=self.channels_, speed=speed)
+                                       channels=self.channels_, speed=speed, backend=self.backend)
         sim = raw.with_germs(raw.germs.matched())  # linear models: moment-matched germs (Germs.matched)
         self.time_ = sim.output_time[index]
         self.noise_variance_ = noise

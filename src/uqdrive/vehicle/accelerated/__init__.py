@@ -1,5 +1,6 @@
-"""The Monte Carlo ensemble simulator on an accelerator: the NLST's right-hand sides and RK4 in
-JAX (float64), the same numbers as the NumPy path of :mod:`uqdrive.vehicle.montecarlo`.
+"""The ensemble simulators on an accelerator, by JAX in float64: the NLST's Monte Carlo ensembles
+(:mod:`.nlst`) and the single-track model with chassis effects that discover fits (:mod:`.chassis`),
+each the same numbers as its NumPy path to 1e-10.
 """
 
 from typing import TYPE_CHECKING
@@ -7,11 +8,15 @@ from typing import TYPE_CHECKING
 from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
+    from .chassis import chassis_constants, chassis_rates, integrate_chassis_jax  # noqa: F401
     from .nlst import nlst_program, simulate_nlst_jax  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
     "nlst_program": ".nlst",
     "simulate_nlst_jax": ".nlst",
+    "chassis_constants": ".chassis",
+    "chassis_rates": ".chassis",
+    "integrate_chassis_jax": ".chassis",
 })
 
-__all__ = ["nlst_program", "simulate_nlst_jax"]
+__all__ = ["nlst_program", "simulate_nlst_jax", "chassis_constants", "chassis_rates", "integrate_chassis_jax"]

@@ -22,7 +22,7 @@ from ...numerics.sampled_input import actual_steering, checked_interpolation, he
 from ...settings import Settings, TimeGrid
 from ..effects import ModelStructure, with_tyre_shape
 from ..single_track import STATES, VehicleParameters, lst_matrices, with_compliance_steer
-from ..track_extended import integrate_chassis
+from ..track_extended import chassis_rhs, integrate_chassis
 from ..track_rk4 import (LinearTrackRHS, integrate_linear_ltv, integrate_single_track, linear_lateral_acceleration, measured_channels,
                          rk4_lateral_acceleration, speed_on_half_steps)
 from ..uncertainty import KarhunenLoeve, kle_of_wind
@@ -107,6 +107,11 @@ class EnsembleSimulator:
         Steering, gust modes (and speed) evaluated by the caller at every half step of the
         grid's step: non-linear structures and ``drive.speed`` are integrated by RK4 on them
         (no steering lag or delay: the caller's angle is the actual one).
+    backend : {"numpy", "jax"}
+        Who integrates the non-linear structures on the grid (:func:`uqdrive.numerics.backend.resolve_device`):
+        the NumPy and compiled CPU path, or JAX on its default device
+        (:func:`uqdrive.vehicle.accelerated.chassis.integrate_chassis_jax`, the same numbers to 1e-10);
+        the exact discretisations and a half-step drive stay on the CPU.
 
     Attributes
     ----------
@@ -115,7 +120,11 @@ class EnsembleSimulator:
     """
 
     def __init__(self, settings: Settings, time, delta, v_c: float, stride: int = 1, interpolation: str = "linear", channels=STATES,
-                 speed=None, kle: KarhunenLoeve | None = None, linear_profile: str = "rk4", drive: HalfStepDrive | None = None):
+                 speed=None, kle: KarhunenLoeve | None = None, linear_profile: str = "rk4", drive: HalfStepDrive | None = None,
+                 backend: str = "numpy"):
+        if backend not in ("numpy", "jax"):
+            raise ValueError(f"backend is 'numpy' or 'jax', not {backend!r}")
+        self.backend = backend
         time = np.asarray(time, float)
         self.channels = tuple(channels)
         self.spin_row = self.channels.index("beta") if "beta" in self.channels else None
@@ -342,9 +351,15 @@ class EnsembleSimulator:
             np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
             start += size
         E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
+        js = np.arange(self.output_time.size) * (2 * sub * self.stride)
+        speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
+        if self.backend == "jax" and (s.uses_chassis or s.nonlinear):  # one compiled program per combination of terms
+            from ..accelerated.chassis import integrate_chassis_jax
+
+            rhs = chassis_rhs(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, self._reference_loads)
+            x = integrate_chassis_jax(rhs, h, n_steps, sub * self.stride).transpose(1, 2, 0)
+            return (x, rhs, js) if with_rhs else x[:4]
         if with_rhs:
-            js = np.arange(self.output_time.size) * (2 * sub * self.stride)
-            speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
             if s.uses_chassis and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,
                                            speed, self._reference_loads), js)

@@ -1,0 +1,135 @@
+"""The chassis model in JAX (vehicle/accelerated/chassis.py) on JAX's CPU build against the NumPy
+path: its right-hand side with every term alone, in pairs and together, its RK4 ensemble, the
+ensemble simulator's JAX backend (the states and a_y of its passes), and discover's device choice."""
+
+import numpy as np
+import pytest
+
+from uqdrive.cli.main import main
+from uqdrive.config import load_config
+from uqdrive.inference.discrepancy import DiscrepancyFinder
+from uqdrive.numerics import backend
+from uqdrive.numerics.integrate import rk4_fixed_step_into
+from uqdrive.settings import Settings
+from uqdrive.vehicle.augmented import AugmentedSimulator
+from uqdrive.vehicle.effects import ModelStructure, effect
+
+from conftest import REPO
+from test_fused_chassis import LINEAR_SETS, SENSITIVE, SETS, VALUES, YIELDING, _rates, _rhs, _states, _structure
+
+jax = pytest.importorskip("jax")
+from uqdrive.numerics.backend import float64  # noqa: E402
+from uqdrive.vehicle.accelerated import chassis  # noqa: E402
+
+# The JAX path runs the NumPy path's equations; they differ by the last bits of the transcendental
+# functions and of reordered sums (measured 9e-15 relative on the rates, 2e-15 on 300 RK4 steps,
+# the loads' Newton loop and the compliant wheels' included). 1e-10 is the backend's promise.
+RTOL = 1e-10
+#: Each set once, the inputs taking turns: held speed or braking, numbers or per-realisation.
+CASES = [(terms, False, i % 2 == 1, i % 4 >= 2) for i, terms in enumerate(SETS + YIELDING + SENSITIVE)]
+CASES += [(terms, True, i % 2 == 1, i % 4 >= 2) for i, terms in enumerate(LINEAR_SETS)]
+
+
+def _relative(got, expected):
+    """Largest |got - expected| of each state over its largest |expected|, the worst state's (-)."""
+    return float(np.max(np.abs(got - expected) / np.abs(expected).max(axis=-1, keepdims=True)))
+
+
+def _jax_rates(rhs, x, j: int):
+    """dx/dt of :func:`chassis.chassis_rates` at half step ``j``, eagerly (no compilation per set)."""
+    c, f = chassis.chassis_constants(rhs)
+    v, v_dot = (rhs.speed_half[0][j], rhs.speed_half[1][j]) if rhs.speed_half is not None else (rhs.v, 0.0)
+    delta = np.broadcast_to(np.asarray(rhs.delta_half[j], float), x.shape[1:])
+    with float64():
+        return np.asarray(chassis.chassis_rates({k: jax.numpy.asarray(a) for k, a in c.items()}, f, jax.numpy.asarray(x),
+                                                jax.numpy.asarray(delta), jax.numpy.asarray(rhs.F_w_half[j]), v, v_dot))
+
+
+@pytest.mark.parametrize("terms, linear, speed, per_run", CASES,
+                         ids=lambda a: "+".join(a) if isinstance(a, tuple) else str(a))
+def test_the_jax_chassis_rates_are_the_numpy_rates(terms, linear, speed, per_run):
+    """Tyres past their peak, wheels lifting, relaxation lengths of zero among per-run ones: every
+    state's rate within RTOL of the NumPy reference's (FUSED off) at a half step."""
+    extra = ("road_bank", "lateral_kinematics") if per_run else ()
+    s = _structure(terms + extra, np.random.default_rng(2) if per_run else None, linear=linear)
+    reference = _rhs(False, s, speed=speed, per_run=per_run)
+    x = _states(reference, np.random.default_rng(3))
+    if linear:
+        x[0] = np.clip(x[0], -2.5, 2.5)
+    expected = _rates(reference, x, (1,))[0]
+    assert np.all(np.isfinite(expected))
+    assert _relative(_jax_rates(reference, x, 1), expected) < RTOL
+
+
+@pytest.mark.parametrize("term", ["lateral_load_transfer", "combined_slip", "roll_steer", "tyre_relaxation", "load_sensitive_tyre"])
+def test_the_comparison_sees_a_term_left_out(term, monkeypatch):
+    """With a term's flag off in the JAX program its rates leave the reference by far more than RTOL."""
+    s = _structure((term,) + (("longitudinal_load_transfer",) if term == "combined_slip" else ()))
+    reference = _rhs(False, s, speed=True)
+    x = _states(reference, np.random.default_rng(3))
+    flag = {"lateral_load_transfer": "transferring", "combined_slip": "slipping", "roll_steer": "rolling", "tyre_relaxation": "relaxed",
+            "load_sensitive_tyre": "sensitive"}[term]
+    constants = chassis.chassis_constants
+    monkeypatch.setattr(chassis, "chassis_constants", lambda rhs: (constants(rhs)[0], {**constants(rhs)[1], flag: False}))
+    if term in ("roll_steer", "tyre_relaxation"):  # the extra states' rows then missing: compare the four shared ones
+        assert _relative(_jax_rates(reference, x, 1)[:4], _rates(reference, x, (1,))[0][:4]) > 1e3 * RTOL
+    else:
+        assert _relative(_jax_rates(reference, x, 1), _rates(reference, x, (1,))[0]) > 1e3 * RTOL
+
+
+@pytest.mark.parametrize("linear", [False, True], ids=["magic formula", "linear tyre"])
+def test_the_jax_ensemble_is_the_numpy_ensemble(linear):
+    """Relaxation, roll steer, the loads' loop and (linear tyre) compliance steer over 20 RK4 steps
+    from rest, braking, per-realisation inputs, recorded every second step; 53 realisations are
+    padded to the program's 64 and cut back."""
+    terms = ("tyre_relaxation", "roll_steer", "compliance_steer", "lateral_load_transfer") if linear else \
+        ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "combined_slip", "longitudinal_load_transfer")
+    rhs = _rhs(True, _structure(terms, linear=linear), speed=True, per_run=True)
+    expected = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, 53)), 0.01, 20, 2)
+    got = chassis.integrate_chassis_jax(rhs, 0.01, 20, 2)
+    assert got.shape == expected.shape == (11, 8, 53)
+    assert np.abs(expected[-1, 1]).max() > 1e-3  # the car turned
+    assert _relative(got.transpose(1, 2, 0).reshape(8, -1), expected.transpose(1, 2, 0).reshape(8, -1)) < RTOL
+    with pytest.raises(ValueError, match="multiple"):
+        chassis.integrate_chassis_jax(rhs, 0.01, 20, 3)
+
+
+def test_the_simulators_jax_backend_gives_the_cpu_numbers():
+    """An augmented simulator's passes along a speed profile with a_y measured (a_y from the
+    states on the CPU): a chassis structure, the Magic Formula alone and a batch of two pairs; the
+    exact linear model stays on the CPU."""
+    cfg = load_config(None)
+    cfg["vehicle"].update(cg_height=0.55, track_width=1.6)
+    settings = Settings.from_config(cfg)
+    t = np.arange(0.0, 3.0 + 1e-9, 0.01)
+    delta = np.deg2rad(3.0) * np.sin(2 * np.pi * t / 1.5)
+    sims = {b: AugmentedSimulator.drawn(settings, t, delta, 25.0, 40, np.random.default_rng(1), stride=2, channels=("psi_dot", "beta", "a_y"),
+                                        speed=np.linspace(25.0, 20.0, t.size), backend=b) for b in ("numpy", "jax")}
+    theta = list(settings.layout.start)
+    tyre = effect("tyre_saturation").augment(ModelStructure(), [0.97])
+    relaxing = effect("tyre_relaxation").augment(tyre, VALUES["tyre_relaxation"])
+    loaded = effect("lateral_load_transfer").augment(relaxing, VALUES["lateral_load_transfer"])
+    for s in (tyre, loaded):
+        expected = sims["numpy"].simulate(theta, s)
+        assert np.abs(expected[2]).max() > 0.5  # a_y of a car that turns (m/s^2)
+        assert _relative(sims["jax"].simulate(theta, s).reshape(3, -1), expected.reshape(3, -1)) < RTOL
+    pairs = ([theta, theta], [relaxing, effect("tyre_relaxation").augment(tyre, [0.2])])
+    for got, expected in zip(sims["jax"].simulate_many(*pairs), sims["numpy"].simulate_many(*pairs)):
+        assert _relative(got.reshape(3, -1), expected.reshape(3, -1)) < RTOL
+    with pytest.raises(ValueError, match="backend"):
+        AugmentedSimulator.drawn(settings, t, delta, 25.0, 4, np.random.default_rng(1), backend="cuda")
+
+
+def test_discover_on_a_gpu_fits_in_one_process_and_refuses_a_missing_gpu(tmp_path, capsys, monkeypatch):
+    """device gpu: the JAX backend, the fits in this process whatever jobs asks (a forked worker
+    cannot use the GPU); without a GPU the command refuses in one line naming the install, before reading the data."""
+    settings = Settings.from_config(load_config(None))
+    monkeypatch.setattr(backend, "gpu_visible", lambda: True)
+    finder = DiscrepancyFinder(settings, jobs=2, device="gpu")
+    assert (finder.backend, finder.jobs) == ("jax", 1)
+    assert (DiscrepancyFinder(settings, jobs=2).backend, DiscrepancyFinder(settings, jobs=2).jobs) == ("numpy", 2)
+    monkeypatch.setattr(backend, "gpu_visible", lambda: False)
+    rc = main(["discover", str(tmp_path / "missing.nc"), "--device", "gpu", "--out", str(tmp_path / "out"), "--config", str(REPO / "config" / "test.yaml")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "uqdrive[gpu]" in err and "device" in err
+    assert not (tmp_path / "out").exists()
