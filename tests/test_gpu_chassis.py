@@ -2,6 +2,10 @@
 path: its right-hand side with every term alone, in pairs and together, its RK4 ensemble, the
 ensemble simulator's JAX backend (the states and a_y of its passes), and discover's device choice."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -87,6 +91,9 @@ def test_the_jax_ensemble_is_the_numpy_ensemble(linear):
     rhs = _rhs(True, _structure(terms, linear=linear), speed=True, per_run=True)
     expected = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, 53)), 0.01, 20, 2)
     got = chassis.integrate_chassis_jax(rhs, 0.01, 20, 2)
+    programs = chassis.programs_compiled()
+    np.testing.assert_array_equal(chassis.integrate_chassis_jax(rhs, 0.01, 20, 2), got)  # the same program, the same bits
+    assert chassis.programs_compiled() == programs >= 1
     assert got.shape == expected.shape == (11, 8, 53)
     assert np.abs(expected[-1, 1]).max() > 1e-3  # the car turned
     assert _relative(got.transpose(1, 2, 0).reshape(8, -1), expected.transpose(1, 2, 0).reshape(8, -1)) < RTOL
@@ -133,3 +140,17 @@ def test_discover_on_a_gpu_fits_in_one_process_and_refuses_a_missing_gpu(tmp_pat
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "uqdrive[gpu]" in err and "device" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_command_line_keeps_jaxs_programs_on_disk(tmp_path):
+    """--device's JAX choice names a disk cache (XDG_CACHE_HOME/uqdrive/jax) that a compiled
+    program is written to, and keeps a cache the process already names."""
+    code = ("import jax; from uqdrive.numerics.backend import compilation_cache; print(compilation_cache()); "
+            "print(compilation_cache('/elsewhere')); jax.jit(lambda x: x * 2.0 + 1.0)(3.0).block_until_ready()")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path), "JAX_PLATFORMS": "cpu"}
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    directory = tmp_path / "uqdrive" / "jax"
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == [str(directory)] * 2
+    assert any(directory.iterdir())  # the program, compiled in well under JAX's default one second, is kept

@@ -23,7 +23,7 @@ from ..io import MIN_RUNS, DataError, OutputError, atomic_path, check_replaced_f
 from ..interrupts import Interrupted, deliver, shielded, forget_signals, raise_if_interrupted, signal_received
 from .help_text import CANDIDATES_TEXT, DEVICE_HELP, HelpFormatter, candidate_listing, epilog
 from .import_runs import add_import
-from .validation import SEED_MAX, OneLineParser, bounded_int, finite_float, jobs_count, registry_choice, stderr_line
+from .validation import SEED_MAX, OneLineParser, bounded_int, device_choice, finite_float, jobs_count, registry_choice, stderr_line
 from ..settings import Settings
 
 __all__ = ["main", "build_parser", "Interrupted"]
@@ -108,7 +108,7 @@ def _add_simulate(sub) -> None:
                    help="realisations, 2..10^7 (default: config montecarlo.samples)")
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
                    help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
-    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
+    p.add_argument("--device", default="cpu", type=device_choice, choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
         what="the NLST is", cpu="the NumPy reference, the same bits on every machine", gpu="", tail=". The LST always runs on the CPU"))
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
@@ -264,7 +264,7 @@ def _add_discover(sub) -> None:
                         "single fit, and its last fits on the cores of idle workers: their simulations in halves on two processes) "
                         "(default 1; 'auto': every CPU this process may use); "
                         "the verdict is the same for every N")
-    p.add_argument("--device", default="cpu", choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
+    p.add_argument("--device", default="cpu", type=device_choice, choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
         what="the non-linear models are", cpu="the compiled CPU path", gpu="; the fits then run in one process, --jobs 1", tail=""))
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--strict", action="store_true", help=STRICT_HELP.format(" (a gap that no candidate explains remains)"))

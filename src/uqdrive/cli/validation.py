@@ -8,7 +8,7 @@ import importlib
 import math
 import sys
 
-__all__ = ["OneLineParser", "finite_float", "bounded_int", "jobs_count", "stderr_line", "SEED_MAX"]
+__all__ = ["OneLineParser", "finite_float", "bounded_int", "jobs_count", "device_choice", "stderr_line", "SEED_MAX"]
 
 #: Largest root seed: netCDF stores it as a signed 64-bit attribute.
 SEED_MAX = 2**63 - 1
@@ -91,3 +91,17 @@ def jobs_count(text: str) -> int | str:
     if value < 1:
         raise argparse.ArgumentTypeError(f"--jobs {text} is below 1; give a number of worker processes, 1 or more, or 'auto'")
     return value
+
+
+def device_choice(text: str) -> str:
+    """argparse type of ``--device``: a device this machine can run (:func:`uqdrive.numerics.backend.resolve_device`),
+    with JAX's compiled programs kept on disk where it is JAX's (:func:`~uqdrive.numerics.backend.compilation_cache`:
+    the next run loads what this one compiles)."""
+    from ..numerics.backend import DeviceError, compilation_cache, resolve_device
+
+    try:
+        if resolve_device(text) == "jax":
+            compilation_cache()
+    except DeviceError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
-    from .chassis import chassis_constants, chassis_rates, integrate_chassis_jax  # noqa: F401
+    from .chassis import chassis_constants, chassis_rates, integrate_chassis_jax, programs_compiled  # noqa: F401
     from .nlst import nlst_program, simulate_nlst_jax  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -17,6 +17,7 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "chassis_constants": ".chassis",
     "chassis_rates": ".chassis",
     "integrate_chassis_jax": ".chassis",
+    "programs_compiled": ".chassis",
 })
 
-__all__ = ["nlst_program", "simulate_nlst_jax", "chassis_constants", "chassis_rates", "integrate_chassis_jax"]
+__all__ = ["nlst_program", "simulate_nlst_jax", "chassis_constants", "chassis_rates", "integrate_chassis_jax", "programs_compiled"]

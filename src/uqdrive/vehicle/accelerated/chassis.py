@@ -19,7 +19,7 @@ import numpy as np
 
 from ...numerics.backend import float64
 
-__all__ = ["FLAGS", "chassis_constants", "chassis_rates", "integrate_chassis_jax"]
+__all__ = ["FLAGS", "chassis_constants", "chassis_rates", "integrate_chassis_jax", "programs_compiled"]
 
 #: The terms a right-hand side has on (static choices of the compiled program): the Magic-Formula
 #: tyre, the exact course sine, relaxation, roll steer, loads that move (and of them the
@@ -201,7 +201,7 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
     x : jax array, shape (d, n)
         psi, psi_dot, beta, y (rad, rad/s, rad, m), then the lagged slip angles (rad) where the
         tyres relax and the roll steer angle (rad) and its rate (rad/s) where the body rolls.
-    delta : jax array, shape (n,)
+    delta : jax array, shape (n,) or (1,)
         Front wheel angle (rad).
     F_w : jax array, shape (n,)
         Side wind (N).
@@ -236,8 +236,9 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
 
 
 def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
-    """States (K + 1, d, n) by RK4 from rest: ``delta`` and ``F_w`` (K, R, 3, n), ``speed``
-    (K, R, 3, 2) or None: each step's inputs at its start, middle and end."""
+    """States (K + 1, d, n) by RK4 from rest: ``delta`` (K, R, 3, n) or (K, R, 3, 1) (one angle
+    for all), ``F_w`` (K, R, 3, n), ``speed`` (K, R, 3, 2) or None: each step's inputs at its
+    start, middle and end."""
     import jax.numpy as jnp
     from jax import lax
 
@@ -265,6 +266,16 @@ def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
     per_step = (delta, F_w) if speed is None else (delta, F_w, speed)
     _, states = lax.scan(interval, zero, per_step)
     return jnp.concatenate([zero[None], states])
+
+
+#: The static choices and shapes of the programs this process ran: one program each (compiled, or
+#: loaded from JAX's disk cache, at its first pass).
+_PROGRAMS: set = set()
+
+
+def programs_compiled() -> int:
+    """How many programs this process's passes needed (each compiled or loaded from disk once)."""
+    return len(_PROGRAMS)
 
 
 @lru_cache(maxsize=None)
@@ -311,7 +322,8 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int) -> np.
     pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
     c = {k: pad(a) for k, a in c.items()}
     J = 2 * n_steps + 1
-    delta = np.broadcast_to(np.asarray(rhs.delta_half, float).reshape(J, -1), (J, n))
+    delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
+    delta = pad(delta) if delta.shape[1] > 1 else delta
     F_w = np.asarray(rhs.F_w_half, float)[:J]
     speed = None
     if rhs.speed_half is not None:
@@ -319,7 +331,9 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int) -> np.
     with float64():
         import jax
 
-        args = jax.device_put((c, _per_step(pad(np.ascontiguousarray(delta)), n_steps, record_every),
+        args = jax.device_put((c, _per_step(delta, n_steps, record_every),
                                _per_step(pad(F_w), n_steps, record_every), speed, float(h), float(rhs.v)))
-        out = _compiled()(*args, f_items=tuple(sorted(f.items())), n_states=rhs.n_states)
+        static = tuple(sorted(f.items()))
+        _PROGRAMS.add((static, width, n_steps, record_every, rhs.n_states))
+        out = _compiled()(*args, f_items=static, n_states=rhs.n_states)
         return np.asarray(out)[:, :, :n]
