@@ -51,12 +51,13 @@ def _case(out: Path, name: str, samples: int) -> Path:
 def _one_run(data: Path, device: str, jobs: str, jax_cpu: bool) -> dict:
     """One timed discover in this process: its verdict's effects and gaps, seconds and the programs."""
     import uqdrive
+    from uqdrive.cli.validation import compilation_cache
     from uqdrive.numerics import backend
 
     if jax_cpu:
         backend.gpu_visible = lambda: True  # noqa: E731 (JAX's CPU build stands in)
     if device == "gpu":
-        backend.compilation_cache()
+        compilation_cache()
     ds = pickle.loads(data.read_bytes())
     wall = time.perf_counter()
     verdict = uqdrive.discover(ds, config=_config(), candidates="all", posterior=False, device=device, jobs=jobs)

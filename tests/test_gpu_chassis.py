@@ -145,7 +145,7 @@ def test_discover_on_a_gpu_fits_in_one_process_and_refuses_a_missing_gpu(tmp_pat
 def test_the_command_line_keeps_jaxs_programs_on_disk(tmp_path):
     """--device's JAX choice names a disk cache (XDG_CACHE_HOME/uqdrive/jax) that a compiled
     program is written to, and keeps a cache the process already names."""
-    code = ("import jax; from uqdrive.numerics.backend import compilation_cache; print(compilation_cache()); "
+    code = ("import jax; from uqdrive.cli.validation import compilation_cache; print(compilation_cache()); "
             "print(compilation_cache('/elsewhere')); jax.jit(lambda x: x * 2.0 + 1.0)(3.0).block_until_ready()")
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path), "JAX_PLATFORMS": "cpu"}
     env.pop("JAX_COMPILATION_CACHE_DIR", None)

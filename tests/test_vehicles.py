@@ -272,7 +272,7 @@ def test_discover_creates_missing_parents_and_notes_the_data_speed(tiny, capsys,
 
     seen = {}
 
-    def fake(config, ds, measured, candidates=None, posterior=None, log=None, model=None, jobs=1):
+    def fake(config, ds, measured, candidates=None, posterior=None, log=None, model=None, jobs=1, device="cpu"):
         seen["speed"] = config["vehicle"]["speed_kmh"]
         return None, {"effect": "none", "ambiguous_with": [], "gap_before": 1.0, "gap_after": 1.0, "effects": [], "evidence": {"n_spun": 0},
                       "model_fits": True}

@@ -1,14 +1,17 @@
 """Checks of the command-line flags, shared by every subcommand: each bad value is refused by
-argparse with one line naming the flag, the value and the fix (exit code 2)."""
+argparse with one line naming the flag, the value and the fix (exit code 2); what a flag sets up
+in the process the command owns (JAX's disk cache of ``--device``)."""
 
 from __future__ import annotations
 
 import argparse
 import importlib
 import math
+import os
 import sys
+from pathlib import Path
 
-__all__ = ["OneLineParser", "finite_float", "bounded_int", "jobs_count", "device_choice", "stderr_line", "SEED_MAX"]
+__all__ = ["OneLineParser", "finite_float", "bounded_int", "jobs_count", "device_choice", "compilation_cache", "stderr_line", "SEED_MAX"]
 
 #: Largest root seed: netCDF stores it as a signed 64-bit attribute.
 SEED_MAX = 2**63 - 1
@@ -95,13 +98,41 @@ def jobs_count(text: str) -> int | str:
 
 def device_choice(text: str) -> str:
     """argparse type of ``--device``: a device this machine can run (:func:`uqdrive.numerics.backend.resolve_device`),
-    with JAX's compiled programs kept on disk where it is JAX's (:func:`~uqdrive.numerics.backend.compilation_cache`:
+    with JAX's compiled programs kept on disk where it is JAX's (:func:`compilation_cache`:
     the next run loads what this one compiles)."""
-    from ..numerics.backend import DeviceError, compilation_cache, resolve_device
+    from ..numerics.backend import DEVICES, DeviceError, resolve_device
 
     try:
-        if resolve_device(text) == "jax":
+        if text in DEVICES and resolve_device(text) == "jax":  # an unknown name: argparse's choices name the known ones
             compilation_cache()
     except DeviceError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
     return text
+
+
+def compilation_cache(directory: str | Path | None = None) -> str:
+    """Keep JAX's compiled programs on disk, so that a later process loads them instead of
+    compiling anew (a discover compiles a few dozen programs, one per combination of terms and
+    size); a process that already names a cache (``JAX_COMPILATION_CACHE_DIR`` or JAX's config)
+    keeps its own. For the command line, which owns its process: the setting is JAX's, global.
+
+    Parameters
+    ----------
+    directory : path, optional
+        Where to keep them; default ``$XDG_CACHE_HOME/uqdrive/jax`` (``~/.cache/uqdrive/jax``).
+
+    Returns
+    -------
+    str
+        The cache directory in use.
+    """
+    import jax
+
+    current = jax.config.jax_compilation_cache_dir
+    if current:
+        return str(current)
+    if directory is None:
+        directory = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "uqdrive" / "jax"
+    jax.config.update("jax_compilation_cache_dir", str(directory))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # every program: each is compiled once per search
+    return str(directory)

@@ -5,12 +5,10 @@ name ("auto", "cpu", "gpu"); JAX is optional and imported only when a GPU is ask
 from __future__ import annotations
 
 import importlib.util
-import os
-from pathlib import Path
 
 from .._errors import ConfigError
 
-__all__ = ["DEVICES", "GPU_INSTALL", "DeviceError", "jax_installed", "gpu_visible", "resolve_device", "float64", "compilation_cache"]
+__all__ = ["DEVICES", "GPU_INSTALL", "DeviceError", "jax_installed", "gpu_visible", "resolve_device", "float64"]
 
 #: The device names a caller may choose: auto (a GPU when JAX sees one, else the CPU), cpu, gpu.
 DEVICES = ("auto", "cpu", "gpu")
@@ -93,30 +91,3 @@ def float64():
 
     return enable_x64()
 
-
-def compilation_cache(directory: str | Path | None = None) -> str:
-    """Keep JAX's compiled programs on disk, so that a later process loads them instead of
-    compiling anew (a discover compiles a few dozen programs, one per combination of terms and
-    size); a process that already names a cache (``JAX_COMPILATION_CACHE_DIR`` or JAX's config)
-    keeps its own. For the command line, which owns its process: the setting is JAX's, global.
-
-    Parameters
-    ----------
-    directory : path, optional
-        Where to keep them; default ``$XDG_CACHE_HOME/uqdrive/jax`` (``~/.cache/uqdrive/jax``).
-
-    Returns
-    -------
-    str
-        The cache directory in use.
-    """
-    import jax
-
-    current = jax.config.jax_compilation_cache_dir
-    if current:
-        return str(current)
-    if directory is None:
-        directory = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "uqdrive" / "jax"
-    jax.config.update("jax_compilation_cache_dir", str(directory))
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)  # every program: each is compiled once per search
-    return str(directory)

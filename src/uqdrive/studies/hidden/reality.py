@@ -1,7 +1,7 @@
 """The reality of the hidden-effect benchmark (:mod:`uqdrive.studies.hidden_effects`): its
 right-hand side with the switchable effects, the accelerometer's reading, the braking speed
 profile and the RK4 that integrates it, kept apart from the LST/NLST code of :mod:`uqdrive.vehicle`
-(the chassis effects' physics in :mod:`.chassis`, apart from :mod:`uqdrive.vehicle.track_extended`).
+(the chassis effects' physics in :mod:`uqdrive.studies.hidden.chassis`, apart from :mod:`uqdrive.vehicle.track_extended`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from ...settings import Settings
 
 __all__ = ["CHASSIS_EFFECTS", "case_speed", "speed_of_case", "reality_rhs", "rk4_left_limit", "state_size"]
 
-#: Effects of the chassis (:mod:`.chassis`): loads moved by the body's accelerations, the steering's
+#: Effects of the chassis (:mod:`uqdrive.studies.hidden.chassis`): loads moved by the body's accelerations, the steering's
 #: compliance, the tyres' relaxation, the roll steer.
 CHASSIS_EFFECTS = ("longitudinal_load_transfer", "lateral_load_transfer", "compliance_steer", "tyre_relaxation", "roll_steer")
 
@@ -78,7 +78,7 @@ def reality_rhs(config: Mapping[str, Any], case, draws, delta_half, gust_half, d
     x has shape (:func:`state_size`, n): [psi, psi_dot, beta, y], the actual steering angle for
     actuator_lag, the front and rear lagged slip angles for tyre_relaxation. Several effects act
     together (a combined case). The chassis effects (:data:`CHASSIS_EFFECTS`) take each wheel's
-    load-sensitive peak (:func:`.chassis.axle_peak`) with the axle loads moved by the body's
+    load-sensitive peak (:func:`uqdrive.studies.hidden.chassis.axle_peak`) with the axle loads moved by the body's
     accelerations; lateral_load_transfer reads vehicle.cg_height and vehicle.track_width. ``speed_half``:
     (v, v_dot) per half step along a speed profile (the speed change acts along the velocity:
     beta_dot gains -(v_dot / v) sin beta). ``rhs.a_y(x, j)`` is the accelerometer's reading, the

@@ -1,6 +1,6 @@
 """The ensemble simulators on an accelerator, by JAX in float64: the NLST's Monte Carlo ensembles
-(:mod:`.nlst`) and the single-track model with chassis effects that discover fits (:mod:`.chassis`),
-each the same numbers as its NumPy path to 1e-10.
+(:mod:`uqdrive.vehicle.accelerated.nlst`) and the single-track model with chassis effects that
+discover fits (:mod:`uqdrive.vehicle.accelerated.chassis`), each the NumPy path's numbers to 1e-10.
 """
 
 from typing import TYPE_CHECKING

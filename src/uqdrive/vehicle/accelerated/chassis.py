@@ -5,10 +5,11 @@ The right-hand side repeats the NumPy path's equations term for term (load trans
 loads-forces Newton loop, combined slip, the load-sensitive tyre, compliance steer, roll steer,
 tyre relaxation, the speed profile, the Magic-Formula or linear tyre), from the constants the
 NumPy right-hand side computed (:func:`chassis_constants`); the two paths differ by the last bits
-of the transcendental functions and of the operations a compiler reorders, nothing else. Each
+of the transcendental functions and of the operations a compiler reorders, nothing else. With no
+chassis term on it is the NLST (5.3), which serves the Magic-Formula structures too. Each
 combination of terms (:data:`FLAGS`) is its own compiled program, the terms that are off absent
-from it; realisations are padded to a power of two, so that a discover's passes of a few
-thousand realisations share a handful of programs.
+from it; realisations are padded to a power of two, so that passes of nearby sizes share one
+(a four-wheel discover runs a few dozen programs).
 """
 
 from __future__ import annotations
@@ -205,7 +206,7 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
         Front wheel angle (rad).
     F_w : jax array, shape (n,)
         Side wind (N).
-    v, v_dot : float or jax array
+    v, v_dot : float or jax array, shape (n,)
         Speed (m/s) and its rate (m/s^2).
 
     Returns
