@@ -45,8 +45,8 @@ def _jax_rates(rhs, x, j: int):
     v, v_dot = (rhs.speed_half[0][j], rhs.speed_half[1][j]) if rhs.speed_half is not None else (rhs.v, 0.0)
     delta = np.broadcast_to(np.asarray(rhs.delta_half[j], float), x.shape[1:])
     with float64():
-        return np.asarray(chassis.chassis_rates({k: jax.numpy.asarray(a) for k, a in c.items()}, f, jax.numpy.asarray(x),
-                                                jax.numpy.asarray(delta), jax.numpy.asarray(rhs.F_w_half[j]), v, v_dot))
+        return np.stack(chassis.chassis_rates({k: jax.numpy.asarray(a) for k, a in c.items()}, f, tuple(jax.numpy.asarray(x)),
+                                              jax.numpy.asarray(delta), jax.numpy.asarray(rhs.F_w_half[j]), v, v_dot))
 
 
 @pytest.mark.parametrize("terms, linear, speed, per_run", CASES,

@@ -199,7 +199,7 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
     ----------
     c, f : dict
         Constants and flags of :func:`chassis_constants`.
-    x : jax array, shape (d, n)
+    x : sequence of d jax arrays, shape (n,) each (or one array (d, n))
         psi, psi_dot, beta, y (rad, rad/s, rad, m), then the lagged slip angles (rad) where the
         tyres relax and the roll steer angle (rad) and its rate (rad/s) where the body rolls.
     delta : jax array, shape (n,) or (1,)
@@ -211,7 +211,9 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
 
     Returns
     -------
-    jax array, shape (d, n)
+    tuple of d jax arrays, shape (n,) each
+        dx/dt row by row (the RK4 carries the rows apart: stacking them at every stage splits a
+        step into more GPU kernels, :func:`uqdrive.vehicle.accelerated.nlst_program`'s finding).
     """
     import jax.numpy as jnp
 
@@ -233,7 +235,7 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
     if f["rolling"]:
         w, eps, rate = c["roll_omega"], x[-2], x[-1]
         rows += [rate, w * w * (c["roll_gain"] * (fc + F[1]) - eps) - 2.0 * c["roll_zeta"] * w * rate]
-    return jnp.stack(rows)
+    return tuple(rows)
 
 
 def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
@@ -252,20 +254,24 @@ def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
         v = inputs[2][k]
         return chassis_rates(c, f, x, inputs[0][k], inputs[1][k], v[0], v[1])
 
+    def shifted(x, k, scale):  # x + scale k row by row, formed as the NumPy stepper forms it
+        return tuple(k_i * scale + x_i for x_i, k_i in zip(x, k))
+
     def step(x, inputs):
         k1 = stage(x, inputs, 0)
-        k2 = stage(k1 * half + x, inputs, 1)
-        k3 = stage(k2 * half + x, inputs, 1)
-        k4 = stage(k3 * h + x, inputs, 2)
-        return x + ((((k2 + k3) * 2.0) + k1) + k4) * sixth, None
+        k2 = stage(shifted(x, k1, half), inputs, 1)
+        k3 = stage(shifted(x, k2, half), inputs, 1)
+        k4 = stage(shifted(x, k3, h), inputs, 2)
+        return tuple(x_i + ((((b + c) * 2.0) + a) + d) * sixth for x_i, a, b, c, d in zip(x, k1, k2, k3, k4)), None
 
     def interval(x, inputs):
         x, _ = lax.scan(step, x, inputs)
-        return x, x
+        return x, jnp.stack(x)
 
     zero = jnp.zeros((n_states, c["m"].shape[0]))
+    rows = tuple(zero[i] for i in range(n_states))
     per_step = (delta, F_w) if speed is None else (delta, F_w, speed)
-    _, states = lax.scan(interval, zero, per_step)
+    _, states = lax.scan(interval, rows, per_step)
     return jnp.concatenate([zero[None], states])
 
 
