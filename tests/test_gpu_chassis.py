@@ -12,13 +12,15 @@ import pytest
 from uqdrive.cli.main import main
 from uqdrive.config import load_config
 from uqdrive.inference.discrepancy import DiscrepancyFinder
+from uqdrive.inference.discrepancy import finder as finder_module
+from uqdrive.io import read_ensemble
 from uqdrive.numerics import backend
 from uqdrive.numerics.integrate import rk4_fixed_step_into
 from uqdrive.settings import Settings
 from uqdrive.vehicle.augmented import AugmentedSimulator
 from uqdrive.vehicle.effects import ModelStructure, effect
 
-from conftest import REPO
+from conftest import REPO, tiny_files
 from test_fused_chassis import LINEAR_SETS, SENSITIVE, SETS, VALUES, YIELDING, _rates, _rhs, _states, _structure
 
 jax = pytest.importorskip("jax")
@@ -101,7 +103,7 @@ def test_the_jax_ensemble_is_the_numpy_ensemble(linear):
         chassis.integrate_chassis_jax(rhs, 0.01, 20, 3)
 
 
-def test_the_simulators_jax_backend_gives_the_cpu_numbers():
+def test_the_simulators_jax_backend_gives_the_cpu_numbers(monkeypatch):
     """An augmented simulator's passes along a speed profile with a_y measured (a_y from the
     states on the CPU): a chassis structure, the Magic Formula alone and a batch of two pairs; the
     exact linear model stays on the CPU."""
@@ -116,10 +118,13 @@ def test_the_simulators_jax_backend_gives_the_cpu_numbers():
     tyre = effect("tyre_saturation").augment(ModelStructure(), [0.97])
     relaxing = effect("tyre_relaxation").augment(tyre, VALUES["tyre_relaxation"])
     loaded = effect("lateral_load_transfer").augment(relaxing, VALUES["lateral_load_transfer"])
+    passes, integrate = [], chassis.integrate_chassis_jax
+    monkeypatch.setattr(chassis, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
     for s in (tyre, loaded):
         expected = sims["numpy"].simulate(theta, s)
         assert np.abs(expected[2]).max() > 0.5  # a_y of a car that turns (m/s^2)
         assert _relative(sims["jax"].simulate(theta, s).reshape(3, -1), expected.reshape(3, -1)) < RTOL
+    assert len(passes) == 2  # the JAX backend's passes, the CPU's none
     pairs = ([theta, theta], [relaxing, effect("tyre_relaxation").augment(tyre, [0.2])])
     for got, expected in zip(sims["jax"].simulate_many(*pairs), sims["numpy"].simulate_many(*pairs)):
         assert _relative(got.reshape(3, -1), expected.reshape(3, -1)) < RTOL
@@ -135,6 +140,14 @@ def test_discover_on_a_gpu_fits_in_one_process_and_refuses_a_missing_gpu(tmp_pat
     finder = DiscrepancyFinder(settings, jobs=2, device="gpu")
     assert (finder.backend, finder.jobs) == ("jax", 1)
     assert (DiscrepancyFinder(settings, jobs=2).backend, DiscrepancyFinder(settings, jobs=2).jobs) == ("numpy", 2)
+    data = tiny_files(tmp_path)[1]
+
+    def drawn(*args, backend="numpy", **kwargs):  # stops the fit where it builds its simulator, naming the backend
+        raise LookupError(backend)
+
+    monkeypatch.setattr(finder_module.AugmentedSimulator, "drawn", drawn)
+    with pytest.raises(LookupError, match="^jax$"):  # the fit's simulator is built for JAX
+        finder.fit(read_ensemble(data))
     monkeypatch.setattr(backend, "gpu_visible", lambda: False)
     rc = main(["discover", str(tmp_path / "missing.nc"), "--device", "gpu", "--out", str(tmp_path / "out"), "--config", str(REPO / "config" / "test.yaml")])
     err = capsys.readouterr().err
@@ -154,3 +167,27 @@ def test_the_command_line_keeps_jaxs_programs_on_disk(tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.split() == [str(directory)] * 2
     assert any(directory.iterdir())  # the program, compiled in well under JAX's default one second, is kept
+
+
+def test_simulating_a_discovered_model_on_the_gpu_gives_the_cpu_numbers(tmp_path, monkeypatch):
+    """`uqdrive simulate --model gap/model.yaml --device gpu`: the augmented model (a saturating,
+    relaxing tyre) integrated by JAX within RTOL of the CPU path, every state."""
+    import yaml
+
+    import uqdrive
+    from uqdrive.vehicle.effects import EFFECTS
+
+    effects = {"tyre_saturation": [0.97], "tyre_relaxation": VALUES["tyre_relaxation"]}
+    model = {"uqdrive_model": 1, "baseline": "lst", "effects": {k: dict(zip(EFFECTS[k].parameters, v)) for k, v in effects.items()},
+             "distributions": {"mu": {"mean": 1.0, "std": 0.1}, "l_f": {"mean": 1.55, "std": 0.1}, "F_w_mean": {"low": -400.0, "high": 400.0}}}
+    path = tmp_path / "model.yaml"
+    path.write_text(yaml.safe_dump(model))
+    config = REPO / "config" / "test.yaml"
+    expected = uqdrive.simulate(path, config=config, samples=8)
+    monkeypatch.setattr(backend, "gpu_visible", lambda: True)
+    passes, integrate = [], chassis.integrate_chassis_jax
+    monkeypatch.setattr(chassis, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
+    got = uqdrive.simulate(path, config=config, samples=8, device="gpu")
+    assert passes and float(np.abs(expected["beta"].values).max()) > 1e-3  # JAX's pass; the car turned
+    for name in ("psi", "psi_dot", "beta", "y"):
+        assert _relative(got[name].values, expected[name].values) < RTOL

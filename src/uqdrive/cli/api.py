@@ -332,8 +332,9 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
     samples, seed : int, optional
         Realisations and root seed (default: the config's).
     device : {"cpu", "gpu", "auto"}
-        Where the NLST is integrated (:func:`uqdrive.simulate_ensemble`): cpu the NumPy reference,
-        gpu JAX on a GPU (``pip install "uqdrive[gpu]"``), auto the GPU when one is visible.
+        Where the NLST (:func:`uqdrive.simulate_ensemble`) or a model.yaml's non-linear model is
+        integrated: cpu the NumPy reference, gpu JAX on a GPU (``pip install "uqdrive[gpu]"``),
+        auto the GPU when one is visible.
 
     Returns
     -------
@@ -347,13 +348,13 @@ def simulate(model: str | Path = "lst", *, config=None, vehicle=None, steer: str
     from ..vehicle.noise import noisy_ensemble
     from ..vehicle.single_track import STATES
 
-    resolve_device(device)  # refused before any work
+    backend = resolve_device(device)  # refused before any work
     cfg = resolve_config(config, vehicle)
     if str(model) not in ("lst", "nlst"):
         from .model import simulate_model
 
         n = int(cfg["montecarlo"]["samples"] if samples is None else samples)
-        ds = simulate_model(cfg, Path(model), steer, n, int(cfg["seed"] if seed is None else seed))
+        ds = simulate_model(cfg, Path(model), steer, n, int(cfg["seed"] if seed is None else seed), backend)
     else:
         ds = simulate_ensemble(Settings.from_config(cfg), str(model), steer, samples=samples, seed=seed, device=device)
     bad = [s for s in STATES if not np.all(np.isfinite(ds[s].values))]

@@ -109,7 +109,8 @@ def _add_simulate(sub) -> None:
     p.add_argument("--seed", type=bounded_int("--seed", 0, SEED_MAX), default=None, metavar="S",
                    help=f"root seed of every random stream, 0..{SEED_MAX} (default: config seed)")
     p.add_argument("--device", default="cpu", type=device_choice, choices=("auto", "cpu", "gpu"), help=DEVICE_HELP.format(
-        what="the NLST is", cpu="the NumPy reference, the same bits on every machine", gpu="", tail=". The LST always runs on the CPU"))
+        what="the NLST or a model.yaml's non-linear model is", cpu="the NumPy reference, the same bits on every machine", gpu="",
+        tail=". The LST always runs on the CPU"))
     p.add_argument("--config", type=Path, default=None, metavar="FILE", help=CONFIG_HELP)
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE", help=VEHICLE_HELP)
     p.add_argument("--out", type=Path, required=True, metavar="FILE.nc", help="output netCDF file (its folder must exist)")

@@ -173,8 +173,9 @@ def model_settings(settings: Settings, dist: Mapping[str, Mapping[str, float]]) 
     return replace(settings, uncertainty=replace(settings.uncertainty, m_load=load))
 
 
-def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: int, seed: int) -> xr.Dataset:
-    """An ensemble of the augmented model in the data schema (the thesis' input (5.5)/(5.7))."""
+def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: int, seed: int, backend: str = "numpy") -> xr.Dataset:
+    """An ensemble of the augmented model in the data schema (the thesis' input (5.5)/(5.7)),
+    its non-linear model integrated by ``backend`` (:class:`~uqdrive.vehicle.dynamics.engine.EnsembleSimulator`'s)."""
     structure, dist = load_model(path, config)
     settings = model_settings(Settings.from_config(config), dist)
     t_end, dt = config["time"]["t_end"], config["time"]["dt"]
@@ -182,7 +183,7 @@ def simulate_model(config: Mapping[str, Any], path: Path, steer: str, samples: i
     st = config["steering"]
     delta = steering_input(t, np.deg2rad(st["delta_max_deg"]), st["period"], STEERS[steer])
     v_c = config["vehicle"]["speed_kmh"] / 3.6
-    sim = AugmentedSimulator.drawn(settings, t, delta, v_c, samples, rng_stream(seed, "parameters"))
+    sim = AugmentedSimulator.drawn(settings, t, delta, v_c, samples, rng_stream(seed, "parameters"), backend=backend)
     x = sim.simulate(_theta(dist), structure)
     spun = spin_mask(x[2], config["montecarlo"]["spin_threshold"])
     data = {s: (("sample", "time"), x[i], {"units": STATE_UNITS[s], "long_name": STATE_NAMES[s]}) for i, s in enumerate(STATES)}
