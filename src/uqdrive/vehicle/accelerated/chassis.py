@@ -19,6 +19,7 @@ from functools import lru_cache
 import numpy as np
 
 from ...numerics.backend import float64
+from .rk4 import rk4_rows_step
 
 __all__ = ["FLAGS", "chassis_constants", "chassis_rates", "integrate_chassis_jax", "programs_compiled"]
 
@@ -246,7 +247,6 @@ def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
     from jax import lax
 
     f = dict(f_items)
-    half, sixth = 0.5 * h, h / 6.0
 
     def stage(x, inputs, k):
         if speed is None:
@@ -254,15 +254,8 @@ def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
         v = inputs[2][k]
         return chassis_rates(c, f, x, inputs[0][k], inputs[1][k], v[0], v[1])
 
-    def shifted(x, k, scale):  # x + scale k row by row, formed as the NumPy stepper forms it
-        return tuple(k_i * scale + x_i for x_i, k_i in zip(x, k))
-
     def step(x, inputs):
-        k1 = stage(x, inputs, 0)
-        k2 = stage(shifted(x, k1, half), inputs, 1)
-        k3 = stage(shifted(x, k2, half), inputs, 1)
-        k4 = stage(shifted(x, k3, h), inputs, 2)
-        return tuple(x_i + ((((b + c) * 2.0) + a) + d) * sixth for x_i, a, b, c, d in zip(x, k1, k2, k3, k4)), None
+        return rk4_rows_step(stage, x, inputs, h), None
 
     def interval(x, inputs):
         x, _ = lax.scan(step, x, inputs)

@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from ...numerics.backend import float64
+from .rk4 import rk4_rows_step
 from ...settings import TimeGrid
 from ..single_track import VehicleParameters
 
@@ -80,7 +81,6 @@ def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: boo
     import jax.numpy as jnp
     from jax import lax
 
-    half, sixth = 0.5 * h, h / 6.0
     columns = [coeffs[:, c] for c in range(coeffs.shape[1])]
 
     def stage(x, inputs, k):
@@ -95,15 +95,8 @@ def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: boo
         v = inputs[2][k]
         return _rhs_speed_profile(q, x, d, F_w, M_w, v[0], v[1])
 
-    def shifted(x, k, scale):  # x + scale k, formed as scale k + x like the NumPy stepper
-        return tuple(k_i * scale + x_i for x_i, k_i in zip(x, k))
-
     def step(x, inputs):
-        k1 = stage(x, inputs, 0)
-        k2 = stage(shifted(x, k1, half), inputs, 1)
-        k3 = stage(shifted(x, k2, half), inputs, 1)
-        k4 = stage(shifted(x, k3, h), inputs, 2)
-        return tuple(x_i + ((((b + c) * 2.0) + a) + d) * sixth for x_i, a, b, c, d in zip(x, k1, k2, k3, k4)), None
+        return rk4_rows_step(stage, x, inputs, h), None
 
     def interval(x, inputs):
         x, _ = lax.scan(step, x, inputs, unroll=True)
