@@ -69,9 +69,9 @@ def _one_run(data: Path, device: str, jobs: str, jax_cpu: bool) -> dict:
     if device == "gpu":
         import jax
 
-        from uqdrive.vehicle.accelerated import chassis
+        from uqdrive.vehicle.accelerated import chassis_ensemble
 
-        row.update(programs=chassis.programs_compiled(), jax_device=str(jax.devices()[0]))
+        row.update(programs=chassis_ensemble.programs_compiled(), jax_device=str(jax.devices()[0]))
     return row
 
 

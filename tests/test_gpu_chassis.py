@@ -1,6 +1,7 @@
-"""The chassis model in JAX (vehicle/accelerated/chassis.py) on JAX's CPU build against the NumPy
-path: its right-hand side with every term alone, in pairs and together, its RK4 ensemble, the
-ensemble simulator's JAX backend (the states and a_y of its passes), and discover's device choice."""
+"""The chassis model in JAX (vehicle/accelerated/chassis.py, chassis_ensemble.py) on JAX's CPU build
+against the NumPy path: its right-hand side with every term alone, in pairs and together, its RK4
+ensemble (gusts and a_y on the device), the ensemble simulator's JAX backend (the states and a_y of
+its passes), and the device choice of discover and simulate --model."""
 
 import os
 import subprocess
@@ -25,7 +26,7 @@ from test_fused_chassis import LINEAR_SETS, SENSITIVE, SETS, VALUES, YIELDING, _
 
 jax = pytest.importorskip("jax")
 from uqdrive.numerics.backend import float64  # noqa: E402
-from uqdrive.vehicle.accelerated import chassis  # noqa: E402
+from uqdrive.vehicle.accelerated import chassis, chassis_ensemble  # noqa: E402
 
 # The JAX path runs the NumPy path's equations; they differ by the last bits of the transcendental
 # functions and of reordered sums (measured 9e-15 relative on the rates, 2e-15 on 300 RK4 steps,
@@ -86,21 +87,28 @@ def test_the_comparison_sees_a_term_left_out(term, monkeypatch):
 @pytest.mark.parametrize("linear", [False, True], ids=["magic formula", "linear tyre"])
 def test_the_jax_ensemble_is_the_numpy_ensemble(linear):
     """Relaxation, roll steer, the loads' loop and (linear tyre) compliance steer over 20 RK4 steps
-    from rest, braking, per-realisation inputs, recorded every second step; 53 realisations are
-    padded to the program's 64 and cut back."""
+    from rest, braking, per-realisation inputs, recorded every second step, the gusts formed on the
+    device from their modes: the states and a_y; 53 realisations are padded to the program's 64 and cut back."""
     terms = ("tyre_relaxation", "roll_steer", "compliance_steer", "lateral_load_transfer") if linear else \
         ("tyre_relaxation", "roll_steer", "lateral_load_transfer", "combined_slip", "longitudinal_load_transfer")
     rhs = _rhs(True, _structure(terms, linear=linear), speed=True, per_run=True)
+    rng = np.random.default_rng(11)
+    wind, coeffs = rng.uniform(-200.0, 200.0, 53), rng.normal(0.0, 150.0, (53, 3))
+    modes = np.stack([np.sin((i + 1) * np.linspace(0.0, 3.0, 41)) for i in range(3)])  # (n_c, J)
+    rhs.F_w_half = wind + (coeffs @ modes).T  # the NumPy path's wind table
     expected = rk4_fixed_step_into(rhs, np.zeros((rhs.n_states, 53)), 0.01, 20, 2)
-    got = chassis.integrate_chassis_jax(rhs, 0.01, 20, 2)
-    programs = chassis.programs_compiled()
-    np.testing.assert_array_equal(chassis.integrate_chassis_jax(rhs, 0.01, 20, 2), got)  # the same program, the same bits
-    assert chassis.programs_compiled() == programs >= 1
-    assert got.shape == expected.shape == (11, 8, 53)
-    assert np.abs(expected[-1, 1]).max() > 1e-3  # the car turned
-    assert _relative(got.transpose(1, 2, 0).reshape(8, -1), expected.transpose(1, 2, 0).reshape(8, -1)) < RTOL
+    a_y = np.stack([rhs.lateral_acceleration(np.ascontiguousarray(expected[k]), 4 * k) for k in range(11)], axis=-1)
+    got, got_a_y = chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, wind, coeffs, modes, lateral_acceleration=True)
+    assert got.shape == (11, 4, 53) and got_a_y.shape == a_y.shape == (53, 11)
+    assert np.abs(expected[-1, 1]).max() > 1e-3 and np.abs(a_y).max() > 0.5  # the car turned
+    assert _relative(got.transpose(1, 2, 0).reshape(4, -1), expected[:, :4].transpose(1, 2, 0).reshape(4, -1)) < RTOL
+    assert _relative(got_a_y, a_y) < RTOL
+    programs = chassis_ensemble.programs_compiled()
+    again, none = chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, wind, coeffs, modes, lateral_acceleration=True)
+    np.testing.assert_array_equal(again, got)  # the same program, the same bits
+    assert chassis_ensemble.programs_compiled() == programs >= 1 and none is not None
     with pytest.raises(ValueError, match="multiple"):
-        chassis.integrate_chassis_jax(rhs, 0.01, 20, 3)
+        chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 3, wind, coeffs, modes)
 
 
 def test_the_simulators_jax_backend_gives_the_cpu_numbers(monkeypatch):
@@ -118,8 +126,8 @@ def test_the_simulators_jax_backend_gives_the_cpu_numbers(monkeypatch):
     tyre = effect("tyre_saturation").augment(ModelStructure(), [0.97])
     relaxing = effect("tyre_relaxation").augment(tyre, VALUES["tyre_relaxation"])
     loaded = effect("lateral_load_transfer").augment(relaxing, VALUES["lateral_load_transfer"])
-    passes, integrate = [], chassis.integrate_chassis_jax
-    monkeypatch.setattr(chassis, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
+    passes, integrate = [], chassis_ensemble.integrate_chassis_jax
+    monkeypatch.setattr(chassis_ensemble, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
     for s in (tyre, loaded):
         expected = sims["numpy"].simulate(theta, s)
         assert np.abs(expected[2]).max() > 0.5  # a_y of a car that turns (m/s^2)
@@ -185,8 +193,8 @@ def test_simulating_a_discovered_model_on_the_gpu_gives_the_cpu_numbers(tmp_path
     config = REPO / "config" / "test.yaml"
     expected = uqdrive.simulate(path, config=config, samples=8)
     monkeypatch.setattr(backend, "gpu_visible", lambda: True)
-    passes, integrate = [], chassis.integrate_chassis_jax
-    monkeypatch.setattr(chassis, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
+    passes, integrate = [], chassis_ensemble.integrate_chassis_jax
+    monkeypatch.setattr(chassis_ensemble, "integrate_chassis_jax", lambda *a: passes.append(1) or integrate(*a))
     got = uqdrive.simulate(path, config=config, samples=8, device="gpu")
     assert passes and float(np.abs(expected["beta"].values).max()) > 1e-3  # JAX's pass; the car turned
     for name in ("psi", "psi_dot", "beta", "y"):

@@ -1,27 +1,21 @@
-"""The single-track model with chassis effects (:class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`)
-by RK4 in JAX (float64): one compiled scan over the steps, the realisations as the vector axis.
+"""The right-hand side of the single-track model with chassis effects in JAX (float64), the
+equations of :class:`uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS` for n realisations.
 
-The right-hand side repeats the NumPy path's equations term for term (load transfer and the
-loads-forces Newton loop, combined slip, the load-sensitive tyre, compliance steer, roll steer,
-tyre relaxation, the speed profile, the Magic-Formula or linear tyre), from the constants the
-NumPy right-hand side computed (:func:`chassis_constants`); the two paths differ by the last bits
-of the transcendental functions and of the operations a compiler reorders, nothing else. With no
-chassis term on it is the NLST (5.3), which serves the Magic-Formula structures too. Each
-combination of terms (:data:`FLAGS`) is its own compiled program, the terms that are off absent
-from it; realisations are padded to a power of two, so that passes of nearby sizes share one
-(a four-wheel discover runs a few dozen programs).
+The equations are the NumPy path's term for term (load transfer and the loads-forces Newton loop,
+combined slip, the load-sensitive tyre, compliance steer, roll steer, tyre relaxation, the speed
+profile, the Magic-Formula or linear tyre), from the constants the NumPy right-hand side computed
+(:func:`chassis_constants`); the two paths differ by the last bits of the transcendental
+functions and of the operations a compiler reorders, nothing else. With no chassis term on it is
+the NLST (5.3), which serves the Magic-Formula structures too. Which terms are on (:data:`FLAGS`)
+is a static choice: the terms that are off are absent from a program. The RK4 passes:
+:mod:`uqdrive.vehicle.accelerated.chassis_ensemble`.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
-from ...numerics.backend import float64
-from .rk4 import rk4_rows_step
-
-__all__ = ["FLAGS", "chassis_constants", "chassis_rates", "integrate_chassis_jax", "programs_compiled"]
+__all__ = ["FLAGS", "chassis_constants", "chassis_rates", "chassis_lateral_acceleration"]
 
 #: The terms a right-hand side has on (static choices of the compiled program): the Magic-Formula
 #: tyre, the exact course sine, relaxation, roll steer, loads that move (and of them the
@@ -31,7 +25,7 @@ FLAGS = ("saturating", "course_sine", "relaxed", "rolling", "loaded", "pitching"
          "profile", "yaw_gust")
 
 
-def chassis_constants(rhs) -> tuple[dict, dict]:
+def chassis_constants(rhs, n: int | None = None) -> tuple[dict, dict]:
     """The per-realisation constants (arrays (n,) or (2, n), float64) and the flags of a NumPy
     chassis right-hand side ``rhs`` (:class:`~uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS`),
     whose attributes hold them as the NumPy path computed them (the same doubles on both paths).
@@ -45,7 +39,7 @@ def chassis_constants(rhs) -> tuple[dict, dict]:
     """
     from ..track_extended import LOAD_NEWTON_STEPS  # read at each call, as the NumPy right-hand side reads it
 
-    n = int(np.size(rhs.F_w_half[0]))
+    n = int(np.size(rhs.F_w_half[0]) if n is None else n)
     one = lambda a: np.broadcast_to(np.asarray(a, float), (n,)).copy()  # noqa: E731
     two = lambda a: np.broadcast_to(np.asarray(a, float), (2, n)).copy()  # noqa: E731
     b = rhs.balance
@@ -193,6 +187,24 @@ def _forces(jnp, c, f, x, delta, F_w, v, v_dot, trig):
     return _at_loads(jnp, c, f, P, q, delta, lagged, _capacity(jnp, c, f, T, trig, v_dot, F_w, P), _factors(jnp, c, f, T, trig, v_dot, F_w))
 
 
+def _axle_forces(jnp, c, f, x, delta, F_w, v, v_dot):
+    """Slip angles (2, n), axle forces (2, n) and the front's force across the car (F_f cos delta
+    on the Magic Formula, F_f on the linear tyre) at the states ``x``, with sin and cos of beta."""
+    sin_b, cos_b = jnp.sin(x[2]), jnp.cos(x[2])
+    q, delta, F = _forces(jnp, c, f, x, delta, F_w, v, v_dot, (sin_b / cos_b, cos_b, sin_b))
+    return q, F, (F[0] * jnp.cos(delta) if f["saturating"] else F[0]), sin_b, cos_b
+
+
+def chassis_lateral_acceleration(c, f, x, delta, F_w, v, v_dot):
+    """a_y (m/s^2), shape (n,): (F_f cos delta + F_r + F_w) / m at the states ``x``, what an
+    accelerometer at the centre of gravity reads (:meth:`~uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.lateral_acceleration`);
+    arguments as :func:`chassis_rates`."""
+    import jax.numpy as jnp
+
+    _, F, fc, _, _ = _axle_forces(jnp, c, f, x, delta, F_w, v, v_dot)
+    return (fc + F[1] + F_w) / c["m"]
+
+
 def chassis_rates(c, f, x, delta, F_w, v, v_dot):
     """dx/dt of the single-track model with chassis effects, :meth:`~uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.__call__`.
 
@@ -219,11 +231,8 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
     import jax.numpy as jnp
 
     psi, psi_dot, beta = x[0], x[1], x[2]
-    sin_b, cos_b = jnp.sin(beta), jnp.cos(beta)
-    trig = (sin_b / cos_b, cos_b, sin_b)
-    q, delta, F = _forces(jnp, c, f, x, delta, F_w, v, v_dot, trig)
+    q, F, fc, sin_b, cos_b = _axle_forces(jnp, c, f, x, delta, F_w, v, v_dot)
     sat = f["saturating"]
-    fc = F[0] * jnp.cos(delta) if sat else F[0]
     M_w = F_w * c["M_c"] if f["yaw_gust"] else c["M_w"]
     yaw = (c["l_f"] * fc - c["l_r"] * F[1] + M_w) * c["yaw_factor"]
     slip = (fc + F[1] + F_w) * (cos_b if sat else 1.0) * (1.0 / (c["m"] * v)) - psi_dot + c["a_lat"] / v
@@ -237,103 +246,3 @@ def chassis_rates(c, f, x, delta, F_w, v, v_dot):
         w, eps, rate = c["roll_omega"], x[-2], x[-1]
         rows += [rate, w * w * (c["roll_gain"] * (fc + F[1]) - eps) - 2.0 * c["roll_zeta"] * w * rate]
     return tuple(rows)
-
-
-def _ensemble(c, delta, F_w, speed, h, v_c, f_items: tuple, n_states: int):
-    """States (K + 1, d, n) by RK4 from rest: ``delta`` (K, R, 3, n) or (K, R, 3, 1) (one angle
-    for all), ``F_w`` (K, R, 3, n), ``speed`` (K, R, 3, 2) or None: each step's inputs at its
-    start, middle and end."""
-    import jax.numpy as jnp
-    from jax import lax
-
-    f = dict(f_items)
-
-    def stage(x, inputs, k):
-        if speed is None:
-            return chassis_rates(c, f, x, inputs[0][k], inputs[1][k], v_c, 0.0)
-        v = inputs[2][k]
-        return chassis_rates(c, f, x, inputs[0][k], inputs[1][k], v[0], v[1])
-
-    def step(x, inputs):
-        return rk4_rows_step(stage, x, inputs, h), None
-
-    def interval(x, inputs):
-        x, _ = lax.scan(step, x, inputs)
-        return x, jnp.stack(x)
-
-    zero = jnp.zeros((n_states, c["m"].shape[0]))
-    rows = tuple(zero[i] for i in range(n_states))
-    per_step = (delta, F_w) if speed is None else (delta, F_w, speed)
-    _, states = lax.scan(interval, rows, per_step)
-    return jnp.concatenate([zero[None], states])
-
-
-#: The static choices and shapes of the programs this process ran: one program each (compiled, or
-#: loaded from JAX's disk cache, at its first pass).
-_PROGRAMS: set = set()
-
-
-def programs_compiled() -> int:
-    """How many programs this process's passes needed (each compiled or loaded from disk once)."""
-    return len(_PROGRAMS)
-
-
-@lru_cache(maxsize=None)
-def _compiled():
-    """The jitted ensemble (compiled once per shape and combination of terms)."""
-    import jax
-
-    return jax.jit(_ensemble, static_argnames=("f_items", "n_states"))
-
-
-def _bucket(n: int) -> int:
-    """Realisations a program is compiled for: the next power of two (at least 8)."""
-    return max(8, 1 << (int(n) - 1).bit_length())
-
-
-def _per_step(half, n_steps: int, record_every: int):
-    """Values on the half-step grid (2 n_steps + 1, ...) as (K, R, 3, ...): each step's start, middle and end."""
-    index = 2 * np.arange(n_steps)[:, None] + np.arange(3)
-    return half[index].reshape((n_steps // record_every, record_every, 3) + half.shape[1:])
-
-
-def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int) -> np.ndarray:
-    """The states of :func:`uqdrive.vehicle.track_extended.integrate_chassis` by JAX on its default device.
-
-    Parameters
-    ----------
-    rhs : ExtendedSingleTrackRHS
-        The NumPy right-hand side with its inputs on the half-step grid (2 ``n_steps`` + 1 points):
-        its constants, steering, wind and speed are integrated here.
-    h, n_steps, record_every
-        RK4 step (s), steps and the stride of the returned states, as
-        :func:`uqdrive.vehicle.track_rk4.integrate_single_track` takes them.
-
-    Returns
-    -------
-    ndarray, shape (n_steps // record_every + 1, d, n)
-        The states every ``record_every`` steps from t = 0, as the NumPy stepper records them.
-    """
-    if n_steps % record_every:
-        raise ValueError("n_steps must be a multiple of record_every")
-    c, f = chassis_constants(rhs)
-    n = c["m"].shape[0]
-    width = _bucket(n)
-    pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
-    c = {k: pad(a) for k, a in c.items()}
-    J = 2 * n_steps + 1
-    delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
-    delta = pad(delta) if delta.shape[1] > 1 else delta
-    F_w = np.asarray(rhs.F_w_half, float)[:J]
-    speed = None
-    if rhs.speed_half is not None:
-        speed = _per_step(np.stack([np.asarray(a, float)[:J] for a in rhs.speed_half], axis=-1), n_steps, record_every)
-    with float64():
-        import jax
-
-        args = jax.device_put((c, _per_step(delta, n_steps, record_every),
-                               _per_step(pad(F_w), n_steps, record_every), speed, float(h), float(rhs.v)))
-        static = tuple(sorted(f.items()))
-        _PROGRAMS.add((static, width, n_steps, record_every, rhs.n_states))
-        out = _compiled()(*args, f_items=static, n_states=rhs.n_states)
-        return np.asarray(out)[:, :, :n]

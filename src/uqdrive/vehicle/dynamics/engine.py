@@ -72,6 +72,17 @@ class HalfStepDrive:
     quotient: bool = False
 
 
+class _Recorded:
+    """The a_y (n, K + 1) of a pass that computed it with its states (the JAX passes), in the place
+    of a right-hand side for :func:`~uqdrive.vehicle.track_rk4.rk4_lateral_acceleration`."""
+
+    def __init__(self, a_y):
+        self.a_y = a_y
+
+    def lateral_acceleration_along(self, x, js):
+        return self.a_y
+
+
 class EnsembleSimulator:
     """Simulate realisations of the single-track model with a structure's effects.
 
@@ -110,7 +121,7 @@ class EnsembleSimulator:
     backend : {"numpy", "jax"}
         Who integrates the non-linear structures on the grid (:func:`uqdrive.numerics.backend.resolve_device`):
         the NumPy and compiled CPU path, or JAX on its default device
-        (:func:`uqdrive.vehicle.accelerated.chassis.integrate_chassis_jax`, the same numbers to 1e-10);
+        (:func:`uqdrive.vehicle.accelerated.chassis_ensemble.integrate_chassis_jax`, the same numbers to 1e-10);
         the exact discretisations and a half-step drive stay on the CPU.
 
     Attributes
@@ -344,21 +355,21 @@ class EnsembleSimulator:
         else:
             delta_half = self._delta_half(delta, s, t_half)
         f_half = self._eigenfunctions(t_half)  # (n_c, n_half)
+        E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
+        js = np.arange(self.output_time.size) * (2 * sub * self.stride)
+        speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
+        if self.backend == "jax" and (s.uses_chassis or s.nonlinear):  # the gusts and a_y formed on the device
+            from ..accelerated.chassis_ensemble import integrate_chassis_jax
+
+            rhs = chassis_rhs(self.car, p, s, E, delta_half, None, self.gust_yaw_moment, wind, speed, self._reference_loads)
+            x, a_y = integrate_chassis_jax(rhs, h, n_steps, sub * self.stride, wind, coeffs, f_half, with_rhs and "a_y" in self.channels)
+            return (x.transpose(1, 2, 0), _Recorded(a_y), js) if with_rhs else x.transpose(1, 2, 0)
         # wind force per half step with one contiguous row of realisations each, (n_half, n)
         F_w_half = self._wind_half(t_half.size, wind.size)
         start = 0
         for size in (groups or [wind.size]):
             np.add(self._gusts(coeffs[start:start + size], f_half, t_half), wind[start:start + size], F_w_half[:, start:start + size])
             start += size
-        E = self.car.E if s.tyre_curvature is None else s.tyre_curvature
-        js = np.arange(self.output_time.size) * (2 * sub * self.stride)
-        speed = None if self.speed is None else speed_on_half_steps(self.time, self.speed, t_half)
-        if self.backend == "jax" and (s.uses_chassis or s.nonlinear):  # one compiled program per combination of terms
-            from ..accelerated.chassis import integrate_chassis_jax
-
-            rhs = chassis_rhs(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, speed, self._reference_loads)
-            x = integrate_chassis_jax(rhs, h, n_steps, sub * self.stride).transpose(1, 2, 0)
-            return (x, rhs, js) if with_rhs else x[:4]
         if with_rhs:
             if s.uses_chassis and s.nonlinear:  # every state (the lagged slip angles: a_y needs them)
                 return (*integrate_chassis(self.car, p, s, E, delta_half, F_w_half, self.gust_yaw_moment, wind, h, n_steps, sub * self.stride, True,

@@ -1,0 +1,144 @@
+"""RK4 passes of the single-track model with chassis effects in JAX (float64): one compiled scan
+over the steps, the realisations as the vector axis, the inputs formed on the device.
+
+A pass sends the device the realisations' constants, mean wind and gust mode coefficients and the
+grid's KLE eigenfunctions and steering, and forms the gusts F_w = F_w_mean + c f(t) of (5.1),
+(5.21) at each half step there (no (J, n) wind table crosses the bus, which at a discover's few
+thousand realisations would be most of a pass's traffic); the lateral acceleration a_y of the
+recorded states is computed there too. Each combination of terms (:data:`.chassis.FLAGS`) is one
+compiled program; realisations are padded to a power of two, so that passes of nearby sizes
+share one (a four-wheel discover runs a few dozen programs, :func:`programs_compiled`).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ...numerics.backend import float64
+from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates
+from .rk4 import rk4_rows_step
+
+__all__ = ["integrate_chassis_jax", "programs_compiled"]
+
+#: The static choices and shapes of the programs this process ran: one program each (compiled, or
+#: loaded from JAX's disk cache, at its first pass).
+_PROGRAMS: set = set()
+
+
+def programs_compiled() -> int:
+    """How many programs this process's passes needed (each compiled or loaded from disk once)."""
+    return len(_PROGRAMS)
+
+
+def _ensemble(c, wind_mean, coeffs, delta, modes, speed, h, v_c, f_items: tuple, n_states: int, acceleration: bool):
+    """States (K + 1, d, n) by RK4 from rest and, with ``acceleration``, a_y (K + 1, n) (else None):
+    ``delta`` (K, R, 3, n) or (K, R, 3, 1) (one angle for all), ``modes`` (K, R, 3, n_c), ``speed``
+    (K, R, 3, 2) or None: each step's inputs at its start, middle and end."""
+    import jax.numpy as jnp
+    from jax import lax
+
+    f = dict(f_items)
+    columns = [coeffs[:, i] for i in range(coeffs.shape[1])]
+
+    def inputs_at(inputs, k):  # delta, F_w, v, v_dot at a step's start (0), middle (1), end (2)
+        modes_k = inputs[1][k]
+        gust = columns[0] * modes_k[0]
+        for i in range(1, len(columns)):  # unrolled: the sums fuse with the right-hand side
+            gust = gust + columns[i] * modes_k[i]
+        v, v_dot = (v_c, 0.0) if speed is None else (inputs[2][k][0], inputs[2][k][1])
+        return inputs[0][k], wind_mean + gust, v, v_dot
+
+    def stage(x, inputs, k):
+        return chassis_rates(c, f, x, *inputs_at(inputs, k))
+
+    def step(x, inputs):
+        return rk4_rows_step(stage, x, inputs, h), None
+
+    def recorded(x, inputs, k):
+        a_y = chassis_lateral_acceleration(c, f, x, *inputs_at(inputs, k)) if acceleration else jnp.zeros(0)
+        return jnp.stack(x[:4]), a_y
+
+    def interval(x, inputs):
+        x, _ = lax.scan(step, x, inputs)
+        return x, recorded(x, tuple(a[-1] for a in inputs), 2)  # the last step's end: the recorded time
+
+    rows = tuple(jnp.zeros_like(wind_mean) for _ in range(n_states))
+    per_step = (delta, modes) if speed is None else (delta, modes, speed)
+    start = recorded(rows, tuple(a[0, 0] for a in per_step), 0)
+    _, (states, a_y) = lax.scan(interval, rows, per_step)
+    return jnp.concatenate([start[0][None], states]), (jnp.concatenate([start[1][None], a_y]) if acceleration else None)
+
+
+@lru_cache(maxsize=None)
+def _compiled():
+    """The jitted ensemble (compiled once per shape and combination of terms)."""
+    import jax
+
+    return jax.jit(_ensemble, static_argnames=("f_items", "n_states", "acceleration"))
+
+
+def _bucket(n: int) -> int:
+    """Realisations a program is compiled for: the next power of two (at least 8)."""
+    return max(8, 1 << (int(n) - 1).bit_length())
+
+
+def _per_step(half, n_steps: int, record_every: int):
+    """Values on the half-step grid (2 n_steps + 1, ...) as (K, R, 3, ...): each step's start, middle and end."""
+    index = 2 * np.arange(n_steps)[:, None] + np.arange(3)
+    return half[index].reshape((n_steps // record_every, record_every, 3) + half.shape[1:])
+
+
+def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_mean, coeffs, eigenfunctions_half,
+                          lateral_acceleration: bool = False):
+    """The states of :func:`uqdrive.vehicle.track_extended.integrate_chassis` by JAX on its default
+    device, and the lateral acceleration a_y of the recorded states.
+
+    Parameters
+    ----------
+    rhs : ExtendedSingleTrackRHS
+        The NumPy right-hand side: its constants, steering (and speed) on the half-step grid
+        (2 ``n_steps`` + 1 points) are integrated here; its wind table ``F_w_half`` is not read
+        (None will do).
+    h, n_steps, record_every
+        RK4 step (s), steps and the stride of the returned states, as
+        :func:`uqdrive.vehicle.track_rk4.integrate_single_track` takes them.
+    wind_mean : ndarray, shape (n,)
+        Mean side wind (N).
+    coeffs : ndarray, shape (n, n_c)
+        Gust mode coefficients (N), the gusts scaled already.
+    eigenfunctions_half : ndarray, shape (n_c, 2 n_steps + 1)
+        KLE eigenfunctions (-) on the half-step grid: F_w = ``wind_mean`` + ``coeffs`` f(t).
+    lateral_acceleration : bool
+        Also a_y (:meth:`~uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.lateral_acceleration`).
+
+    Returns
+    -------
+    states : ndarray, shape (n_steps // record_every + 1, 4, n)
+        psi, psi_dot, beta, y (rad, rad/s, rad, m) every ``record_every`` steps from t = 0.
+    a_y : ndarray, shape (n, n_steps // record_every + 1), or None
+        Lateral acceleration (m/s^2) at the same times, where asked for.
+    """
+    if n_steps % record_every:
+        raise ValueError("n_steps must be a multiple of record_every")
+    wind_mean, coeffs = np.asarray(wind_mean, float), np.asarray(coeffs, float).reshape(np.size(wind_mean), -1)
+    n, J = wind_mean.shape[0], 2 * n_steps + 1
+    c, f = chassis_constants(rhs, n)
+    width = _bucket(n)
+    pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
+    delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
+    delta = pad(delta) if delta.shape[1] > 1 else delta
+    modes = np.ascontiguousarray(np.asarray(eigenfunctions_half, float)[:, :J].T)  # (J, n_c)
+    speed = None
+    if rhs.speed_half is not None:
+        speed = _per_step(np.stack([np.asarray(a, float)[:J] for a in rhs.speed_half], axis=-1), n_steps, record_every)
+    static = tuple(sorted(f.items()))
+    _PROGRAMS.add((static, width, delta.shape[1] > 1, n_steps, record_every, rhs.n_states, bool(lateral_acceleration)))
+    with float64():
+        import jax
+
+        args = jax.device_put(({k: pad(a) for k, a in c.items()}, pad(wind_mean), pad(coeffs.T).T, _per_step(delta, n_steps, record_every),
+                               _per_step(modes, n_steps, record_every), speed, float(h), float(rhs.v)))
+        states, a_y = _compiled()(*args, f_items=static, n_states=rhs.n_states, acceleration=bool(lateral_acceleration))
+        return np.asarray(states)[:, :, :n], (None if a_y is None else np.asarray(a_y)[:, :n].T)
