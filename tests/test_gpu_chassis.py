@@ -42,9 +42,12 @@ def _relative(got, expected):
     return float(np.max(np.abs(got - expected) / np.abs(expected).max(axis=-1, keepdims=True)))
 
 
-def _jax_rates(rhs, x, j: int):
-    """dx/dt of :func:`chassis.chassis_rates` at half step ``j``, eagerly (no compilation per set)."""
+def _jax_rates(rhs, x, j: int, switched: bool = False):
+    """dx/dt of :func:`chassis.chassis_rates` at half step ``j``, eagerly (no compilation per set);
+    ``switched``: with the terms of :data:`chassis_ensemble.SWITCHED` on, as the passes' programs hold them."""
     c, f = chassis.chassis_constants(rhs)
+    if switched:
+        c, f = chassis_ensemble.switched_on(c, f)
     v, v_dot = (rhs.speed_half[0][j], rhs.speed_half[1][j]) if rhs.speed_half is not None else (rhs.v, 0.0)
     delta = np.broadcast_to(np.asarray(rhs.delta_half[j], float), x.shape[1:])
     with float64():
@@ -56,7 +59,8 @@ def _jax_rates(rhs, x, j: int):
                          ids=lambda a: "+".join(a) if isinstance(a, tuple) else str(a))
 def test_the_jax_chassis_rates_are_the_numpy_rates(terms, linear, speed, per_run):
     """Tyres past their peak, wheels lifting, relaxation lengths of zero among per-run ones: every
-    state's rate within RTOL of the NumPy reference's (FUSED off) at a half step."""
+    state's rate within RTOL of the NumPy reference's (FUSED off) at a half step, and bit for bit
+    those of the program that holds every switched term."""
     extra = ("road_bank", "lateral_kinematics") if per_run else ()
     s = _structure(terms + extra, np.random.default_rng(2) if per_run else None, linear=linear)
     reference = _rhs(False, s, speed=speed, per_run=per_run)
@@ -66,6 +70,8 @@ def test_the_jax_chassis_rates_are_the_numpy_rates(terms, linear, speed, per_run
     expected = _rates(reference, x, (1,))[0]
     assert np.all(np.isfinite(expected))
     assert _relative(_jax_rates(reference, x, 1), expected) < RTOL
+    # the passes' programs hold the load and compliance terms whether on or not: off, the same doubles
+    np.testing.assert_array_equal(_jax_rates(reference, x, 1, switched=True), _jax_rates(reference, x, 1))
 
 
 @pytest.mark.parametrize("term", ["lateral_load_transfer", "combined_slip", "roll_steer", "tyre_relaxation", "load_sensitive_tyre"])

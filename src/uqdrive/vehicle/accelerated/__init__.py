@@ -9,7 +9,7 @@ from ..._lazy import lazy_exports
 
 if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates  # noqa: F401
-    from .chassis_ensemble import integrate_chassis_jax, programs_compiled  # noqa: F401
+    from .chassis_ensemble import integrate_chassis_jax, programs_compiled, switched_on  # noqa: F401
     from .nlst import nlst_program, simulate_nlst_jax  # noqa: F401
     from .rk4 import rk4_rows_step  # noqa: F401
 
@@ -21,8 +21,9 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "chassis_lateral_acceleration": ".chassis",
     "integrate_chassis_jax": ".chassis_ensemble",
     "programs_compiled": ".chassis_ensemble",
+    "switched_on": ".chassis_ensemble",
     "rk4_rows_step": ".rk4",
 })
 
 __all__ = ["nlst_program", "simulate_nlst_jax", "chassis_constants", "chassis_rates", "chassis_lateral_acceleration", "integrate_chassis_jax",
-           "programs_compiled", "rk4_rows_step"]
+           "programs_compiled", "switched_on", "rk4_rows_step"]

@@ -5,9 +5,9 @@ A pass sends the device the realisations' constants, mean wind and gust mode coe
 grid's KLE eigenfunctions and steering, and forms the gusts F_w = F_w_mean + c f(t) of (5.1),
 (5.21) at each half step there (no (J, n) wind table crosses the bus, which at a discover's few
 thousand realisations would be most of a pass's traffic); the lateral acceleration a_y of the
-recorded states is computed there too. Each combination of terms (:data:`.chassis.FLAGS`) is one
-compiled program; realisations are padded to a power of two, so that passes of nearby sizes
-share one (a four-wheel discover runs a few dozen programs, :func:`programs_compiled`).
+recorded states is computed there too. A program holds the load and compliance terms whether a
+pass has them on or not (:data:`SWITCHED`); realisations are padded to a power of two, so that
+passes of nearby sizes share one (a four-wheel discover runs about twenty, :func:`programs_compiled`).
 """
 
 from __future__ import annotations
@@ -20,8 +20,26 @@ from ...numerics.backend import float64
 from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates
 from .rk4 import rk4_rows_step
 
-__all__ = ["integrate_chassis_jax", "programs_compiled"]
+__all__ = ["SWITCHED", "switched_on", "integrate_chassis_jax", "programs_compiled"]
 
+#: Terms every program holds, whether a pass has them on or not: off, their constants are zero
+#: (no load moved, unit shares and factors, no yield), which gives the doubles of a program
+#: without them, so the passes of a search share programs by tyre, relaxation, roll steer and speed
+#: alone (a dry run of fw_slalom_090's 858 passes: 19 programs where one per combination of terms
+#: needs 45; each costs a compilation, seconds on a GPU, and the terms' arithmetic fuses into the
+#: same kernels there).
+SWITCHED = ("loaded", "pitching", "transferring", "slipping", "sensitive", "compliant")
+
+
+def switched_on(c: dict, f: dict) -> tuple[dict, dict]:
+    """The constants and flags of :func:`.chassis.chassis_constants` with every :data:`SWITCHED` term
+    on: a term that was off has zero constants already (no pitch height, load sensitivity, slip
+    share, tyre factors or compliance), but the lateral arm h / t is the car's even where no load
+    moves (the right-hand side then never computes the loads), so it is zeroed there."""
+    c = dict(c)
+    if not f["loaded"]:
+        c["arm"] = np.zeros_like(c["arm"])
+    return c, {**f, **dict.fromkeys(SWITCHED, True)}
 #: The static choices and shapes of the programs this process ran: one program each (compiled, or
 #: loaded from JAX's disk cache, at its first pass).
 _PROGRAMS: set = set()
@@ -124,7 +142,7 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
         raise ValueError("n_steps must be a multiple of record_every")
     wind_mean, coeffs = np.asarray(wind_mean, float), np.asarray(coeffs, float).reshape(np.size(wind_mean), -1)
     n, J = wind_mean.shape[0], 2 * n_steps + 1
-    c, f = chassis_constants(rhs, n)
+    c, f = switched_on(*chassis_constants(rhs, n))
     width = _bucket(n)
     pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
     delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
