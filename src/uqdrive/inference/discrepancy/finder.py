@@ -86,7 +86,7 @@ class DiscrepancyFinder:
         (:mod:`uqdrive.inference.parallel`). ``"auto"``: the CPUs this process may use.
     device : {"cpu", "gpu", "auto"}
         Who integrates the non-linear models (:func:`uqdrive.numerics.backend.resolve_device`): the
-        CPU path, or JAX on a GPU (:mod:`uqdrive.vehicle.accelerated.chassis`, the same numbers to
+        CPU path, or JAX on a GPU (:mod:`uqdrive.vehicle.accelerated.chassis_ensemble`, the same numbers to
         1e-10; the fits then run in this process, ``jobs`` 1: a forked worker cannot use the GPU).
 
     The data may carry any channels of :data:`uqdrive.vehicle.channels.CHANNELS` and a speed ``v``

@@ -26,8 +26,8 @@ __all__ = ["SWITCHED", "switched_on", "integrate_chassis_jax", "programs_compile
 #: (no load moved, unit shares and factors, no yield), which gives the doubles of a program
 #: without them, so the passes of a search share programs by tyre, relaxation, roll steer and speed
 #: alone (a dry run of fw_slalom_090's 858 passes: 19 programs where one per combination of terms
-#: needs 45; each costs a compilation, seconds on a GPU, and the terms' arithmetic fuses into the
-#: same kernels there).
+#: needs 45). Each program costs a compilation (the NLST's took 1.5 s on an H200); the terms cost
+#: element-wise arithmetic that XLA fuses with the rest of a stage.
 SWITCHED = ("loaded", "pitching", "transferring", "slipping", "sensitive", "compliant")
 
 
@@ -40,6 +40,8 @@ def switched_on(c: dict, f: dict) -> tuple[dict, dict]:
     if not f["loaded"]:
         c["arm"] = np.zeros_like(c["arm"])
     return c, {**f, **dict.fromkeys(SWITCHED, True)}
+
+
 #: The static choices and shapes of the programs this process ran: one program each (compiled, or
 #: loaded from JAX's disk cache, at its first pass).
 _PROGRAMS: set = set()
