@@ -11,7 +11,7 @@ if TYPE_CHECKING:  # static analysers and the import graph see the real imports
     from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates  # noqa: F401
     from .chassis_ensemble import integrate_chassis_jax, programs_compiled, switched_on  # noqa: F401
     from .nlst import nlst_program, simulate_nlst_jax  # noqa: F401
-    from .rk4 import rk4_rows_step  # noqa: F401
+    from .rk4 import per_step, rk4_rows_step  # noqa: F401
 
 __getattr__, __dir__ = lazy_exports(__name__, {
     "nlst_program": ".nlst",
@@ -23,7 +23,8 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "programs_compiled": ".chassis_ensemble",
     "switched_on": ".chassis_ensemble",
     "rk4_rows_step": ".rk4",
+    "per_step": ".rk4",
 })
 
 __all__ = ["nlst_program", "simulate_nlst_jax", "chassis_constants", "chassis_rates", "chassis_lateral_acceleration", "integrate_chassis_jax",
-           "programs_compiled", "switched_on", "rk4_rows_step"]
+           "programs_compiled", "switched_on", "rk4_rows_step", "per_step"]

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...numerics.backend import float64
 from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates
-from .rk4 import rk4_rows_step
+from .rk4 import per_step, rk4_rows_step
 
 __all__ = ["SWITCHED", "switched_on", "integrate_chassis_jax", "programs_compiled"]
 
@@ -85,9 +85,9 @@ def _ensemble(c, wind_mean, coeffs, delta, modes, speed, h, v_c, f_items: tuple,
         return x, recorded(x, tuple(a[-1] for a in inputs), 2)  # the last step's end: the recorded time
 
     rows = tuple(jnp.zeros_like(wind_mean) for _ in range(n_states))
-    per_step = (delta, modes) if speed is None else (delta, modes, speed)
-    start = recorded(rows, tuple(a[0, 0] for a in per_step), 0)
-    _, (states, a_y) = lax.scan(interval, rows, per_step)
+    step_inputs = (delta, modes) if speed is None else (delta, modes, speed)
+    start = recorded(rows, tuple(a[0, 0] for a in step_inputs), 0)
+    _, (states, a_y) = lax.scan(interval, rows, step_inputs)
     return jnp.concatenate([start[0][None], states]), (jnp.concatenate([start[1][None], a_y]) if acceleration else None)
 
 
@@ -102,12 +102,6 @@ def _compiled():
 def _bucket(n: int) -> int:
     """Realisations a program is compiled for: the next power of two (at least 8)."""
     return max(8, 1 << (int(n) - 1).bit_length())
-
-
-def _per_step(half, n_steps: int, record_every: int):
-    """Values on the half-step grid (2 n_steps + 1, ...) as (K, R, 3, ...): each step's start, middle and end."""
-    index = 2 * np.arange(n_steps)[:, None] + np.arange(3)
-    return half[index].reshape((n_steps // record_every, record_every, 3) + half.shape[1:])
 
 
 def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_mean, coeffs, eigenfunctions_half,
@@ -152,13 +146,13 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
     modes = np.ascontiguousarray(np.asarray(eigenfunctions_half, float)[:, :J].T)  # (J, n_c)
     speed = None
     if rhs.speed_half is not None:
-        speed = _per_step(np.stack([np.asarray(a, float)[:J] for a in rhs.speed_half], axis=-1), n_steps, record_every)
+        speed = per_step(np.stack([np.asarray(a, float)[:J] for a in rhs.speed_half], axis=-1), n_steps, record_every)
     static = tuple(sorted(f.items()))
     _PROGRAMS.add((static, width, delta.shape[1] > 1, n_steps, record_every, rhs.n_states, bool(lateral_acceleration)))
     with float64():
         import jax
 
-        args = jax.device_put(({k: pad(a) for k, a in c.items()}, pad(wind_mean), pad(coeffs.T).T, _per_step(delta, n_steps, record_every),
-                               _per_step(modes, n_steps, record_every), speed, float(h), float(rhs.v)))
+        args = jax.device_put(({k: pad(a) for k, a in c.items()}, pad(wind_mean), pad(coeffs.T).T, per_step(delta, n_steps, record_every),
+                               per_step(modes, n_steps, record_every), speed, float(h), float(rhs.v)))
         states, a_y = _compiled()(*args, f_items=static, n_states=rhs.n_states, acceleration=bool(lateral_acceleration))
         return np.asarray(states)[:, :, :n], (None if a_y is None else np.asarray(a_y)[:, :n].T)

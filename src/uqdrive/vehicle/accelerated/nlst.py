@@ -16,7 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from ...numerics.backend import float64
-from .rk4 import rk4_rows_step
+from .rk4 import per_step, rk4_rows_step
 from ...settings import TimeGrid
 from ..single_track import VehicleParameters
 
@@ -103,8 +103,8 @@ def _ensemble(q, coeffs, wind_mean, delta, modes, speed, h, gust_yaw_moment: boo
         return x, jnp.stack(x)
 
     zero = jnp.zeros_like(wind_mean)
-    per_step = (delta, modes) if speed is None else (delta, modes, speed)
-    _, states = lax.scan(interval, (zero,) * 4, per_step, unroll=unroll)  # (n_out, 4, n)
+    step_inputs = (delta, modes) if speed is None else (delta, modes, speed)
+    _, states = lax.scan(interval, (zero,) * 4, step_inputs, unroll=unroll)  # (n_out, 4, n)
     return jnp.concatenate([jnp.zeros((1,) + states.shape[1:], states.dtype), states]).transpose(1, 2, 0)
 
 
@@ -130,14 +130,6 @@ def _parameters(p: VehicleParameters, n: int, constant_speed: bool) -> dict:
     else:
         q.update(I_z=np.broadcast_to(p.I_z, shape), m=np.broadcast_to(p.m, shape))
     return {k: np.asarray(val, float) for k, val in q.items()}
-
-
-def _per_step(samples, grid: TimeGrid):
-    """``samples`` (2 n_fine - 1, ...) on the half-step grid as (n_out, S, 3, ...): each step's
-    values at its start, middle and end."""
-    n_steps = grid.n_out * grid.substeps
-    index = 2 * np.arange(n_steps)[:, None] + np.arange(3)
-    return np.asarray(samples, float)[index].reshape((grid.n_out, grid.substeps, 3) + np.shape(samples)[1:])
 
 
 def nlst_program(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigenfunctions_half, grid: TimeGrid,
@@ -168,12 +160,14 @@ def nlst_program(p: VehicleParameters, delta_half, wind_mean, wind_coeffs, eigen
     wind_mean = np.asarray(wind_mean, float)
     n = wind_mean.shape[0]
     q = _parameters(p, n, speed_half is None)
-    modes = _per_step(np.asarray(eigenfunctions_half, float).T, grid)
+    n_steps = grid.n_out * grid.substeps
+    modes = per_step(np.asarray(eigenfunctions_half, float).T, n_steps, grid.substeps)
     speed = None
     if speed_half is not None:
         v_half = np.asarray(speed_half, float)
-        speed = _per_step(np.stack([v_half, np.gradient(v_half, grid.step / 2.0)], axis=-1), grid)
-    args = jax.device_put((q, np.asarray(wind_coeffs, float), wind_mean, _per_step(delta_half, grid), modes, speed, float(grid.step)))
+        speed = per_step(np.stack([v_half, np.gradient(v_half, grid.step / 2.0)], axis=-1), n_steps, grid.substeps)
+    delta = per_step(delta_half, n_steps, grid.substeps)
+    args = jax.device_put((q, np.asarray(wind_coeffs, float), wind_mean, delta, modes, speed, float(grid.step)))
     jitted = _compiled()
 
     def function(*a):

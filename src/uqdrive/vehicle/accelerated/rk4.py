@@ -4,7 +4,9 @@
 
 from __future__ import annotations
 
-__all__ = ["rk4_rows_step"]
+import numpy as np
+
+__all__ = ["rk4_rows_step", "per_step"]
 
 
 def rk4_rows_step(stage, x: tuple, inputs, h: float) -> tuple:
@@ -38,3 +40,11 @@ def rk4_rows_step(stage, x: tuple, inputs, h: float) -> tuple:
     k3 = stage(shifted(k2, half), inputs, 1)
     k4 = stage(shifted(k3, h), inputs, 2)
     return tuple(x_i + ((((b + c) * 2.0) + a) + d) * sixth for x_i, a, b, c, d in zip(x, k1, k2, k3, k4))
+
+
+def per_step(half, n_steps: int, record_every: int) -> np.ndarray:
+    """Values on the half-step grid, shape (2 ``n_steps`` + 1, ...), as (K, R, 3, ...) with
+    R = ``record_every`` and K = ``n_steps`` / R: each step's values at its start, middle and end
+    (half steps j, j + 1, j + 2), grouped by recorded interval."""
+    index = 2 * np.arange(n_steps)[:, None] + np.arange(3)
+    return np.asarray(half, float)[index].reshape((n_steps // record_every, record_every, 3) + np.shape(half)[1:])
