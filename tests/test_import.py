@@ -224,7 +224,7 @@ def _spoil(run: rr.Run, channel: str, how: str) -> rr.Run:
     ("backwards", ".csv", r"channel 'Zeit_ms' \(the time\) does not increase at data row 101 \(1 s then 0.99 s\)"),
     ("too few runs", ".mf4", r"5 run\(s\).*needs at least 10.*record more runs"),
     ("no steering", ".csv", r"run00.csv: channel 'SteeringWheelAngle' \(the steering\) never moves.*--align none"),
-    ("wrong scale", ".mf4", r"variable 'a_y' reaches .* \(channel 'LatAcc' in km/s\^2, map .*: check its units"),
+    ("wrong scale", ".csv", r"variable 'a_y' reaches .* \(channel 'LatAcc' in km/s\^2, map .*: check its units"),
 ])
 def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, suffix, pattern):
     rng = np.random.default_rng(11)

@@ -18,14 +18,22 @@ from .._yaml import load_yaml
 from ..config import read_vehicle_file
 from ..io import DataError
 
-__all__ = ["SCHEMA_UNITS", "ChannelEntry", "ChannelMap", "read_channel_map", "unit_factor"]
+__all__ = ["SCHEMA_UNITS", "ChannelEntry", "ChannelMap", "read_channel_map", "unit_factor", "recorded_unit_factor",
+           "channel_factor"]
 
 #: SI unit of each variable a recording can give (the data schema's), and of the time axis.
 SCHEMA_UNITS = {"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m", "a_y": "m/s^2", "delta": "rad", "v": "m/s",
                 "time": "s"}
-_ENTRY_KEYS = {"channel", "units", "sign", "steering_ratio"}
+_ENTRY_KEYS = {"channel", "units", "sign", "steering_ratio", "check_units"}
 # An accelerometer's "g" is standard gravity, not the gram pint reads it as.
 _GRAVITY = re.compile(r"(?<![A-Za-z_])[gG](?![A-Za-z_0-9])")
+# "Grad" is the German word for degree in logger exports; pint reads "grad" as the gradian and
+# "Grad" as giga-radian, so the word is refused in a map and not taken as evidence from a file.
+_AMBIGUOUS = re.compile(r"(?<![A-Za-z_])[Gg]rad(?![A-Za-z_0-9])")
+# Spellings of loggers' unit labels that pint does not read as written.
+_SPELLINGS = (("\u00b0", "deg"), ("\u00b2", "^2"), ("\u00b3", "^3"), ("\u00b5", "u"), ("\u03bc", "u"))
+# Units that name an angle: a dimensionless label counts as an angle's unit only with one of them.
+_ANGLES = {"radian", "degree", "gradian", "turn", "revolution", "arcminute", "arcsecond"}
 
 
 @functools.lru_cache(maxsize=1)
@@ -47,18 +55,61 @@ def unit_factor(units: str, target: str) -> float:
     ValueError
         If ``units`` does not parse or has another dimension than ``target``.
     """
-    import pint
-
     ureg = _registry()
+    if _AMBIGUOUS.search(units):
+        raise ValueError(f"'{units}' is ambiguous (the German word for degree, or the gradian); write deg or gon")
     want = ureg.Quantity(1.0, target)
     if want.dimensionality == ureg.Quantity(1.0, "m/s^2").dimensionality:
         units = _GRAVITY.sub("g_n", units)
     try:
         quantity = ureg.Quantity(1.0, units)
-    except (pint.errors.PintError, AttributeError, TypeError, ValueError, SyntaxError) as exc:
+    except Exception as exc:  # pint's parser raises many kinds, an AssertionError for "-"
         raise ValueError(f"'{units}' is not a unit ({type(exc).__name__})") from None
     if quantity.dimensionality != want.dimensionality:
         raise ValueError(f"'{units}' has the dimension {quantity.dimensionality}, not {want.dimensionality} ({target})")
+    return float(quantity.to(target).magnitude)
+
+
+def recorded_unit_factor(label: str, target: str) -> float | None:
+    """The factor to ``target`` of the unit a recording gives for a channel, when it says one.
+
+    A logger's label counts as evidence only when pint reads it (after the spellings ``°``, ``²``,
+    ``µ``) and it has a physical dimension or names an angle: ``""``, ``"-"``, ``"1"`` or ``"%"``
+    say nothing, nor does the ambiguous ``Grad``.
+
+    Parameters
+    ----------
+    label : str
+        The unit as the file gives it (``"°/s"``, ``"m/s²"``, ``"[km/h]"``).
+    target : str
+        The schema's SI unit of the variable the channel is mapped to.
+
+    Returns
+    -------
+    float or None
+        SI value per recorded value, or None when the label says nothing.
+
+    Raises
+    ------
+    ValueError
+        If the label has a physical dimension other than ``target``'s (a channel of another quantity).
+    """
+    text = label.strip().strip("[]()").strip()
+    for old, new in _SPELLINGS:
+        text = text.replace(old, new)
+    if not text or _AMBIGUOUS.search(text):
+        return None
+    ureg = _registry()
+    try:
+        quantity = ureg.Quantity(1.0, _GRAVITY.sub("g_n", text))
+    except Exception:  # pint's parser raises many kinds, an AssertionError for "-"
+        return None
+    named_angle = bool(_ANGLES & {name for name, _ in quantity.unit_items()})
+    if quantity.dimensionless and not named_angle:
+        return None
+    want = ureg.Quantity(1.0, target)
+    if quantity.dimensionality != want.dimensionality:
+        raise ValueError(f"'{label}' has the dimension {quantity.dimensionality}, not {want.dimensionality} ({target})")
     return float(quantity.to(target).magnitude)
 
 
@@ -80,6 +131,12 @@ class ChannelEntry:
         Hand-wheel angle per road-wheel angle (-); 1 for a road-wheel angle and every other variable.
     factor : float
         SI value = factor x recorded value: unit conversion x sign / steering ratio.
+    units_given : bool
+        Whether the map gives the unit (else the schema's SI unit stands in, and a unit the
+        recording states replaces it).
+    check_units : bool
+        Whether a unit the recording states must agree with the map's (``check_units: false``
+        in the map: the map's unit wins over a file's wrong label).
     """
 
     variable: str
@@ -88,6 +145,8 @@ class ChannelEntry:
     sign: float = 1.0
     steering_ratio: float = 1.0
     factor: float = 1.0
+    units_given: bool = True
+    check_units: bool = True
 
 
 @dataclass(frozen=True)
@@ -144,6 +203,7 @@ def _entry(name: str, raw: Any, source: str, vehicle_ratio: float | None) -> Cha
     channel = raw.get("channel")
     if not isinstance(channel, str) or not channel:
         raise DataError(f"{where} has no channel name; give 'channel: NAME' as the recording names it")
+    units_given = "units" in raw
     units = raw.get("units", SCHEMA_UNITS[name])
     if not isinstance(units, str):
         units = str(units)
@@ -169,7 +229,53 @@ def _entry(name: str, raw: Any, source: str, vehicle_ratio: float | None) -> Cha
             ratio = vehicle_ratio
     elif "steering_ratio" in raw:
         raise DataError(f"{where}: steering_ratio belongs to the steering entry 'delta' only; remove it here")
-    return ChannelEntry(name, channel, units, sign, ratio, factor * sign / ratio)
+    check = raw.get("check_units", True)
+    if not isinstance(check, bool):
+        raise DataError(f"{where}: check_units is {check!r}; give true (a unit the file states must agree) or false")
+    return ChannelEntry(name, channel, units, sign, ratio, factor * sign / ratio, units_given, check)
+
+
+def channel_factor(entry: ChannelEntry, label: str, source: str) -> tuple[float, str]:
+    """The factor and unit that convert one file's channel: the map's, checked against the file's label.
+
+    Parameters
+    ----------
+    entry : ChannelEntry
+        The map's entry for the channel.
+    label : str
+        The unit the recording states for it (``""`` when it states none).
+    source : str
+        The file, for the message.
+
+    Returns
+    -------
+    factor : float
+        SI value per recorded value (sign and steering ratio included).
+    units : str
+        The unit applied: the map's, or the file's where the map gives none.
+
+    Raises
+    ------
+    uqdrive.io.DataError
+        If the file's unit is of another quantity, or differs from the map's (unless
+        ``check_units: false``).
+    """
+    where = f"{source}: channel '{entry.channel}' (mapped to {entry.variable})"
+    try:
+        recorded = recorded_unit_factor(label, SCHEMA_UNITS[entry.variable])
+    except ValueError:
+        if not entry.check_units:
+            return entry.factor, entry.units
+        raise DataError(f"{where} is recorded in '{label}', no unit of {entry.variable} ({SCHEMA_UNITS[entry.variable]}); "
+                        f"map {entry.variable} to the channel that records it (or add check_units: false to its entry)") from None
+    if recorded is None:
+        return entry.factor, entry.units
+    if not entry.units_given:
+        return recorded * entry.sign / entry.steering_ratio, label.strip().strip("[]()").strip()
+    if entry.check_units and not math.isclose(recorded, unit_factor(entry.units, SCHEMA_UNITS[entry.variable]), rel_tol=1e-9):
+        raise DataError(f"{where} is recorded in '{label}' as the file says, the map says '{entry.units}'; write units: "
+                        f"{label.strip().strip('[]()').strip()} in the map (or check_units: false if the file's label is wrong)")
+    return entry.factor, entry.units
 
 
 def read_channel_map(channels: str | Path | Mapping, vehicle: str | Path | None = None) -> ChannelMap:
@@ -215,5 +321,5 @@ def read_channel_map(channels: str | Path | Mapping, vehicle: str | Path | None 
         raise DataError(f"channel map '{source}' maps no measured channel; map at least one of psi, psi_dot, beta, y, a_y")
     ratio = _vehicle_ratio(vehicle)
     entries = {name: _entry(name, value, source, ratio) for name, value in raw.items() if name != "time"}
-    time = _entry("time", raw["time"], source, None) if "time" in raw else ChannelEntry("time", "time", "s")
+    time = _entry("time", raw["time"], source, None) if "time" in raw else ChannelEntry("time", "time", "s", units_given=False)
     return ChannelMap(entries, time, source)

@@ -131,14 +131,16 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
         check_run_count(int(keep.sum()), f"import (after dropping {len(dropped)} run(s) whose steering deviates by more "
                         f"than {max_steer_deviation:g})", "an ensemble for identify and discover")
     kept = [r for r, k in zip(recordings, keep) if k]
-    time = grid - t0
+    time = step * np.arange(n_time)
+    # on the files' own clocks (each recording was read with its times counted from its first sample)
+    clock_offsets = offsets + np.array([r.clock_origin for r in recordings]) - recordings[0].clock_origin
     data = {name: (("sample", "time"), values[name][keep], {"units": CHANNEL_UNITS[name]}) for name in CHANNELS if name in values}
     data["delta"] = ("time", values["delta"][keep].mean(axis=0), {"units": "rad", "interpolation": "linear",
                                                                    "description": "mean over the runs of the aligned steering"})
     speed, v_c = _speed(values["v"][keep])
     if speed is not None:
         data["v"] = (*speed, {"units": "m/s"})
-    data["offset"] = ("sample", offsets[keep], {"units": "s", "description": "the run's clock minus the reference run's "
+    data["offset"] = ("sample", clock_offsets[keep], {"units": "s", "description": "the run's clock minus the reference run's "
                                                                                "(the first file) at the same instant"})
     data["steer_deviation"] = ("sample", deviation[keep], {"units": "1", "description": "RMS of the run's steering minus the "
                                                            "ensemble's median over the RMS of that median"})
@@ -152,7 +154,8 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
         "import_align": align,
         "import_reference": str(recordings[0].path),
         "import_manoeuvre_window": json.dumps([window[0] - t0, window[1] - t0]),
-        "import_offsets": json.dumps({str(r.path): float(o) for r, o in zip(recordings, offsets)}),
+        "import_offsets": json.dumps({str(r.path): float(o) for r, o in zip(recordings, clock_offsets)}),
+        "import_units": json.dumps({str(r.path): r.units for r in recordings}),
         "import_steer_deviation": json.dumps({str(r.path): float(d) for r, d in zip(recordings, deviation)}),
         "import_steer_noise": float(np.median(noise)),
         "import_steer_flagged": json.dumps([str(recordings[i].path) for i in np.flatnonzero(flagged)]),
@@ -181,8 +184,10 @@ def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping,
     ----------
     run_files : sequence of str or Path
         One file per run: ``.mf4``/``.mdf`` (ASAM MDF, read by asammdf) or ``.csv`` (a header row
-        of channel names, ``,`` or ``;`` between fields, a decimal point or comma; an empty cell
-        is a slower channel's missing sample). At least :data:`uqdrive.io.MIN_RUNS`.
+        of channel names, ``,``, ``;`` or tab between fields, a decimal point or comma; an empty
+        cell is a slower channel's missing sample; :mod:`uqdrive.recordings.csv_log`). Units the
+        files state serve where the map gives none and must agree where it does
+        (:func:`uqdrive.recordings.channel_map.channel_factor`). At least :data:`uqdrive.io.MIN_RUNS`.
     channels : str, Path or mapping
         The channel map, MAP.yaml or its mapping (:func:`uqdrive.recordings.channel_map.read_channel_map`).
     vehicle : str or Path, optional

@@ -1,19 +1,18 @@
-"""Readers of one recorded run: ASAM MDF4 files (asammdf) and CSV exports (a header of channel
-names, ``,`` or ``;`` between fields, a decimal point or comma); each channel checked and in SI.
+"""Readers of one recorded run: ASAM MDF4 files (asammdf) and CSV exports (:mod:`.csv_log`); each
+channel checked, converted to SI by the map's unit (checked against the file's) and timed from zero.
 """
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io as _io
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..io import DataError
-from .channel_map import ChannelEntry, ChannelMap
+from .channel_map import ChannelEntry, ChannelMap, channel_factor
+from .csv_log import clock_seconds, read_csv_log
 
 __all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAX_STEP_RATIO"]
 
@@ -35,15 +34,23 @@ class Recording:
     path : Path
         The file.
     channels : dict
-        Variable -> (t, x): ndarray, shape (k,), times (s) on the recording's clock, and
-        ndarray, shape (k,), values in the schema's unit (sign and steering ratio applied).
+        Variable -> (t, x): ndarray, shape (k,), times (s) on the recording's clock less
+        ``clock_origin``, and ndarray, shape (k,), values in the schema's unit (sign and steering
+        ratio applied).
     sha256 : str
         Hex digest of the file's bytes.
+    clock_origin : float
+        The recording's clock at its first sample (s); times are counted from it, so that a
+        logger's absolute clock (seconds since 1970) keeps the precision of the sample steps.
+    units : dict
+        Variable -> the unit applied to its channel (the map's, or the file's where the map gives none).
     """
 
     path: Path
     channels: dict
     sha256: str
+    clock_origin: float = 0.0
+    units: dict = field(default_factory=dict)
 
     @property
     def start(self) -> float:
@@ -96,12 +103,13 @@ def check_channel(t: np.ndarray, x: np.ndarray, source: str, channel: str) -> No
                         f"{typical:.6g} s); record the run again or cut it before the gap")
 
 
-def _convert(entry: ChannelEntry, t: np.ndarray, x: np.ndarray, source: str) -> tuple:
-    check_channel(t, x, source, entry.channel)
-    return t, x * entry.factor
+def _convert(entry: ChannelEntry, t: np.ndarray, x: np.ndarray, source: str, label: str, origin: float = 0.0) -> tuple:
+    check_channel(t + origin, x, source, entry.channel)  # the messages name times on the file's clock
+    factor, units = channel_factor(entry, label, source)
+    return t, x * factor, units
 
 
-def _read_mdf(path: Path, cmap: ChannelMap) -> dict:
+def _read_mdf(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     from asammdf import MDF
 
     source = str(path)
@@ -125,62 +133,65 @@ def _read_mdf(path: Path, cmap: ChannelMap) -> dict:
             except (TypeError, ValueError):
                 raise DataError(f"{source}: channel '{entry.channel}' holds no numbers ({signal.samples.dtype}); map a "
                                 "numeric channel") from None
-            out[name] = _convert(entry, t, x, source)
+            out[name] = _convert(entry, t, x, source, str(signal.unit or ""))
     finally:
         mdf.close()
-    return out
+    origin = min(float(t[0]) for t, _, _ in out.values())
+    return {name: (t - origin, x, units) for name, (t, x, units) in out.items()}, origin
 
 
 def _number(cell: str, decimal: str) -> float:
     return float(cell.replace(decimal, ".") if decimal == "," else cell)
 
 
-def _read_csv(path: Path, cmap: ChannelMap) -> dict:
+def _numbers(cells: list, entry: ChannelEntry, decimal: str, source: str) -> np.ndarray:
+    values = np.full(len(cells), np.nan)
+    for i, cell in enumerate(cells):
+        if not cell:
+            continue  # a slower channel has no sample in this row
+        try:
+            values[i] = _number(cell, decimal)
+        except ValueError:
+            raise DataError(f"{source}: channel '{entry.channel}' holds '{cell}' in data row {i + 1}, not a number; "
+                            f"give numbers with a decimal {'comma' if decimal == ',' else 'point'}") from None
+    return values
+
+
+def _read_csv(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     source = str(path)
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = path.read_bytes().decode("latin-1")  # many logger exports are Windows-1252
-    lines = text.splitlines()
-    if len(lines) < 2:
-        raise DataError(f"{source}: a CSV recording needs a header row of channel names and data rows")
-    delimiter = ";" if lines[0].count(";") > lines[0].count(",") else ","
-    rows = list(csv.reader(_io.StringIO(text), delimiter=delimiter))
-    header = [h.strip() for h in rows[0]]
-    body = [r for r in rows[1:] if any(c.strip() for c in r)]
-    # With ';' between fields a ',' inside a number is the decimal comma.
-    decimal = "," if delimiter == ";" and "," in text.partition("\n")[2] else "."
+    mapped = [("time", cmap.time), *cmap.entries.items()]
+    log = read_csv_log(path, [entry.channel for _, entry in mapped])
     columns = {}
-    for name, entry in [("time", cmap.time), *cmap.entries.items()]:
-        if entry.channel not in header:
+    for name, entry in mapped:
+        j = log.column(entry.channel)
+        if j is None:
             what = "the time column" if name == "time" else f"mapped to {name}"
             raise DataError(f"{source}: channel '{entry.channel}' ({what}) is not in the header; fix the name in the channel "
                             f"map{' (time: {channel: NAME, units: UNIT})' if name == 'time' else ''} or export that channel")
-        j = header.index(entry.channel)
-        values = np.full(len(body), np.nan)
-        present = np.zeros(len(body), bool)
-        for i, row in enumerate(body):
-            cell = row[j].strip() if j < len(row) else ""
-            if not cell:
-                continue  # a slower channel has no sample in this row
-            try:
-                values[i] = _number(cell, decimal)
-            except ValueError:
-                raise DataError(f"{source}: channel '{entry.channel}' holds '{cell}' in data row {i + 1}, not a number; "
-                                f"give numbers with a decimal {'comma' if decimal == ',' else 'point'}") from None
-            present[i] = True
-        columns[name] = (entry, values, present)
-    time_entry, t_all, t_present = columns.pop("time")
-    if not t_present.all():
+        columns[name] = (entry, [row[j] if j < len(row) else "" for row in log.body], log.units[j])
+    time_entry, cells, label = columns.pop("time")
+    if not all(cells):
         raise DataError(f"{source}: channel '{time_entry.channel}' (the time) is empty in data row "
-                        f"{int(np.flatnonzero(~t_present)[0]) + 1}; give a time on every row")
-    t_all = t_all * time_entry.factor
+                        f"{cells.index('') + 1}; give a time on every row")
+    clock = clock_seconds(cells)
+    if clock is None:  # numbers in the time's unit: counted from the first before scaling, for the precision
+        raw = _numbers(cells, time_entry, log.decimal, source)
+        factor, _ = channel_factor(time_entry, label, source)
+        t_all, origin = (raw - raw[0]) * factor, float(raw[0]) * factor
+    else:
+        t_all, origin = clock, 0.0
     back = np.flatnonzero(np.diff(t_all) <= 0)
     if back.size:
         i = int(back[0])
         raise DataError(f"{source}: channel '{time_entry.channel}' (the time) does not increase at data row {i + 2} "
-                        f"({t_all[i]:.6g} s then {t_all[i + 1]:.6g} s); sort the rows or repair the logger's clock")
-    return {name: _convert(entry, t_all[present], values[present], source) for name, (entry, values, present) in columns.items()}
+                        f"({t_all[i] + origin:.6g} s then {t_all[i + 1] + origin:.6g} s); sort the rows or repair the "
+                        "logger's clock")
+    out = {}
+    for name, (entry, cells, label) in columns.items():
+        values = _numbers(cells, entry, log.decimal, source)
+        present = np.array([bool(c) for c in cells])
+        out[name] = _convert(entry, t_all[present], values[present], source, label, origin)
+    return out, origin
 
 
 def read_recording(path: str | Path, cmap: ChannelMap) -> Recording:
@@ -203,9 +214,10 @@ def read_recording(path: str | Path, cmap: ChannelMap) -> Recording:
         raise DataError(f"recording '{path}' does not exist or is not a file; give one file per run")
     suffix = path.suffix.lower()
     if suffix in MDF_SUFFIXES:
-        channels = _read_mdf(path, cmap)
+        channels, origin = _read_mdf(path, cmap)
     elif suffix in CSV_SUFFIXES:
-        channels = _read_csv(path, cmap)
+        channels, origin = _read_csv(path, cmap)
     else:
         raise DataError(f"recording '{path}' has the suffix '{path.suffix}'; give MDF4 (.mf4, .mdf) or CSV (.csv) files")
-    return Recording(path, channels, file_sha256(path))
+    return Recording(path, {name: (t, x) for name, (t, x, _) in channels.items()}, file_sha256(path), origin,
+                     {name: units for name, (_, _, units) in channels.items()})

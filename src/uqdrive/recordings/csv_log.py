@@ -1,0 +1,159 @@
+"""CSV exports of data loggers as they come: ``,``, ``;`` or tab between fields, a decimal point or
+comma, lines before the header, units in the header (``YawRate [deg/s]``) or in a row below it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io as _io
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..io import DataError
+
+__all__ = ["DELIMITERS", "MAX_PREAMBLE", "CsvLog", "split_unit", "read_csv_log", "clock_seconds"]
+
+DELIMITERS = (",", ";", "\t")
+#: Lines before the header searched for it (a logger's preamble: device, date, comment lines).
+MAX_PREAMBLE = 200
+_UNIT_IN_NAME = re.compile(r"^(?P<name>.*?)\s*(?:\[(?P<b>[^\]]*)\]|\((?P<p>[^)]*)\))$")
+_TIME_OF_DAY = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2}(?:[.,]\d*)?)$")
+
+
+def split_unit(cell: str) -> tuple[str, str]:
+    """A header cell as name and unit: ``"YawRate [deg/s]"`` and ``"YawRate (deg/s)"`` give
+    ``("YawRate", "deg/s")``; a cell without a bracketed unit gives ``(cell, "")``."""
+    cell = cell.strip()
+    match = _UNIT_IN_NAME.match(cell)
+    if not match or not match.group("name"):
+        return cell, ""
+    return match.group("name"), (match.group("b") if match.group("b") is not None else match.group("p")).strip()
+
+
+@dataclass(frozen=True)
+class CsvLog:
+    """The table of one CSV export.
+
+    Attributes
+    ----------
+    header : list of str
+        The header's cells as written.
+    units : list of str
+        Each column's unit as the file states it (header brackets or a units row), ``""`` where none.
+    body : list of list of str
+        The data rows (blank rows dropped).
+    decimal : str
+        ``"."`` or ``","``.
+    """
+
+    header: list
+    units: list
+    body: list
+    decimal: str
+
+    def column(self, channel: str) -> int | None:
+        """Index of the column named ``channel`` (exactly, or with its unit in brackets), or None."""
+        if channel in self.header:
+            return self.header.index(channel)
+        names = [split_unit(h)[0] for h in self.header]
+        return names.index(channel) if channel in names else None
+
+
+def _header_at(lines: list[str], names: list[str]) -> tuple[str, int]:
+    """The delimiter and the index of the header row: the first row holding the most mapped names."""
+    best = (0, 0, ",", 0)
+    for delimiter in DELIMITERS:
+        for i, row in enumerate(csv.reader(lines[:MAX_PREAMBLE], delimiter=delimiter)):
+            cells = {c.strip() for c in row} | {split_unit(c)[0] for c in row}
+            found = sum(n in cells for n in names)
+            if found > best[0]:
+                best = (found, -i, delimiter, i)
+    if best[0]:
+        return best[2], best[3]
+    first = next((i for i, line in enumerate(lines) if line.strip()), 0)
+    counts = [lines[first].count(d) if lines else 0 for d in DELIMITERS]
+    return DELIMITERS[int(np.argmax(counts))], first
+
+
+def _is_number(cell: str, decimal: str) -> bool:
+    try:
+        float(cell.replace(",", ".") if decimal == "," else cell)
+    except ValueError:
+        return False
+    return True
+
+
+def read_csv_log(path: Path, names: list[str]) -> CsvLog:
+    """Read a CSV export: dialect, header row (after any preamble), units and data rows.
+
+    Parameters
+    ----------
+    path : Path
+        The file (UTF-8, with or without a byte-order mark, or Windows-1252).
+    names : list of str
+        The mapped channel names, the time's first: the header is the row holding most of them.
+
+    Returns
+    -------
+    CsvLog
+        The header, the units per column, the data rows and the decimal sign.
+    """
+    source = str(path)
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("cp1252", errors="replace")  # many logger exports are Windows-1252
+    lines = text.splitlines()
+    if len(lines) < 2:
+        raise DataError(f"{source}: a CSV recording needs a header row of channel names and data rows")
+    delimiter, at = _header_at(lines, names)
+    rows = list(csv.reader(_io.StringIO("\n".join(lines[at:])), delimiter=delimiter))
+    header = [h.strip() for h in rows[0]]
+    body = [[c.strip() for c in r] for r in rows[1:] if any(c.strip() for c in r)]
+    # Where fields are not split by ',' a ',' inside a number is the decimal comma.
+    decimal = "," if delimiter != "," and any("," in c for r in body for c in r) else "."
+    log = CsvLog(header, [split_unit(h)[1] for h in header], body, decimal)
+    j = log.column(names[0])
+    first = body[0] if body else []
+    if first and not any(_is_number(c, decimal) for c in first if c) and not (
+            j is not None and j < len(first) and clock_seconds([first[j]]) is not None):
+        # a units row: every cell a word, the time's no clock time
+        units = [u or c.strip("[]() ") for u, c in zip(log.units, first + [""] * len(header))]
+        log = CsvLog(header, units, body[1:], decimal)
+    return log
+
+
+def clock_seconds(cells: list[str]) -> np.ndarray | None:
+    """Times written as dates and clock times: seconds from the first, or None if they are not.
+
+    Accepts ISO 8601 date-times (``2026-11-29 10:15:30.010``, ``T`` or a space between date and
+    time) and clock times of one day (``10:15:30.010``, a decimal point or comma).
+
+    Parameters
+    ----------
+    cells : list of str, length k
+        The time column's cells.
+
+    Returns
+    -------
+    ndarray, shape (k,), or None
+        Seconds since the first cell.
+    """
+    clock = [_TIME_OF_DAY.match(c) for c in cells]
+    if all(clock):
+        return np.array([int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3].replace(",", ".")) for m in clock]) - (
+            int(clock[0][1]) * 3600.0 + int(clock[0][2]) * 60.0 + float(clock[0][3].replace(",", ".")))
+    if not all(re.match(r"^\d{4}-\d{2}-\d{2}[T ]\d", c) for c in cells):
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numpy warns of a time zone's offset, which it applies
+            stamps = np.array(cells, dtype="datetime64[ns]")
+    except ValueError:
+        return None
+    return (stamps - stamps[0]).astype(np.int64) * 1e-9
