@@ -203,8 +203,8 @@ def _spoil(run: rr.Run, channel: str, how: str) -> rr.Run:
     if how == "gap":
         keep = np.r_[0:300, 330:t.size]
         t, x = t[keep], x[keep]
-    elif how == "nan":
-        x[200] = np.nan
+    elif how == "nan":  # 0.2 s without a value: longer than the import bridges
+        x[200:220] = np.nan
     elif how == "backwards":
         t[[100, 101]] = t[[101, 100]]
     run.channels[channel] = (t, x)
@@ -219,7 +219,8 @@ def _spoil(run: rr.Run, channel: str, how: str) -> rr.Run:
     ("starts late", ".csv", r"channel 'SteeringWheelAngle' starts .* s after the manoeuvre's steering begins"),
     ("reference starts late", ".mf4", r"run00.mf4: channel 'SteeringWheelAngle' starts 0 s after the manoeuvre's steering"),
     ("gap", ".mf4", r"channel 'YawRate' has a gap of 0.62 s at t = 5.98 s"),
-    ("nan", ".de.csv", r"channel 'LatAcc' holds 1 NaN or infinite value\(s\), the first at t = 2 s"),
+    ("nan", ".de.csv", r"channel 'LatAcc' holds 20 NaN or infinite value\(s\) from t = 1.99 s to 2.2 s, longer than the "
+                       r"0.05 s the import bridges"),
     ("backwards", ".mf4", r"channel 'VehicleSpeed' has a time that does not increase at sample 101"),
     ("backwards", ".csv", r"channel 'Zeit_ms' \(the time\) does not increase at data row 101 \(1 s then 0.99 s\)"),
     ("too few runs", ".mf4", r"5 run\(s\).*needs at least 10.*record more runs"),

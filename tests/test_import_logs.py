@@ -179,3 +179,42 @@ def test_header_cells_and_times_are_read_as_loggers_write_them():
     np.testing.assert_allclose(clock_seconds(["23:59:59.5", "23:59:59,75"]), [0.0, 0.25])
     np.testing.assert_allclose(clock_seconds(["2026-11-29 23:59:59.5", "2026-11-30T00:00:00.25"]), [0.0, 0.75])
     assert clock_seconds(["0.5", "1.0"]) is None and clock_seconds(["12:00", "12:01"]) is None
+
+
+# -- what loggers lose ------------------------------------------------------------------------------
+def _lose(run: rr.Run, how: str) -> rr.Run:
+    channels = dict(run.channels)
+    t, x = (a.copy() for a in channels["LatAcc"])
+    if how == "lost frames":  # four 100 Hz frames dropped mid-manoeuvre: a 0.05 s step
+        keep = np.r_[0:450, 454:t.size]
+        t, x = t[keep], x[keep]
+    elif how == "invalid values":  # one invalid sample mid-manoeuvre, none before the sensor's first value
+        x[450] = np.nan
+        x[:5] = np.nan
+    elif how == "long gap":
+        keep = np.r_[0:450, 456:t.size]
+        t, x = t[keep], x[keep]
+    channels["LatAcc"] = (t, x)
+    return rr.Run(run.lead, run.mu, run.v, channels)
+
+
+@pytest.mark.parametrize("how", ["lost frames", "invalid values"])
+def test_lost_frames_and_invalid_values_are_bridged(runs, reference, tmp_path, how):
+    """The spline bridges up to MAX_BRIDGED_GAP: on this manoeuvre's a_y (content below 1.2 Hz,
+    peak 3.7 m/s^2) the cubic across 0.05 s is off by about (2 pi 1.2 0.05)^4 / 384 = 3e-5 of
+    the peak (measured 1.8e-5); required 1e-3. Invalid values at a channel's start shorten the span."""
+    files = [rr.write_mdf(_lose(r, how), tmp_path / f"run{i:02d}.mf4") for i, r in enumerate(runs)]
+    ds = import_runs(files, rr.MAP)
+    # five invalid leading values: every run's a_y starts 0.05 s later, and so does the shared span
+    late = 5 if how == "invalid values" else 0
+    assert ds.sizes["time"] == reference.sizes["time"] - late
+    expected = reference["a_y"].values[:, late:]
+    np.testing.assert_allclose(ds["a_y"].values, expected, rtol=0, atol=1e-3 * np.abs(expected).max())
+    assert np.max(np.abs(ds["a_y"].values - expected)) > 1e-9  # the loss was read, and bridged
+
+
+def test_a_gap_longer_than_the_bridge_is_refused(runs, tmp_path):
+    files = [rr.write_mdf(_lose(r, "long gap"), tmp_path / f"run{i:02d}.mf4") for i, r in enumerate(runs)]
+    with pytest.raises(DataError, match=r"run00.mf4: channel 'LatAcc' has a gap of 0.07 s at t = 4.49 s \(its period is 0.01 s; "
+                                        r"the import bridges up to 0.05 s\)"):
+        import_runs(files, rr.MAP)

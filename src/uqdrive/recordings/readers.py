@@ -14,13 +14,19 @@ from ..io import DataError
 from .channel_map import ChannelEntry, ChannelMap, channel_factor
 from .csv_log import clock_seconds, read_csv_log
 
-__all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAX_STEP_RATIO"]
+__all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAX_STEP_RATIO",
+           "MAX_BRIDGED_GAP"]
 
 MDF_SUFFIXES = (".mf4", ".mdf")
 CSV_SUFFIXES = (".csv",)
-#: A step between two samples longer than this many times the channel's median step is a gap
-#: (loggers jitter by a few per cent; a lost frame doubles the step).
+#: A step between two samples longer than this many times the channel's median step is missing
+#: samples (loggers jitter by a few per cent; a lost frame doubles the step).
 MAX_STEP_RATIO = 1.5
+#: Longest run of missing samples (s) the spline bridges: frames a logger lost on a busy bus, or
+#: values it marked invalid (NaN). Across a gap g the cubic's error on a response of frequency f
+#: is about (2 pi f g)^4 / 384 of its amplitude: below 4e-4 at 2 Hz, the upper end of a car's yaw
+#: and lateral response. Longer gaps are refused.
+MAX_BRIDGED_GAP = 0.05
 #: Fewest samples of a channel: a cubic spline through it needs four.
 MIN_SAMPLES = 4
 
@@ -68,8 +74,12 @@ def file_sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def check_channel(t: np.ndarray, x: np.ndarray, source: str, channel: str) -> None:
-    """Refuse a channel with NaN or infinite values, a time that does not increase, or a gap.
+def check_channel(t: np.ndarray, x: np.ndarray, source: str, channel: str,
+                  clock_origin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The channel's valid samples; refuse a time that does not increase, or a gap the spline cannot bridge.
+
+    NaN or infinite values are samples the logger had no value for: dropped, like lost frames,
+    and refused only where they leave a gap longer than :data:`MAX_BRIDGED_GAP` inside the record.
 
     Parameters
     ----------
@@ -79,32 +89,47 @@ def check_channel(t: np.ndarray, x: np.ndarray, source: str, channel: str) -> No
         Values (any unit).
     source, channel : str
         The file and the channel, for the message.
+    clock_origin : float
+        Added to the times the messages name (s): ``t`` counted from it, the file's clock.
+
+    Returns
+    -------
+    t, x : ndarray, shape (m,)
+        The samples with finite values, m <= k.
     """
-    if t.size < MIN_SAMPLES:
-        raise DataError(f"{source}: channel '{channel}' has {t.size} sample(s); give at least {MIN_SAMPLES} (the whole run)")
-    bad = ~np.isfinite(x)
-    if bad.any():
-        first = int(np.flatnonzero(bad)[0])
-        raise DataError(f"{source}: channel '{channel}' holds {int(bad.sum())} NaN or infinite value(s), the first at "
-                        f"t = {t[first]:.6g} s; repair or cut those samples from the recording")
     if not np.all(np.isfinite(t)):
         raise DataError(f"{source}: channel '{channel}' has NaN or infinite times; repair the recording's time axis")
     steps = np.diff(t)
     back = np.flatnonzero(steps <= 0)
     if back.size:
         i = int(back[0])
-        raise DataError(f"{source}: channel '{channel}' has a time that does not increase at sample {i + 1} "
-                        f"(t = {t[i]:.6g} s then {t[i + 1]:.6g} s); sort the samples or repair the logger's clock")
+        raise DataError(f"{source}: channel '{channel}' has a time that does not increase at sample {i + 1} (t = "
+                        f"{t[i] + clock_origin:.6g} s then {t[i + 1] + clock_origin:.6g} s); sort the samples or repair the "
+                        "logger's clock")
+    valid = np.isfinite(x)
+    if valid.sum() < MIN_SAMPLES:
+        raise DataError(f"{source}: channel '{channel}' has {int(valid.sum())} valid sample(s); give at least {MIN_SAMPLES} "
+                        "(the whole run)")
     typical = float(np.median(steps))
-    long = np.flatnonzero(steps > MAX_STEP_RATIO * typical)
+    kept = t[valid]
+    gaps = np.diff(kept)
+    long = np.flatnonzero((gaps > MAX_STEP_RATIO * typical) & (gaps > MAX_BRIDGED_GAP))
     if long.size:
         i = int(long[0])
-        raise DataError(f"{source}: channel '{channel}' has a gap of {steps[i]:.6g} s at t = {t[i]:.6g} s (its period is "
-                        f"{typical:.6g} s); record the run again or cut it before the gap")
+        a, b = kept[i] + clock_origin, kept[i + 1] + clock_origin
+        invalid = int(np.sum(~valid[(t > kept[i]) & (t < kept[i + 1])]))
+        if invalid:
+            raise DataError(f"{source}: channel '{channel}' holds {invalid} NaN or infinite value(s) from t = {a:.6g} s to "
+                            f"{b:.6g} s, longer than the {MAX_BRIDGED_GAP:g} s the import bridges; repair or cut those samples "
+                            "from the recording")
+        raise DataError(f"{source}: channel '{channel}' has a gap of {gaps[i]:.6g} s at t = {a:.6g} s (its period is "
+                        f"{typical:.6g} s; the import bridges up to {MAX_BRIDGED_GAP:g} s); record the run again or cut it "
+                        "before the gap")
+    return kept, x[valid]
 
 
 def _convert(entry: ChannelEntry, t: np.ndarray, x: np.ndarray, source: str, label: str, origin: float = 0.0) -> tuple:
-    check_channel(t + origin, x, source, entry.channel)  # the messages name times on the file's clock
+    t, x = check_channel(t, x, source, entry.channel, origin)
     factor, units = channel_factor(entry, label, source)
     return t, x * factor, units
 
