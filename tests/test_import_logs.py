@@ -17,7 +17,7 @@ import recorded_runs as rr  # noqa: E402
 
 from uqdrive.io import DataError  # noqa: E402
 from uqdrive.recordings.channel_map import read_channel_map, recorded_unit_factor, unit_factor  # noqa: E402
-from uqdrive.recordings.csv_log import clock_seconds, split_unit  # noqa: E402
+from uqdrive.recordings.csv_log import CsvLog, clock_seconds, split_unit  # noqa: E402
 from uqdrive.recordings.importer import import_runs  # noqa: E402
 
 pytest.importorskip("asammdf")
@@ -176,6 +176,9 @@ def test_header_cells_and_times_are_read_as_loggers_write_them():
     assert split_unit("Zeit (s)") == ("Zeit", "s")
     assert split_unit("YawRate") == ("YawRate", "")
     assert split_unit("[deg]") == ("[deg]", "")  # a bracket alone is no name
+    log = CsvLog(["Time [s]", "YawRate", "yawrate"], ["s", "", ""], [], ".")
+    assert log.column("time") == 0 and log.column("YawRate") == 1 and log.column("yawrate") == 2
+    assert log.column("YAWRATE") is None  # two columns differ from it only in case: neither is taken
     np.testing.assert_allclose(clock_seconds(["23:59:59.5", "23:59:59,75"]), [0.0, 0.25])
     np.testing.assert_allclose(clock_seconds(["2026-11-29 23:59:59.5", "2026-11-30T00:00:00.25"]), [0.0, 0.75])
     assert clock_seconds(["0.5", "1.0"]) is None and clock_seconds(["12:00", "12:01"]) is None

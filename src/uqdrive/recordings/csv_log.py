@@ -56,11 +56,15 @@ class CsvLog:
     decimal: str
 
     def column(self, channel: str) -> int | None:
-        """Index of the column named ``channel`` (exactly, or with its unit in brackets), or None."""
+        """Index of the column named ``channel`` (exactly, or with its unit in brackets, or else
+        the one column whose name differs only in case: ``Time`` for the default ``time``), or None."""
         if channel in self.header:
             return self.header.index(channel)
         names = [split_unit(h)[0] for h in self.header]
-        return names.index(channel) if channel in names else None
+        if channel in names:
+            return names.index(channel)
+        folded = [i for i, n in enumerate(names) if n.casefold() == channel.casefold()]
+        return folded[0] if len(folded) == 1 else None
 
 
 def _header_at(lines: list[str], names: list[str]) -> tuple[str, int]:
