@@ -183,6 +183,16 @@ def memory_checks_table() -> str:
     return "\n".join(lines) + "\n"
 
 
+def chassis_programs_table() -> str:
+    r = _rec("chassis_programs")
+    lines = [f"| pass ({r['realisations']} realisations, {r['steps']} steps) | kernels per step: own program | shared program | "
+             f"pass (s): own | shared |", "|---|---:|---:|---:|---:|"]
+    lines += [f"| {x['pass']} | {x['own']['kernels_per_step']:g} | {x['shared']['kernels_per_step']:g} | {x['own']['pass_s']:.3f} | "
+              f"{x['shared']['pass_s']:.3f} |" for x in r["rows"]]
+    lines.append(f"| the NLST program, for scale | {r['nlst_kernels_per_step']:g} | | | |")
+    return "\n".join(lines) + "\n"
+
+
 TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "bench_reproduction": reproduction_table,
           "bench_channel_detection": channel_detection_table, "bench_profile_batch": profile_batch_table,
           "bench_discover_memo": discover_memo_table, "bench_pce": pce_table, "bench_posterior": posterior_table,
@@ -191,12 +201,14 @@ TABLES = {"bench_montecarlo": montecarlo_table, "bench_import": import_table, "b
           "bench_ltv": ltv_table, "bench_job_overhead": job_overhead_table,
           "bench_load_loop": load_loop_table, "bench_fused_rates": fused_rates_table,
           "bench_fused_chassis": lambda: fused_rates_table("fused_chassis"), "bench_discover_jobs": discover_jobs_table,
-          "bench_memory_checks": memory_checks_table}
+          "bench_memory_checks": memory_checks_table, "bench_chassis_programs": chassis_programs_table}
 
 
 def substitutions() -> dict[str, str]:
     """The numbers the benchmarks page quotes in its text, keyed ``bench_<record>_<what>``."""
     s: dict[str, str] = {}
+    cp = _rec("chassis_programs")
+    s.update(bench_chassis_programs_device=f"{cp['device']} (JAX {cp['jax']}, {cp['machine']})")
     mc = _rec("montecarlo")
     s.update(bench_mc_runs=str(mc["runs"]), bench_mc_baseline_runs=str(mc["baseline_runs"]), bench_mc_machine=mc["machine"],
              bench_mc_peak=f"{mc['peak_nlst_mib']} MiB", bench_mc_peak_target=f"{mc['peak_target_gib']} GiB")

@@ -5,9 +5,11 @@ A pass sends the device the realisations' constants, mean wind and gust mode coe
 grid's KLE eigenfunctions and steering, and forms the gusts F_w = F_w_mean + c f(t) of (5.1),
 (5.21) at each half step there (no (J, n) wind table crosses the bus, which at a discover's few
 thousand realisations would be most of a pass's traffic); the lateral acceleration a_y of the
-recorded states is computed there too. A program holds the load and compliance terms whether a
-pass has them on or not (:data:`SWITCHED`); realisations are padded to a power of two, so that
-passes of nearby sizes share one (a four-wheel discover runs about twenty, :func:`programs_compiled`).
+recorded states is computed there too. A program holds the terms its pass has on, and its
+realisations are padded to a power of two, so that passes of nearby sizes share one
+(:func:`programs_compiled`). ``share_programs`` instead holds the load and compliance terms in
+every program (:data:`SWITCHED`): fewer programs to compile, but several times the fused kernels
+per RK4 step in a pass without them (``benchmarks/bench_chassis_programs.py`` counts them).
 """
 
 from __future__ import annotations
@@ -22,12 +24,12 @@ from .rk4 import per_step, rk4_rows_step
 
 __all__ = ["SWITCHED", "switched_on", "integrate_chassis_jax", "programs_compiled"]
 
-#: Terms every program holds, whether a pass has them on or not: off, their constants are zero
-#: (no load moved, unit shares and factors, no yield), which gives the doubles of a program
-#: without them, so the passes of a search share programs by tyre, relaxation, roll steer and speed
-#: alone (a dry run of fw_slalom_090's 858 passes: 19 programs where one per combination of terms
-#: needs 45). Each program costs a compilation (the NLST's took 1.5 s on an H200); the terms cost
-#: element-wise arithmetic that XLA fuses with the rest of a stage.
+#: Terms a shared program holds (``share_programs``), whether a pass has them on or not: off, their
+#: constants are zero (no load moved, unit shares and factors, no yield), which gives the doubles
+#: of a program without them, so the passes of a search share programs by tyre, relaxation, roll
+#: steer and speed alone (a dry run of fw_slalom_090's 858 passes: 19 programs where one per
+#: combination of terms needs 45). The price is in every step: the loads' Newton loop and the
+#: yield's, unrolled, split a step into several times the fused kernels, each a launch on a GPU.
 SWITCHED = ("loaded", "pitching", "transferring", "slipping", "sensitive", "compliant")
 
 
@@ -105,7 +107,7 @@ def _bucket(n: int) -> int:
 
 
 def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_mean, coeffs, eigenfunctions_half,
-                          lateral_acceleration: bool = False):
+                          lateral_acceleration: bool = False, share_programs: bool = False):
     """The states of :func:`uqdrive.vehicle.track_extended.integrate_chassis` by JAX on its default
     device, and the lateral acceleration a_y of the recorded states.
 
@@ -126,6 +128,9 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
         KLE eigenfunctions (-) on the half-step grid: F_w = ``wind_mean`` + ``coeffs`` f(t).
     lateral_acceleration : bool
         Also a_y (:meth:`~uqdrive.vehicle.track_extended.ExtendedSingleTrackRHS.lateral_acceleration`).
+    share_programs : bool
+        Run the program that holds every :data:`SWITCHED` term (the same doubles; fewer programs
+        per search, more kernels per step) instead of the one of this pass's terms.
 
     Returns
     -------
@@ -138,7 +143,9 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
         raise ValueError("n_steps must be a multiple of record_every")
     wind_mean, coeffs = np.asarray(wind_mean, float), np.asarray(coeffs, float).reshape(np.size(wind_mean), -1)
     n, J = wind_mean.shape[0], 2 * n_steps + 1
-    c, f = switched_on(*chassis_constants(rhs, n))
+    c, f = chassis_constants(rhs, n)
+    if share_programs:
+        c, f = switched_on(c, f)
     width = _bucket(n)
     pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
     delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
