@@ -112,8 +112,8 @@ def device_choice(text: str) -> str:
 
 def compilation_cache(directory: str | Path | None = None) -> str:
     """Keep JAX's compiled programs on disk, so that a later process loads them instead of
-    compiling anew (a four-wheel discover runs about twenty programs: by tyre, relaxation, roll
-    steer and size, :mod:`uqdrive.vehicle.accelerated.chassis_ensemble`); a process that already
+    compiling anew (a four-wheel discover runs a few dozen programs: one per combination of terms,
+    tyre and size, :mod:`uqdrive.vehicle.accelerated.chassis_ensemble`); a process that already
     names a cache (``JAX_COMPILATION_CACHE_DIR`` or JAX's config) keeps its own. For the command
     line, which owns its process: the setting is JAX's, global.
 
