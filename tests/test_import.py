@@ -225,6 +225,8 @@ def _spoil(run: rr.Run, channel: str, how: str) -> rr.Run:
     ("backwards", ".csv", r"channel 'Zeit_ms' \(the time\) does not increase at data row 101 \(1 s then 0.99 s\)"),
     ("too few runs", ".mf4", r"5 run\(s\).*needs at least 10.*record more runs"),
     ("no steering", ".csv", r"run00.csv: channel 'SteeringWheelAngle' \(the steering\) never moves.*--align none"),
+    ("file says another unit", ".mf4", r"run00.mf4: channel 'YawRate' \(mapped to psi_dot\) is recorded in 'deg/s' as the file "
+                                       r"says, the map says 'rad/s'; write units: deg/s in the map"),
     ("wrong scale", ".csv", r"variable 'a_y' reaches .* \(channel 'LatAcc' in km/s\^2, map .*: check its units"),
 ])
 def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, suffix, pattern):
@@ -247,14 +249,15 @@ def test_bad_input_is_refused_naming_file_and_channel(tmp_path, capsys, case, su
         lines[100], lines[101] = lines[101], lines[100]
         files[3].write_text("\n".join(lines) + "\n")
     changes = {"wrong dimension": {"a_y": {"channel": "LatAcc", "units": "deg/s"}},
-               "wrong scale": {"a_y": {"channel": "LatAcc", "units": "km/s^2"}}}.get(case, {})
+               "wrong scale": {"a_y": {"channel": "LatAcc", "units": "km/s^2"}},
+               "file says another unit": {"psi_dot": {"channel": "YawRate", "units": "rad/s"}}}.get(case, {})
     cmap = _write_map(tmp_path, **changes)
     out = tmp_path / "ensemble.nc"
     code, stdout, stderr = _cli(["import", *files, "--channels", cmap, "--out", out], capsys)
     assert code == 2 and stdout == ""
     assert len(stderr.strip().splitlines()) == 1, stderr
     assert re.search(pattern, stderr), stderr
-    if case not in ("wrong dimension", "too few runs", "wrong scale"):
+    if case not in ("wrong dimension", "too few runs", "wrong scale", "file says another unit"):
         assert str(files[spoiled]) in stderr
     assert not out.exists() and not list(tmp_path.glob(".ensemble.nc*"))
 
