@@ -69,15 +69,15 @@ class CsvLog:
 
 def _header_at(lines: list[str], names: list[str]) -> tuple[str, int]:
     """The delimiter and the index of the header row: the first row holding the most mapped names."""
-    best = (0, 0, ",", 0)
-    for delimiter in DELIMITERS:
-        for i, row in enumerate(csv.reader(lines[:MAX_PREAMBLE], delimiter=delimiter)):
+    found, delimiter, at = 0, ",", 0
+    for candidate in DELIMITERS:
+        for i, row in enumerate(csv.reader(lines[:MAX_PREAMBLE], delimiter=candidate)):
             cells = {c.strip() for c in row} | {split_unit(c)[0] for c in row}
-            found = sum(n in cells for n in names)
-            if found > best[0]:
-                best = (found, -i, delimiter, i)
-    if best[0]:
-        return best[2], best[3]
+            named = sum(n in cells for n in names)
+            if named > found:
+                found, delimiter, at = named, candidate, i
+    if found:
+        return delimiter, at
     first = next((i for i, line in enumerate(lines) if line.strip()), 0)
     counts = [lines[first].count(d) if lines else 0 for d in DELIMITERS]
     return DELIMITERS[int(np.argmax(counts))], first
