@@ -15,25 +15,43 @@ import json
 import os
 import platform
 import re
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from bench_gpu import REPO, _inputs, _settings
 from timing import best_of
+from uqdrive.numerics.backend import float64
+from uqdrive.vehicle import track_extended
+from uqdrive.vehicle.accelerated import chassis_ensemble
+from uqdrive.vehicle.accelerated.nlst import nlst_program
+from uqdrive.vehicle.effects import ModelStructure, effect
+from uqdrive.vehicle.single_track import VehicleParameters
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import test_fused_chassis as tfc  # noqa: E402
-
-from uqdrive.numerics.backend import float64  # noqa: E402
-from uqdrive.vehicle.accelerated import chassis_ensemble  # noqa: E402
-
+#: Effect values of the passes (those of the chassis tests, tests/test_fused_chassis.py).
+VALUES = {"lateral_load_transfer": [0.6, -0.4], "longitudinal_load_transfer": [0.55], "combined_slip": [0.8, 0.4],
+          "tyre_relaxation": [0.4], "roll_steer": [0.5, 1.7, 0.4], "compliance_steer": [0.4]}
+LOADS = ("lateral_load_transfer", "longitudinal_load_transfer", "combined_slip")
 #: Passes of a discover's search: (label, chassis terms, linear tyre).
 PASSES = [("no chassis term, Magic Formula", (), False), ("no chassis term, linear tyre", (), True),
           ("relaxation and roll steer", ("tyre_relaxation", "roll_steer"), False),
           ("lateral load transfer", ("lateral_load_transfer",), False),
-          ("load transfer and combined slip", tfc.CHASSIS[2:], False),
+          ("load transfer and combined slip", LOADS, False),
           ("compliance steer, linear tyre", ("compliance_steer",), True)]
+V, H, T_W = 70.0 / 3.6, 0.55, 1.6  # m/s, cg height and track width (m)
+
+
+def _rhs(settings, terms, linear: bool, n: int, n_steps: int):
+    """A braking pass's chassis right-hand side of n realisations (seeded draws) on 2 n_steps + 1 half steps."""
+    s = ModelStructure() if linear else effect("tyre_saturation").augment(ModelStructure(), [0.97])
+    for name in terms:
+        s = effect(name).augment(s, VALUES[name])
+    rng, J = np.random.default_rng(7), 2 * n_steps + 1
+    p = VehicleParameters.from_settings(settings, mu=rng.uniform(0.6, 1.0, n), l_f=rng.uniform(1.4, 1.7, n),
+                                        m_load=rng.normal(100, 30, n), v_c=V)
+    delta = np.deg2rad(5.0) * np.sin(np.linspace(0.0, 3.0, J))
+    return track_extended.ExtendedSingleTrackRHS(p, s, 0.97, delta, None, True, rng.normal(0.0, 2.0, n), H, T_W,
+                                                 speed_half=(np.linspace(V, V - 4.0, J), np.full(J, -3.0)), tyre_load_height=H)
 
 
 def kernels_per_step(hlo: str, steps_per_body: int = 1) -> float:
@@ -50,12 +68,11 @@ def kernels_per_step(hlo: str, steps_per_body: int = 1) -> float:
     return max(sum(" fusion(" in line for line in bodies.get(body, [])) for body in inner) / steps_per_body
 
 
-def _pass(terms, linear: bool, n: int, n_steps: int, share: bool, repeats: int) -> dict:
-    tfc.J = 2 * n_steps + 1
-    rhs = tfc._rhs(True, tfc._structure(terms, linear=linear), n=n, speed=True)
+def _pass(settings, terms, linear: bool, n: int, n_steps: int, share: bool, repeats: int) -> dict:
+    rhs = _rhs(settings, terms, linear, n, n_steps)
     rng = np.random.default_rng(11)
     wind, coeffs = rng.uniform(-200.0, 200.0, n), rng.normal(0.0, 150.0, (n, 3))
-    modes = np.stack([np.sin((i + 1) * np.linspace(0.0, 3.0, tfc.J)) for i in range(3)])
+    modes = np.stack([np.sin((i + 1) * np.linspace(0.0, 3.0, 2 * n_steps + 1)) for i in range(3)])
     captured, original = {}, chassis_ensemble._compiled
     compiled = original()
 
@@ -79,12 +96,8 @@ def _pass(terms, linear: bool, n: int, n_steps: int, share: bool, repeats: int) 
             "states": first[0]}
 
 
-def _nlst_kernels() -> float:
+def _nlst_kernels(settings) -> float:
     """Kernels per RK4 step of the NLST program of the default config (two steps per output interval, unrolled)."""
-    from bench_gpu import _inputs, _settings
-    from uqdrive.vehicle.accelerated.nlst import nlst_program
-
-    settings = _settings(Path(__file__).resolve().parents[1] / "config" / "config.yaml")
     with float64():
         function, device_args = nlst_program(*_inputs(settings, 64))
         hlo = function.lower(*device_args).compile().as_text()
@@ -100,15 +113,16 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     import jax
 
+    settings = _settings(REPO / "config" / "config.yaml")
     rows = []
     for label, terms, linear in PASSES:
-        own = _pass(terms, linear, args.realisations, args.steps, False, args.repeats)
-        shared = _pass(terms, linear, args.realisations, args.steps, True, args.repeats)
+        own = _pass(settings, terms, linear, args.realisations, args.steps, False, args.repeats)
+        shared = _pass(settings, terms, linear, args.realisations, args.steps, True, args.repeats)
         difference = float(np.max(np.abs(own.pop("states") - shared.pop("states"))))
         rows.append({"pass": label, "own": own, "shared": shared, "max_difference": difference})
         print(f"{label:34s} kernels/step own {own['kernels_per_step']:5.1f}, shared {shared['kernels_per_step']:5.1f}; "
               f"pass own {own['pass_s']:.3f} s, shared {shared['pass_s']:.3f} s; max |difference| {difference:.1e}")
-    nlst = _nlst_kernels()
+    nlst = _nlst_kernels(settings)
     print(f"NLST program (for scale): {nlst:.1f} kernels/step")
     record = {"command": "python benchmarks/bench_chassis_programs.py", "device": str(jax.devices()[0]), "jax": jax.__version__,
               "machine": f"{platform.machine()}, {os.cpu_count()} cores", "realisations": args.realisations, "steps": args.steps,
