@@ -41,6 +41,11 @@ def add_import(sub) -> None:
     p.add_argument("--max-steer-deviation", type=finite_float("--max-steer-deviation", 0.0, 100.0), default=None, metavar="X",
                    help="drop the runs whose steering deviates from the ensemble's median by more than X times its RMS "
                         "(default: keep every run and report the deviations)")
+    p.add_argument("--split", type=finite_float("--split", 1e-3, 3600.0, "s"), default=None, metavar="REST",
+                   help="each file may hold several runs (a logger left running through the session): cut them apart "
+                        "where the steering rests for at least REST s (e.g. 2), each named FILE#i; runs whose steering "
+                        "lasts much longer or shorter than the median run's (a turn-around, a lane change) are left out "
+                        "and listed")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(run=run_import)
 
@@ -54,8 +59,10 @@ def run_import(args) -> None:
 
     check_writable(args.out, overwrite=args.force)
     ds = import_runs(args.runs, args.channels, vehicle=args.vehicle, dt=args.dt, align=args.align,
-                     max_steer_deviation=args.max_steer_deviation)
+                     max_steer_deviation=args.max_steer_deviation, split=args.split)
     write_dataset(ds, args.out, overwrite=args.force)
+    for name, why in json.loads(ds.attrs.get("import_split", "{}")).get("skipped", {}).items():
+        print(f"{name}: left out, {why}")
     offsets = json.loads(ds.attrs["import_offsets"])
     deviation = json.loads(ds.attrs["import_steer_deviation"])
     dropped, flagged = set(json.loads(ds.attrs["import_dropped"])), json.loads(ds.attrs["import_steer_flagged"])

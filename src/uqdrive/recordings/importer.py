@@ -104,8 +104,9 @@ def _speed(v: np.ndarray):
 
 
 def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: float | None = None, align: str = "steering",
-                      max_steer_deviation: float | None = None) -> xr.Dataset:
-    """The ensemble of read recordings (see :func:`import_runs`, which reads them first)."""
+                      max_steer_deviation: float | None = None, split: dict | None = None) -> xr.Dataset:
+    """The ensemble of read recordings (see :func:`import_runs`, which reads them first; ``split``:
+    how they were cut out of longer ones, kept as the attribute ``import_split``)."""
     if align not in ALIGNMENTS:
         raise DataError(f"--align '{align}': choose one of {', '.join(ALIGNMENTS)}")
     if max_steer_deviation is not None and not (math.isfinite(max_steer_deviation) and max_steer_deviation > 0):
@@ -161,6 +162,8 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
         "import_steer_flagged": json.dumps([str(recordings[i].path) for i in np.flatnonzero(flagged)]),
         "import_dropped": json.dumps(dropped),
     }
+    if split is not None:
+        attrs["import_split"] = json.dumps(split)
     if v_c is not None:
         attrs["v_c"] = v_c
     ds = xr.Dataset(data, coords={"time": ("time", time, {"units": "s"}), "sample": ("sample", np.arange(len(kept)))},
@@ -177,7 +180,8 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
 
 
 def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping, *, vehicle: str | Path | None = None,
-                dt: float | None = None, align: str = "steering", max_steer_deviation: float | None = None) -> xr.Dataset:
+                dt: float | None = None, align: str = "steering", max_steer_deviation: float | None = None,
+                split: float | None = None) -> xr.Dataset:
     """Import recorded runs (one MDF4 or CSV file each) into an ensemble of the data schema.
 
     Parameters
@@ -202,6 +206,10 @@ def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping,
     max_steer_deviation : float, optional
         Drop the runs whose steering deviates from the ensemble's median by more than this
         fraction of its RMS (default: keep every run, report the deviations).
+    split : float, optional
+        Each file may hold several runs: cut them apart where the steering rests for at least this
+        long (s) (:func:`uqdrive.recordings.split.split_recordings`; a run is named ``FILE#i``,
+        runs whose steering lasts other than the median run's are left out). Default: one run a file.
 
     Returns
     -------
@@ -219,9 +227,16 @@ def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping,
     """
     cmap = read_channel_map(channels, vehicle)
     files = [Path(f) for f in run_files]
-    if len(files) < MIN_RUNS:
+    if len(files) < MIN_RUNS and split is None:
         check_run_count(len(files), "import", "an ensemble for identify and discover")
     if len(set(map(str, files))) < len(files):
         twice = next(str(f) for f in files if files.count(f) > 1)
         raise DataError(f"recording '{twice}' is given twice; give each run's file once")
-    return import_recordings([read_recording(f, cmap) for f in files], cmap, dt, align, max_steer_deviation)
+    recordings = [read_recording(f, cmap) for f in files]
+    if split is None:
+        return import_recordings(recordings, cmap, dt, align, max_steer_deviation)
+    from .split import split_recordings
+
+    runs, skipped = split_recordings(recordings, split)
+    spans = {str(r.path): [r.start + r.clock_origin, r.end + r.clock_origin] for r in runs}  # every channel defined
+    return import_recordings(runs, cmap, dt, align, max_steer_deviation, {"rest_s": split, "runs": spans, "skipped": skipped})
