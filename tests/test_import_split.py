@@ -77,6 +77,9 @@ def test_the_manoeuvres_are_found_where_the_steering_leaves_its_rest():
     assert len(manoeuvres(t, delta, rest=0.001)) > 2  # a rest shorter than a zero crossing cuts the sine apart
     noisy = delta + 1e-3 * np.random.default_rng(0).standard_normal(t.size)
     assert not steering_activity(noisy)[t < 4.5].any()  # noise at rest is not a manoeuvre
+    # steps held for most of the session, on a sensor whose zero is a little off: the rest is still straight ahead
+    steps = 0.003 + np.where((t % 10.0) < 7.0, 0.1, 0.0)
+    np.testing.assert_array_equal(steering_activity(steps), (t % 10.0) < 7.0)
 
 
 def test_split_sessions_give_the_runs_ensemble(sessions):

@@ -26,7 +26,9 @@ NOISE_MULTIPLE = 4.0
 
 
 def steering_activity(delta: np.ndarray) -> np.ndarray:
-    """Where the steering leaves its rest, the median of the recording (most of a session is driven straight).
+    """Where the steering leaves its rest: straight ahead, the median of the quarter of its samples
+    nearest zero (a step-steer session may hold the wheel turned for most of its time, and a
+    steering sensor's zero may be off by a little).
 
     Parameters
     ----------
@@ -36,10 +38,12 @@ def steering_activity(delta: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of bool, shape (k,)
-        True where |delta - median| exceeds the larger of :data:`ACTIVITY_FRACTION` of its largest
+        True where |delta - rest| exceeds the larger of :data:`ACTIVITY_FRACTION` of its largest
         value and :data:`NOISE_MULTIPLE` times the noise (1.4826 MAD of the differences / sqrt(2)).
     """
-    excursion = np.abs(delta - np.median(delta))
+    magnitude = np.abs(delta)
+    rest = np.median(delta[magnitude <= np.quantile(magnitude, 0.25)])
+    excursion = np.abs(delta - rest)
     noise = 1.4826 * float(np.median(np.abs(np.diff(delta)))) / math.sqrt(2.0)
     return excursion > max(ACTIVITY_FRACTION * float(excursion.max()), NOISE_MULTIPLE * noise)
 
