@@ -70,6 +70,11 @@ def unit_factor(units: str, target: str) -> float:
     return float(quantity.to(target).magnitude)
 
 
+def _bare(label: str) -> str:
+    """A unit label without the brackets a logger may put around it (``[deg/s]``, ``(km/h)``)."""
+    return label.strip().strip("[]()").strip()
+
+
 def recorded_unit_factor(label: str, target: str) -> float | None:
     """The factor to ``target`` of the unit a recording gives for a channel, when it says one.
 
@@ -94,7 +99,7 @@ def recorded_unit_factor(label: str, target: str) -> float | None:
     ValueError
         If the label has a physical dimension other than ``target``'s (a channel of another quantity).
     """
-    text = label.strip().strip("[]()").strip()
+    text = _bare(label)
     for old, new in _SPELLINGS:
         text = text.replace(old, new)
     if not text or _AMBIGUOUS.search(text):
@@ -271,10 +276,10 @@ def channel_factor(entry: ChannelEntry, label: str, source: str) -> tuple[float,
     if recorded is None:
         return entry.factor, entry.units
     if not entry.units_given:
-        return recorded * entry.sign / entry.steering_ratio, label.strip().strip("[]()").strip()
+        return recorded * entry.sign / entry.steering_ratio, _bare(label)
     if entry.check_units and not math.isclose(recorded, unit_factor(entry.units, SCHEMA_UNITS[entry.variable]), rel_tol=1e-9):
         raise DataError(f"{where} is recorded in '{label}' as the file says, the map says '{entry.units}'; write units: "
-                        f"{label.strip().strip('[]()').strip()} in the map (or check_units: false if the file's label is wrong)")
+                        f"{_bare(label)} in the map (or check_units: false if the file's label is wrong)")
     return entry.factor, entry.units
 
 
