@@ -162,4 +162,5 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
         args = jax.device_put(({k: pad(a) for k, a in c.items()}, pad(wind_mean), pad(coeffs.T).T, per_step(delta, n_steps, record_every),
                                per_step(modes, n_steps, record_every), speed, float(h), float(rhs.v)))
         states, a_y = _compiled()(*args, f_items=static, n_states=rhs.n_states, acceleration=bool(lateral_acceleration))
-        return np.asarray(states)[:, :, :n], (None if a_y is None else np.asarray(a_y)[:, :n].T)
+        # cut the padding on the device: only the n realisations cross the bus
+        return np.asarray(states[:, :, :n]), (None if a_y is None else np.asarray(a_y[:, :n]).T)
