@@ -4,13 +4,18 @@ the header or a row below it, clock and date times) and absolute clocks."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
+import random
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).parent))
 import recorded_runs as rr  # noqa: E402
@@ -19,6 +24,7 @@ from uqdrive.io import DataError  # noqa: E402
 from uqdrive.recordings.channel_map import read_channel_map, recorded_unit_factor, unit_factor  # noqa: E402
 from uqdrive.recordings.csv_log import CsvLog, clock_seconds, split_unit  # noqa: E402
 from uqdrive.recordings.importer import import_runs  # noqa: E402
+from uqdrive.recordings.readers import read_recording  # noqa: E402
 
 pytest.importorskip("asammdf")
 pytestmark = pytest.mark.filterwarnings("ignore:channel\\(s\\) YawRate")
@@ -221,3 +227,82 @@ def test_a_gap_longer_than_the_bridge_is_refused(runs, tmp_path):
     with pytest.raises(DataError, match=r"run00.mf4: channel 'LatAcc' has a gap of 0.07 s at t = 4.49 s \(its period is 0.01 s; "
                                         r"the import bridges up to 0.05 s\)"):
         import_runs(files, rr.MAP)
+
+
+# -- damaged exports ---------------------------------------------------------------------------------
+_DAMAGE = ("drop a cell", "append text", "swap two rows", "cut the file", "blank line", "header again", "random text",
+           "semicolons", "open quote", "empty column", "nan", "minus", "row twice", "one cell", "extra cells")
+
+
+def _damage(lines: list, rng: random.Random) -> list:
+    lines = list(lines)
+    for _ in range(rng.randint(1, 4)):
+        if not lines:
+            break
+        how, i = rng.choice(_DAMAGE), rng.randrange(len(lines))
+        if how == "drop a cell":
+            cells = lines[i].split(",")
+            cells.pop(rng.randrange(len(cells)))
+            lines[i] = ",".join(cells)
+        elif how == "append text":
+            lines[i] += rng.choice(["abc", ",,,", '"', "1e999", "--", "\u00b0"])
+        elif how == "swap two rows":
+            j = rng.randrange(len(lines))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif how == "cut the file":
+            lines = lines[: rng.randint(0, len(lines))]
+        elif how == "blank line":
+            lines.insert(i, "")
+        elif how == "header again":
+            lines.insert(i, lines[0])
+        elif how == "random text":
+            lines[i] = "".join(chr(rng.randint(32, 0x2FF)) for _ in range(rng.randint(0, 30)))
+        elif how == "semicolons":
+            lines[i] = lines[i].replace(",", ";")
+        elif how == "open quote":
+            lines[i] = '"' + lines[i]
+        elif how == "empty column":
+            lines = [line + "," for line in lines]
+        elif how == "nan":
+            lines[i] = lines[i].replace("0", "nan", 1)
+        elif how == "minus":
+            lines[i] = "-" + lines[i]
+        elif how == "row twice":
+            lines.insert(i, lines[i])
+        elif how == "one cell":
+            lines[i] = lines[i].split(",")[0]
+        else:
+            lines[i] += ",1,2,3"
+    return lines
+
+
+@functools.lru_cache(maxsize=1)
+def _clean_lines() -> list:
+    """The lines of one run's English CSV export (recorded once)."""
+    with tempfile.TemporaryDirectory() as folder:
+        return rr.write_csv(rr.record(1.0, V, 1.0)[0], Path(folder) / "clean.csv").read_text().splitlines()
+
+
+@settings(max_examples=50, deadline=None, database=None, derandomize=True)
+@given(st.integers(0, 2**32 - 1))
+def test_a_damaged_csv_export_is_refused_or_read_whole(tmp_path_factory, seed):
+    """Cells dropped or added, rows swapped, repeated or cut, text where numbers belong, stray quotes
+    and delimiters: the reader refuses with a DataError or returns channels with finite values on
+    increasing times, never another exception."""
+    folder = tmp_path_factory.mktemp("damaged", numbered=True)
+    path = folder / "run.csv"
+    path.write_text("\n".join(_damage(_clean_lines(), random.Random(seed))) + "\n", encoding="utf-8")
+    try:
+        recording = read_recording(path, read_channel_map(rr.MAP))
+    except DataError:
+        return
+    for t, x in recording.channels.values():
+        assert np.all(np.isfinite(t)) and np.all(np.isfinite(x)) and np.all(np.diff(t) > 0)
+
+
+@pytest.mark.parametrize("rows", [[], ["ms,deg,deg/s,g,km/h"]], ids=["header alone", "header and units"])
+def test_a_csv_export_without_data_rows_is_refused(tmp_path, rows):
+    path = tmp_path / "run.csv"
+    path.write_text("\n".join(["Zeit_ms,SteeringWheelAngle,YawRate,LatAcc,VehicleSpeed", *rows, ""]) + "\n", encoding="utf-8")
+    with pytest.raises(DataError, match=r"run.csv: no data rows below the header"):
+        read_recording(path, read_channel_map(rr.MAP))

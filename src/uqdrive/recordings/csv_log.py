@@ -129,6 +129,8 @@ def read_csv_log(path: Path, names: list[str]) -> CsvLog:
         # a units row: every cell a word, the time's no clock time
         units = [u or c.strip("[]() ") for u, c in zip(log.units, first + [""] * len(header))]
         log = CsvLog(header, units, body[1:], decimal)
+    if not log.body:
+        raise DataError(f"{source}: no data rows below the header; export the run's samples with it")
     return log
 
 
@@ -149,6 +151,8 @@ def clock_seconds(cells: list[str]) -> np.ndarray | None:
         Seconds since the first cell.
     """
     clock = [_TIME_OF_DAY.match(c) for c in cells]
+    if not cells:
+        return None
     if all(clock):
         return np.array([int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3].replace(",", ".")) for m in clock]) - (
             int(clock[0][1]) * 3600.0 + int(clock[0][2]) * 60.0 + float(clock[0][3].replace(",", ".")))
