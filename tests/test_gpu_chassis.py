@@ -211,3 +211,30 @@ def test_simulating_a_discovered_model_on_the_gpu_gives_the_cpu_numbers(tmp_path
     assert passes and float(np.abs(expected["beta"].values).max()) > 1e-3  # JAX's pass; the car turned
     for name in ("psi", "psi_dot", "beta", "y"):
         assert _relative(got[name].values, expected[name].values) < RTOL
+
+
+def test_on_an_accelerator_one_width_serves_a_searchs_passes(monkeypatch):
+    """Padded to ACCELERATOR_MIN_WIDTH where JAX's device is not the CPU (passes of a few hundred
+    realisations are launch-bound there): 53 and 300 realisations run in one program of that width,
+    with the numbers of the CPU build's 64-wide program; more than it take the next power of two."""
+    wide = chassis_ensemble.ACCELERATOR_MIN_WIDTH
+    assert chassis_ensemble.program_width(53) == 64 and chassis_ensemble.program_width(300, accelerator=True) == wide
+    assert chassis_ensemble.program_width(wide + 1, accelerator=True) == 2 * wide
+    rng = np.random.default_rng(11)
+    modes = np.stack([np.sin((i + 1) * np.linspace(0.0, 3.0, 41)) for i in range(3)])
+
+    def run(n):
+        rhs = _rhs(True, _structure(("tyre_relaxation",)), n=n, speed=True)
+        return chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, rng.uniform(-200.0, 200.0, n), rng.normal(0.0, 150.0, (n, 3)),
+                                                      modes)[0]
+
+    rng = np.random.default_rng(11)
+    narrow = run(53)
+    programs = chassis_ensemble.programs_compiled()
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    rng = np.random.default_rng(11)
+    padded = run(53)
+    assert chassis_ensemble.programs_compiled() == programs + 1
+    run(300)
+    assert chassis_ensemble.programs_compiled() == programs + 1  # the same program
+    assert _relative(padded.transpose(1, 2, 0).reshape(4, -1), narrow.transpose(1, 2, 0).reshape(4, -1)) < RTOL

@@ -6,8 +6,8 @@ grid's KLE eigenfunctions and steering, and forms the gusts F_w = F_w_mean + c f
 (5.21) at each half step there (no (J, n) wind table crosses the bus, which at a discover's few
 thousand realisations would be most of a pass's traffic); the lateral acceleration a_y of the
 recorded states is computed there too. A program holds the terms its pass has on, and its
-realisations are padded to a power of two, so that passes of nearby sizes share one
-(:func:`programs_compiled`). ``share_programs`` instead holds the load and compliance terms in
+realisations are padded to a power of two, on an accelerator to at least
+:data:`ACCELERATOR_MIN_WIDTH`, so that passes of other sizes share one (:func:`programs_compiled`). ``share_programs`` instead holds the load and compliance terms in
 every program (:data:`SWITCHED`): fewer programs to compile, but several times the fused kernels
 per RK4 step in a pass without them (``benchmarks/bench_chassis_programs.py`` counts them).
 """
@@ -22,7 +22,7 @@ from ...numerics.backend import float64
 from .chassis import chassis_constants, chassis_lateral_acceleration, chassis_rates
 from .rk4 import per_step, rk4_rows_step
 
-__all__ = ["SWITCHED", "switched_on", "integrate_chassis_jax", "programs_compiled"]
+__all__ = ["SWITCHED", "ACCELERATOR_MIN_WIDTH", "switched_on", "program_width", "integrate_chassis_jax", "programs_compiled"]
 
 #: Terms a shared program holds (``share_programs``), whether a pass has them on or not: off, their
 #: constants are zero (no load moved, unit shares and factors, no yield), which gives the doubles
@@ -101,9 +101,18 @@ def _compiled():
     return jax.jit(_ensemble, static_argnames=("f_items", "n_states", "acceleration"))
 
 
-def _bucket(n: int) -> int:
-    """Realisations a program is compiled for: the next power of two (at least 8)."""
-    return max(8, 1 << (int(n) - 1).bit_length())
+#: Fewest realisations a program is compiled for on an accelerator: a pass of fewer is bound by
+#: the launches of its kernels, not by their arithmetic (the NLST program's 2000 and 20 000 runs
+#: took 17.8 and 20 ms on an H200, docs/measurements/gpu.json), so one width serves a search's
+#: passes of a few hundred to a few thousand realisations (the dry runs of fw_step_060 and
+#: fw_slalom_090: 26 and 28 programs where a power of two from 8 up needs 32 and 45).
+ACCELERATOR_MIN_WIDTH = 8192
+
+
+def program_width(n: int, accelerator: bool = False) -> int:
+    """Realisations a program for ``n`` is compiled for: the next power of two, at least 8, on an
+    accelerator at least :data:`ACCELERATOR_MIN_WIDTH`."""
+    return max(ACCELERATOR_MIN_WIDTH if accelerator else 8, 1 << (int(n) - 1).bit_length())
 
 
 def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_mean, coeffs, eigenfunctions_half,
@@ -146,7 +155,9 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
     c, f = chassis_constants(rhs, n)
     if share_programs:
         c, f = switched_on(c, f)
-    width = _bucket(n)
+    import jax
+
+    width = program_width(n, jax.default_backend() != "cpu")
     pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], width - n, axis=-1)], axis=-1) if width > n else a  # noqa: E731
     delta = np.asarray(rhs.delta_half, float)[:J].reshape(J, -1)  # (J, 1): one angle for all, broadcast on the device
     delta = pad(delta) if delta.shape[1] > 1 else delta
@@ -157,8 +168,6 @@ def integrate_chassis_jax(rhs, h: float, n_steps: int, record_every: int, wind_m
     static = tuple(sorted(f.items()))
     _PROGRAMS.add((static, width, delta.shape[1] > 1, n_steps, record_every, rhs.n_states, bool(lateral_acceleration)))
     with float64():
-        import jax
-
         args = jax.device_put(({k: pad(a) for k, a in c.items()}, pad(wind_mean), pad(coeffs.T).T, per_step(delta, n_steps, record_every),
                                per_step(modes, n_steps, record_every), speed, float(h), float(rhs.v)))
         states, a_y = _compiled()(*args, f_items=static, n_states=rhs.n_states, acceleration=bool(lateral_acceleration))
