@@ -7,9 +7,10 @@ grid's KLE eigenfunctions and steering, and forms the gusts F_w = F_w_mean + c f
 thousand realisations would be most of a pass's traffic); the lateral acceleration a_y of the
 recorded states is computed there too. A program holds the terms its pass has on, and its
 realisations are padded to a power of two, on an accelerator to at least
-:data:`ACCELERATOR_MIN_WIDTH`, so that passes of other sizes share one (:func:`programs_compiled`). ``share_programs`` instead holds the load and compliance terms in
-every program (:data:`SWITCHED`): fewer programs to compile, but several times the fused kernels
-per RK4 step in a pass without them (``benchmarks/bench_chassis_programs.py`` counts them).
+:data:`ACCELERATOR_MIN_WIDTH`, so that passes of other sizes share one (:func:`programs_compiled`).
+``share_programs`` instead holds the load and compliance terms in every program (:data:`SWITCHED`):
+fewer programs to compile, but several times the fused kernels per RK4 step in a pass without them
+(``benchmarks/bench_chassis_programs.py`` counts them).
 """
 
 from __future__ import annotations
