@@ -347,3 +347,21 @@ def test_a_band_with_the_models_own_sampling_holds_it():
     J = np.random.default_rng(12).standard_normal((48, 3))
     projected = band_of_replicates(replicates, base, 0.05, model=model, jacobian=J)
     assert projected.mean_square_null == pytest.approx(fresh.mean_square_null * 45 / 48, rel=0.1)
+
+
+@settings(max_examples=40, deadline=None, database=None, derandomize=True)
+@given(st.integers(1, 4), st.integers(2, 60), st.integers(2, 30), st.integers(0, 2**32 - 1))
+def test_the_compiled_moments_are_numpys_bit_for_bit(channels, runs, times, seed):
+    """The mean and std (ddof 1) over realisations equal NumPy's on a C-contiguous copy bit for bit,
+    read from the copy, from a view of consecutive times and from a gathered selection alike (at
+    one time alone NumPy sums the realisations pairwise, which differs in the last bit)."""
+    from uqdrive.inference.discrepancy.band import mean_std
+
+    rng = np.random.default_rng(seed)
+    x = rng.normal(rng.uniform(-5, 5), rng.uniform(1e-3, 10.0), (channels, runs, times + 3))
+    for xs in (x[:, :, 1:times + 1], x[:, :, ::2], x[:, :, np.arange(times) % (times + 3)]):
+        copy = np.ascontiguousarray(xs)
+        mean = copy.mean(axis=1, keepdims=True)
+        expected = np.stack([mean[:, 0], copy.std(axis=1, ddof=1, mean=mean)])
+        np.testing.assert_array_equal(mean_std(xs), expected)
+        np.testing.assert_array_equal(mean_std(copy), expected)

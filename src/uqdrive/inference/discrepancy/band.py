@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...vehicle.dynamics.jit import compiled
+
 __all__ = ["STATISTICS", "moment_statistics", "mean_std", "compared_times", "statistic_scale", "replicate_statistics", "standardised_gap", "refit_projection", "scan_windows", "scan", "NullBand", "excess_rms", "Replicates", "bootstrap_replicates", "band_of_replicates"]
 
 #: The statistics compared, in the order of axis 0 of every statistic array.
@@ -41,15 +43,39 @@ def compared_times(x, index):
     return x[:, :, index]
 
 
+@compiled
+def _moments(xs):
+    C, n, K = xs.shape
+    out = np.empty((2, C, K))
+    acc = np.empty(K)
+    for c in range(C):
+        acc[:] = 0.0
+        for i in range(n):
+            for k in range(K):
+                acc[k] += xs[c, i, k]
+        for k in range(K):
+            out[0, c, k] = acc[k] / n
+        acc[:] = 0.0
+        for i in range(n):
+            for k in range(K):
+                d = xs[c, i, k] - out[0, c, k]
+                acc[k] += d * d
+        for k in range(K):
+            out[1, c, k] = np.sqrt(acc[k] / (n - 1))
+    return out
+
+
 def mean_std(xs):
     """[mean, std (ddof 1)] over axis 1 of xs (C, n, K), shape (2, C, K).
 
-    The std is NumPy's given the mean (``mean=``): its own formula without its second sum over
-    the realisations. The order of the sums follows xs's memory layout (a C-contiguous xs sums
-    one realisation after the other, the order :meth:`.fit.StructureFit.statistics` has always had).
+    NumPy's mean and std given the mean, bit for bit as they come on a C-contiguous xs of two or
+    more times (the sums over the realisations one after the other, the order
+    :meth:`.fit.StructureFit.statistics` has always had; the std's sum of squared deviations from
+    that mean over n - 1; at K = 1 NumPy sums pairwise, a last bit apart), in one compiled
+    loop that reads xs where it lies: a view of the compared times is not copied first (a
+    four-wheel discover's 4800 statistics: 3 s by NumPy on its copies).
     """
-    mean = xs.mean(axis=1, keepdims=True)
-    return np.stack([mean[:, 0], xs.std(axis=1, ddof=1, mean=mean)])
+    return _moments(np.asarray(xs, dtype=float))
 
 
 def statistic_scale(x, index, model_ratio: float = 0.0, floor: float = 1e-3):

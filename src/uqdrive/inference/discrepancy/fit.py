@@ -268,13 +268,9 @@ class StructureFit:
             keep = ~np.any(np.abs(x[self.simulator.spin_row]) > self.spin_threshold, axis=-1)
             if keep.sum() >= 2 and not keep.all():  # else all realisations
                 x = x[:, keep]
-        # one C-contiguous copy of the compared times (from the simulators' time-major layout):
-        # sums over realisations one after the other, as the earlier copies x[:, keep][:, :, index]
-        # had them, so the same numbers at a fifth of the cost
-        xs = np.ascontiguousarray(compared_times(x, self.index))
         gain, offset = structure.output_map(self.simulator.channels)
         gain = gain[:, None]
-        stats = mean_std(xs)
+        stats = mean_std(compared_times(x, self.index))  # the compared times read where they lie
         mean = stats[0] * gain + offset[:, None]
         std = np.sqrt((stats[1] * gain) ** 2 + self.noise_variance[:, None])
         return np.stack([mean, std])
