@@ -22,7 +22,8 @@ def add_import(sub) -> None:
                                    "one grid, align the runs by their steering and write the span they share as an ensemble "
                                    "in the uqdrive data schema, with the files' hashes, the map, the offsets and the "
                                    "steering deviations as provenance.")
-    p.add_argument("runs", nargs="+", type=Path, metavar="RUN_FILE", help="one recording per run (.mf4, .mdf or .csv); with --split, recordings of several runs each")
+    p.add_argument("runs", nargs="+", type=Path, metavar="RUN_FILE",
+                   help="one recording per run (.mf4, .mdf or .csv); with --split, recordings of several runs each")
     p.add_argument("--channels", type=Path, required=True, metavar="MAP.yaml",
                    help="channel map: 'variable: {channel: NAME, units: UNIT[, sign: -1][, steering_ratio: R]}' for "
                         "psi_dot, a_y (any of psi, psi_dot, beta, y, a_y), delta and v; 'time' for CSV files. UNIT may be "
