@@ -18,8 +18,9 @@ def add_import(sub) -> None:
     """Add the ``import`` subcommand to the subparsers ``sub``."""
     p = sub.add_parser("import", help="import recorded runs (MDF4 or CSV logs, one per run) into an ensemble netCDF file",
                        description="Read one recording per run (ASAM MDF4 .mf4/.mdf through asammdf, or CSV with a header of "
-                                   "channel names, ',', ';' or tab between fields), convert the mapped channels to the schema's SI units, resample them onto "
-                                   "one grid, align the runs by their steering and write the span they share as an ensemble "
+                                   "channel names, ',', ';' or tab between fields), convert the mapped channels to the "
+                                   "schema's SI units, resample them onto one grid, align the runs by their steering and "
+                                   "write the span they share as an ensemble "
                                    "in the uqdrive data schema, with the files' hashes, the map, the offsets and the "
                                    "steering deviations as provenance.")
     p.add_argument("runs", nargs="+", type=Path, metavar="RUN_FILE",
