@@ -113,12 +113,12 @@ def test_the_jax_ensemble_is_the_numpy_ensemble(linear):
     again, none = chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, wind, coeffs, modes, lateral_acceleration=True)
     np.testing.assert_array_equal(again, got)  # the same program, the same bits
     assert chassis_ensemble.programs_compiled() == programs >= 1 and none is not None
-    # the program that holds every switched term (of which this pass has some off): its own, the same numbers
-    shared, shared_a_y = chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, wind, coeffs, modes, lateral_acceleration=True,
-                                                                share_programs=True)
-    assert chassis_ensemble.programs_compiled() == programs + 1
-    assert _relative(shared.transpose(1, 2, 0).reshape(4, -1), got.transpose(1, 2, 0).reshape(4, -1)) < RTOL
-    assert _relative(shared_a_y, got_a_y) < RTOL
+    if linear:  # the program that holds every switched term (this pass has some off): its own, the same numbers
+        shared, shared_a_y = chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 2, wind, coeffs, modes, lateral_acceleration=True,
+                                                                    share_programs=True)
+        assert chassis_ensemble.programs_compiled() == programs + 1
+        assert _relative(shared.transpose(1, 2, 0).reshape(4, -1), got.transpose(1, 2, 0).reshape(4, -1)) < RTOL
+        assert _relative(shared_a_y, got_a_y) < RTOL
     with pytest.raises(ValueError, match="multiple"):
         chassis_ensemble.integrate_chassis_jax(rhs, 0.01, 20, 3, wind, coeffs, modes)
 
