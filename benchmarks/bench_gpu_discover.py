@@ -1,7 +1,8 @@
 """Discover on a GPU against the CPU: one four-wheel case (the generator of bench_four_wheel.py,
 every candidate, no posterior) discovered with device gpu twice, each in a process of its own
 (cold: an empty JAX compilation cache; warm: the next process loading what the first compiled),
-and on the CPU with ``--jobs``; wall and CPU seconds, the JAX programs run, whether the verdicts agree.
+and on the CPU with ``--jobs``; wall and CPU seconds, the JAX programs run, the passes' seconds
+(compilation or loading included) and the host's rest, whether the verdicts agree.
 
     PYTHONPATH=src python3 benchmarks/bench_gpu_discover.py --out DIR [--case fw_step_060] [--samples 500]
         [--jobs auto] [--json FILE] [--jax-cpu]
@@ -56,8 +57,22 @@ def _one_run(data: Path, device: str, jobs: str, jax_cpu: bool) -> dict:
 
     if jax_cpu:
         backend.gpu_visible = lambda: True  # noqa: E731 (JAX's CPU build stands in)
+    passes = [0, 0.0]
     if device == "gpu":
         compilation_cache()
+        from uqdrive.vehicle.accelerated import chassis_ensemble
+
+        integrate = chassis_ensemble.integrate_chassis_jax
+
+        def timed(*args, **kwargs):  # the device's share: each pass from its inputs to its states on the host
+            t0 = time.perf_counter()
+            try:
+                return integrate(*args, **kwargs)
+            finally:
+                passes[0] += 1
+                passes[1] += time.perf_counter() - t0
+
+        chassis_ensemble.integrate_chassis_jax = timed
     ds = pickle.loads(data.read_bytes())
     wall = time.perf_counter()
     verdict = uqdrive.discover(ds, config=_config(), candidates="all", posterior=False, device=device, jobs=jobs)
@@ -71,7 +86,8 @@ def _one_run(data: Path, device: str, jobs: str, jax_cpu: bool) -> dict:
 
         from uqdrive.vehicle.accelerated import chassis_ensemble
 
-        row.update(programs=chassis_ensemble.programs_compiled(), jax_device=str(jax.devices()[0]))
+        row.update(programs=chassis_ensemble.programs_compiled(), jax_device=str(jax.devices()[0]), passes=passes[0],
+                   passes_s=round(passes[1], 2), host_s=round(wall - passes[1], 2))
     return row
 
 
