@@ -15,13 +15,14 @@ import numpy as np
 
 from ..io import DataError
 
-__all__ = ["DELIMITERS", "MAX_PREAMBLE", "CsvLog", "split_unit", "read_csv_log", "clock_seconds"]
+__all__ = ["DELIMITERS", "MAX_PREAMBLE", "CsvLog", "split_unit", "cell_number", "read_csv_log", "clock_seconds"]
 
 DELIMITERS = (",", ";", "\t")
 #: Lines before the header searched for it (a logger's preamble: device, date, comment lines).
 MAX_PREAMBLE = 200
 _UNIT_IN_NAME = re.compile(r"^(?P<name>.*?)\s*(?:\[(?P<b>[^\]]*)\]|\((?P<p>[^)]*)\))$")
 _TIME_OF_DAY = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2}(?:[.,]\d*)?)$")
+_DATE_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d")
 
 
 def split_unit(cell: str) -> tuple[str, str]:
@@ -83,9 +84,20 @@ def _header_at(lines: list[str], names: list[str]) -> tuple[str, int]:
     return DELIMITERS[int(np.argmax(counts))], first
 
 
+def cell_number(cell: str, decimal: str) -> float:
+    """The number a cell writes with the decimal sign ``decimal`` (``"."`` or ``","``).
+
+    Raises
+    ------
+    ValueError
+        If the cell holds no number.
+    """
+    return float(cell.replace(",", ".") if decimal == "," else cell)
+
+
 def _is_number(cell: str, decimal: str) -> bool:
     try:
-        float(cell.replace(",", ".") if decimal == "," else cell)
+        cell_number(cell, decimal)
     except ValueError:
         return False
     return True
@@ -150,13 +162,15 @@ def clock_seconds(cells: list[str]) -> np.ndarray | None:
     ndarray, shape (k,), or None
         Seconds since the first cell.
     """
-    clock = [_TIME_OF_DAY.match(c) for c in cells]
     if not cells:
         return None
-    if all(clock):
-        return np.array([int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3].replace(",", ".")) for m in clock]) - (
-            int(clock[0][1]) * 3600.0 + int(clock[0][2]) * 60.0 + float(clock[0][3].replace(",", ".")))
-    if not all(re.match(r"^\d{4}-\d{2}-\d{2}[T ]\d", c) for c in cells):
+    if _TIME_OF_DAY.match(cells[0]):  # the first cell tells the form; numbers leave at once
+        clock = [_TIME_OF_DAY.match(c) for c in cells]
+        if not all(clock):
+            return None
+        seconds = np.array([int(m[1]) * 3600.0 + int(m[2]) * 60.0 + float(m[3].replace(",", ".")) for m in clock])
+        return seconds - seconds[0]
+    if not all(_DATE_TIME.match(c) for c in cells):
         return None
     try:
         with warnings.catch_warnings():

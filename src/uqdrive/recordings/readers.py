@@ -12,7 +12,7 @@ import numpy as np
 
 from ..io import DataError
 from .channel_map import ChannelEntry, ChannelMap, channel_factor
-from .csv_log import clock_seconds, read_csv_log
+from .csv_log import cell_number, clock_seconds, read_csv_log
 
 __all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAX_STEP_RATIO",
            "MAX_BRIDGED_GAP"]
@@ -165,17 +165,13 @@ def _read_mdf(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     return {name: (t - origin, x, units) for name, (t, x, units) in out.items()}, origin
 
 
-def _number(cell: str, decimal: str) -> float:
-    return float(cell.replace(decimal, ".") if decimal == "," else cell)
-
-
 def _numbers(cells: list, entry: ChannelEntry, decimal: str, source: str) -> np.ndarray:
     values = np.full(len(cells), np.nan)
     for i, cell in enumerate(cells):
         if not cell:
             continue  # a slower channel has no sample in this row
         try:
-            values[i] = _number(cell, decimal)
+            values[i] = cell_number(cell, decimal)
         except ValueError:
             raise DataError(f"{source}: channel '{entry.channel}' holds '{cell}' in data row {i + 1}, not a number; "
                             f"give numbers with a decimal {'comma' if decimal == ',' else 'point'}") from None

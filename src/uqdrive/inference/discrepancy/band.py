@@ -32,7 +32,7 @@ def moment_statistics(x, index):
     ndarray, shape (2, C, K)
         [mean, std] per state and time.
     """
-    return mean_std(x[:, :, index])
+    return mean_std(compared_times(x, index))
 
 
 def compared_times(x, index):

@@ -16,9 +16,9 @@ from functools import lru_cache
 import numpy as np
 
 from ...numerics.backend import float64
-from .rk4 import per_step, rk4_rows_step
 from ...settings import TimeGrid
 from ..single_track import VehicleParameters
+from .rk4 import per_step, rk4_rows_step
 
 __all__ = ["nlst_program", "simulate_nlst_jax"]
 
