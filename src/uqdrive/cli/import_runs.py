@@ -16,19 +16,21 @@ FORCE_HELP = "replace an existing output (atomically); without it an existing ou
 
 def add_import(sub) -> None:
     """Add the ``import`` subcommand to the subparsers ``sub``."""
-    p = sub.add_parser("import", help="import recorded runs (MDF4 or CSV logs, one per run) into an ensemble netCDF file",
-                       description="Read one recording per run (ASAM MDF4 .mf4/.mdf through asammdf, or CSV with a header of "
-                                   "channel names, ',', ';' or tab between fields), convert the mapped channels to the "
+    p = sub.add_parser("import", help="import recorded runs (MDF4, CSV or MATLAB logs, one per run) into an ensemble netCDF file",
+                       description="Read one recording per run (ASAM MDF4 .mf4/.mdf through asammdf, CSV with a header of "
+                                   "channel names, ',', ';' or tab between fields, or MATLAB .mat: dSPACE recorder files, "
+                                   "Simulink's structure with time, timeseries fields or vectors beside a time vector), convert the mapped channels to the "
                                    "schema's SI units, resample them onto one grid, align the runs by their steering and "
                                    "write the span they share as an ensemble "
                                    "in the uqdrive data schema, with the files' hashes, the map, the offsets and the "
                                    "steering deviations as provenance.")
     p.add_argument("runs", nargs="+", type=Path, metavar="RUN_FILE",
-                   help="one recording per run (.mf4, .mdf or .csv); with --split, recordings of several runs each")
+                   help="one recording per run (.mf4, .mdf, .csv or .mat); with --split, recordings of several runs each")
     p.add_argument("--channels", type=Path, required=True, metavar="MAP.yaml",
                    help="channel map: 'variable: {channel: NAME, units: UNIT[, sign: -1][, steering_ratio: R]}' for "
-                        "psi_dot, a_y (any of psi, psi_dot, beta, y, a_y), delta and v; 'time' for CSV files. UNIT may be "
-                        "left out where the files state their units (MDF4; a CSV header 'NAME [UNIT]' or a units row); "
+                        "psi_dot, a_y (any of psi, psi_dot, beta, y, a_y), delta and v; 'time' for CSV files and a MAT "
+                        "file's time vector. UNIT may be left out where the files state their units (MDF4; a CSV header "
+                        "'NAME [UNIT]' or a units row; a MAT signal's unit field); "
                         "where both give one they must agree (check_units: false keeps the map's)")
     p.add_argument("--out", type=Path, required=True, metavar="ENSEMBLE.nc", help="output netCDF file (its folder must exist)")
     p.add_argument("--vehicle", default=None, metavar="NAME|FILE",

@@ -1,4 +1,4 @@
-"""Recorded test drives in: MDF4 and CSV logs of one run each, read, converted to SI units,
+"""Recorded test drives in: MDF4, CSV and MATLAB logs of one run each, read, converted to SI units,
 resampled, aligned by their steering and written as one ensemble of the data schema.
 """
 

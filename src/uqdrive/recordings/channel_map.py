@@ -24,7 +24,7 @@ __all__ = ["SCHEMA_UNITS", "ChannelEntry", "ChannelMap", "read_channel_map", "un
 #: SI unit of each variable a recording can give (the data schema's), and of the time axis.
 SCHEMA_UNITS = {"psi": "rad", "psi_dot": "rad/s", "beta": "rad", "y": "m", "a_y": "m/s^2", "delta": "rad", "v": "m/s",
                 "time": "s"}
-_ENTRY_KEYS = {"channel", "units", "sign", "steering_ratio", "check_units"}
+_ENTRY_KEYS = {"channel", "units", "sign", "steering_ratio", "check_units", "time"}
 # An accelerometer's "g" is standard gravity, not the gram pint reads it as.
 _GRAVITY = re.compile(r"(?<![A-Za-z_])[gG](?![A-Za-z_0-9])")
 # "Grad" is the German word for degree in logger exports; pint reads "grad" as the gradian and
@@ -142,6 +142,9 @@ class ChannelEntry:
     check_units : bool
         Whether a unit the recording states must agree with the map's (``check_units: false``
         in the map: the map's unit wins over a file's wrong label).
+    time : str
+        The channel's own time vector in a MATLAB file, in the map's ``time`` unit (``""``: the
+        file's time vector, or the time the signal carries).
     """
 
     variable: str
@@ -152,6 +155,7 @@ class ChannelEntry:
     factor: float = 1.0
     units_given: bool = True
     check_units: bool = True
+    time: str = ""
 
 
 @dataclass(frozen=True)
@@ -163,7 +167,7 @@ class ChannelMap:
     entries : dict
         Variable -> :class:`ChannelEntry`, the measured variables, ``delta`` and ``v``.
     time : ChannelEntry
-        The time column of a CSV recording (MDF files carry their own time axis).
+        The time column of a CSV recording, or the time vector of a MAT file (MDF files carry their own time axis).
     source : str
         Where the map came from (a file name, or "mapping").
     """
@@ -174,8 +178,8 @@ class ChannelMap:
 
     def as_json(self) -> str:
         """The map as read (channel, units, sign, steering_ratio per variable), JSON for provenance."""
-        rows = {name: {k: v for k, v in asdict(e).items() if k not in ("variable",)} for name, e in self.entries.items()}
-        rows["time"] = {k: v for k, v in asdict(self.time).items() if k != "variable"}
+        rows = {name: {k: v for k, v in asdict(e).items() if k != "variable" and (k != "time" or v)} for name, e in self.entries.items()}
+        rows["time"] = {k: v for k, v in asdict(self.time).items() if k not in ("variable", "time")}
         return json.dumps(rows, sort_keys=True)
 
 
@@ -204,7 +208,8 @@ def _entry(name: str, raw: Any, source: str, vehicle_ratio: float | None) -> Cha
         raise DataError(f"{where} is {raw!r}; write it as {{channel: NAME, units: UNIT}}")
     unknown = sorted(set(raw) - _ENTRY_KEYS)
     if unknown:
-        raise DataError(f"{where} has the unknown key '{unknown[0]}'; the keys are channel, units, sign, steering_ratio")
+        raise DataError(f"{where} has the unknown key '{unknown[0]}'; the keys are channel, units, sign, steering_ratio, "
+                        "check_units, time")
     channel = raw.get("channel")
     if not isinstance(channel, str) or not channel:
         raise DataError(f"{where} has no channel name; give 'channel: NAME' as the recording names it")
@@ -237,7 +242,12 @@ def _entry(name: str, raw: Any, source: str, vehicle_ratio: float | None) -> Cha
     check = raw.get("check_units", True)
     if not isinstance(check, bool):
         raise DataError(f"{where}: check_units is {check!r}; give true (a unit the file states must agree) or false")
-    return ChannelEntry(name, channel, units, sign, ratio, factor * sign / ratio, units_given, check)
+    own_time = raw.get("time", "")
+    if name == "time" and "time" in raw:
+        raise DataError(f"{where}: a time entry has no time of its own; remove its key 'time'")
+    if not isinstance(own_time, str) or ("time" in raw and not own_time):
+        raise DataError(f"{where}: time is {own_time!r}; give the name of the channel's own time vector in a MATLAB file")
+    return ChannelEntry(name, channel, units, sign, ratio, factor * sign / ratio, units_given, check, own_time)
 
 
 def channel_factor(entry: ChannelEntry, label: str, source: str) -> tuple[float, str]:
@@ -291,7 +301,7 @@ def read_channel_map(channels: str | Path | Mapping, vehicle: str | Path | None 
     channels : str, Path or mapping
         ``variable: {channel: NAME, units: UNIT[, sign: -1][, steering_ratio: R]}`` for any of
         psi, psi_dot, beta, y, a_y (at least one), ``delta`` and ``v`` (both required) and
-        optionally ``time`` (CSV files; default: a column named ``time`` in s).
+        optionally ``time`` (CSV files and MAT files' time vectors; default: a column or vector named ``time`` in s).
     vehicle : str or Path, optional
         A packaged vehicle name or vehicle file whose ``steering_ratio`` applies to ``delta``
         when its entry gives none.

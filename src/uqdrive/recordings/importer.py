@@ -182,14 +182,15 @@ def import_recordings(recordings: Sequence[Recording], cmap: ChannelMap, dt: flo
 def import_runs(run_files: Sequence[str | Path], channels: str | Path | Mapping, *, vehicle: str | Path | None = None,
                 dt: float | None = None, align: str = "steering", max_steer_deviation: float | None = None,
                 split: float | None = None) -> xr.Dataset:
-    """Import recorded runs (one MDF4 or CSV file each) into an ensemble of the data schema.
+    """Import recorded runs (one MDF4, CSV or MATLAB file each) into an ensemble of the data schema.
 
     Parameters
     ----------
     run_files : sequence of str or Path
         One file per run: ``.mf4``/``.mdf`` (ASAM MDF, read by asammdf) or ``.csv`` (a header row
         of channel names, ``,``, ``;`` or tab between fields, a decimal point or comma; an empty
-        cell is a slower channel's missing sample; :mod:`uqdrive.recordings.csv_log`). Units the
+        cell is a slower channel's missing sample; :mod:`uqdrive.recordings.csv_log`) or ``.mat``
+        (MATLAB v4-v7.3 in the layouts of :mod:`uqdrive.recordings.mat_log`). Units the
         files state serve where the map gives none and must agree where it does
         (:func:`uqdrive.recordings.channel_map.channel_factor`). At least :data:`uqdrive.io.MIN_RUNS`.
     channels : str, Path or mapping

@@ -13,12 +13,14 @@ import numpy as np
 from ..io import DataError
 from .channel_map import ChannelEntry, ChannelMap, channel_factor
 from .csv_log import cell_number, clock_seconds, read_csv_log
+from .mat_log import DEFAULT_TIME_NAMES, find_signal, mat_signals, read_mat_tree
 
-__all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAX_STEP_RATIO",
-           "MAX_BRIDGED_GAP"]
+__all__ = ["Recording", "read_recording", "check_channel", "file_sha256", "MDF_SUFFIXES", "CSV_SUFFIXES", "MAT_SUFFIXES",
+           "MAX_STEP_RATIO", "MAX_BRIDGED_GAP"]
 
 MDF_SUFFIXES = (".mf4", ".mdf")
 CSV_SUFFIXES = (".csv",)
+MAT_SUFFIXES = (".mat",)
 #: A step between two samples longer than this many times the channel's median step is missing
 #: samples (loggers jitter by a few per cent; a lost frame doubles the step).
 MAX_STEP_RATIO = 1.5
@@ -134,10 +136,18 @@ def _convert(entry: ChannelEntry, t: np.ndarray, x: np.ndarray, source: str, lab
     return t, x * factor, units
 
 
+def _no_own_times(cmap: ChannelMap, source: str, kind: str) -> None:
+    own = next((entry for entry in cmap.entries.values() if entry.time), None)
+    if own is not None:
+        raise DataError(f"{source}: the map gives channel '{own.channel}' the time '{own.time}', which only MATLAB files "
+                        f"use ({kind}); remove the key 'time' from its entry")
+
+
 def _read_mdf(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     from asammdf import MDF
 
     source = str(path)
+    _no_own_times(cmap, source, "an MDF channel carries its own time")
     try:
         mdf = MDF(path)
     except Exception as exc:  # asammdf raises many kinds for a file that is not MDF
@@ -180,6 +190,7 @@ def _numbers(cells: list, entry: ChannelEntry, decimal: str, source: str) -> np.
 
 def _read_csv(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     source = str(path)
+    _no_own_times(cmap, source, "a CSV's rows share its time column")
     mapped = [("time", cmap.time), *cmap.entries.items()]
     log = read_csv_log(path, [entry.channel for _, entry in mapped])
     columns = {}
@@ -215,8 +226,61 @@ def _read_csv(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     return out, origin
 
 
+def _file_time(signals: list, cmap: ChannelMap, source: str, channel: str = ""):
+    """A MAT file's time vector (s, from its first sample), its first value (s) and its signal:
+    ``channel`` (an entry's own time), else the map's ``time`` channel, else a vector named as in
+    :data:`~.mat_log.DEFAULT_TIME_NAMES` (None when there is none)."""
+    entry = cmap.time
+    if channel:
+        signal = find_signal(signals, channel, source, "a channel's time")
+    elif entry.units_given or entry.channel != "time":
+        signal = find_signal(signals, entry.channel, source, "the time")
+    else:
+        named = [[s for s in signals if s.time is None and any(n.casefold() == name for n in s.names)] for name in DEFAULT_TIME_NAMES]
+        signal = next((found[0] for found in named if len(found) == 1), None)
+        if signal is None:
+            return None
+    factor, _ = channel_factor(entry, signal.unit, source)
+    raw = signal.values
+    return (raw - raw[0]) * factor, float(raw[0]) * factor, signal
+
+
+def _read_mat(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
+    source = str(path)
+    signals = mat_signals(read_mat_tree(path))
+    found = {name: find_signal(signals, entry.channel, source, f"mapped to {name}") for name, entry in cmap.entries.items()}
+    shared = None
+    if any(signal.time is None and not cmap.entries[name].time for name, signal in found.items()):
+        shared = _file_time(signals, cmap, source)
+        if shared is None:
+            lone = next(entry.channel for name, entry in cmap.entries.items() if found[name].time is None and not entry.time)
+            raise DataError(f"{source}: channel '{lone}' has no time axis of its own and the file has no vector named "
+                            f"{', '.join(DEFAULT_TIME_NAMES)}; name the file's time vector in the channel map (time: {{channel: NAME, "
+                            "units: s})")
+    out = {}
+    for name, entry in cmap.entries.items():
+        signal = found[name]
+        if entry.time or signal.time is None:
+            t, origin, clock = _file_time(signals, cmap, source, entry.time) if entry.time else shared
+            if t.size != signal.values.size:
+                raise DataError(f"{source}: channel '{entry.channel}' has {signal.values.size} samples, the time "
+                                f"'{clock.path}' {t.size}; give its entry the time vector recorded with it ({name}: "
+                                f"{{channel: {entry.channel}, time: NAME}})")
+        else:
+            t, origin = signal.time, 0.0
+            if t.size != signal.values.size:
+                raise DataError(f"{source}: channel '{entry.channel}' has {signal.values.size} samples and its time axis "
+                                f"{t.size}; repair the recording")
+        out[name] = (t, origin, signal.values, signal.unit)
+    # each time counted from the first sample on its own axis's origin: an absolute clock keeps its steps' precision
+    origin = min(base + float(t[0]) for t, base, _, _ in out.values())
+    return {name: _convert(cmap.entries[name], t + (base - origin), x, source, unit, origin)
+            for name, (t, base, x, unit) in out.items()}, origin
+
+
 def read_recording(path: str | Path, cmap: ChannelMap) -> Recording:
-    """Read the mapped channels of one run from an MDF4 (``.mf4``/``.mdf``) or CSV (``.csv``) file.
+    """Read the mapped channels of one run from an MDF4 (``.mf4``/``.mdf``), CSV (``.csv``) or MATLAB
+    (``.mat``, :mod:`.mat_log`) file.
 
     Parameters
     ----------
@@ -238,7 +302,10 @@ def read_recording(path: str | Path, cmap: ChannelMap) -> Recording:
         channels, origin = _read_mdf(path, cmap)
     elif suffix in CSV_SUFFIXES:
         channels, origin = _read_csv(path, cmap)
+    elif suffix in MAT_SUFFIXES:
+        channels, origin = _read_mat(path, cmap)
     else:
-        raise DataError(f"recording '{path}' has the suffix '{path.suffix}'; give MDF4 (.mf4, .mdf) or CSV (.csv) files")
+        raise DataError(f"recording '{path}' has the suffix '{path.suffix}'; give MDF4 (.mf4, .mdf), CSV (.csv) or MATLAB "
+                        "(.mat) files")
     return Recording(path, {name: (t, x) for name, (t, x, _) in channels.items()}, file_sha256(path), origin,
                      {name: units for name, (_, _, units) in channels.items()})
