@@ -1,6 +1,6 @@
 """Benchmark: `uqdrive import` of 40 recorded runs of 12 s (steering and lateral acceleration at
-100 Hz, yaw rate 50 Hz, speed 20 Hz), as MDF4 files and as CSV exports: the first call (which also
-builds pint's unit registry) and the best of three. Run: `make bench` or `python benchmarks/bench_import.py`.
+100 Hz, yaw rate 50 Hz, speed 20 Hz), as MDF4 files, CSV exports and dSPACE MAT files (v5 and
+v7.3 alternating): the first call (which also builds pint's unit registry) and the best of three. Run: `make bench` or `python benchmarks/bench_import.py`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,8 @@ def main(argv=None) -> None:
     runs = rr.record(rng.normal(1.0, 0.15, args.runs), 25.0, rng.uniform(0.5, 2.0, args.runs), rng=rng, noise=0.01)
     print(f"importing {args.runs} runs of {rr.RECORD:g} s:")
     with tempfile.TemporaryDirectory() as tmp:
-        for label, suffixes in (("MDF4 (.mf4)", (".mf4",)), ("CSV (',' and ';' dialects)", (".csv", ".de.csv"))):
+        for label, suffixes in (("MDF4 (.mf4)", (".mf4",)), ("CSV (',' and ';' dialects)", (".csv", ".de.csv")),
+                                ("MATLAB (dSPACE, v5 and v7.3)", (".mat", ".v73.mat"))):
             files = [rr.write(r, Path(tmp) / f"run{i:02d}{suffixes[i % len(suffixes)]}") for i, r in enumerate(runs)]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

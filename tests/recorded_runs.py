@@ -1,5 +1,5 @@
 """Recorded runs of a car for the import tests and benchmark: an independent linear single-track
-simulator (scipy's solve_ivp, none of uqdrive's model code) and writers of MDF4 and CSV logs.
+simulator (scipy's solve_ivp, none of uqdrive's model code) and writers of MDF4, CSV and MATLAB logs.
 """
 
 from __future__ import annotations
@@ -150,8 +150,55 @@ def write_csv(run: Run, path: Path, dialect: str = "en") -> Path:
     return path
 
 
+def mat_records(items: list) -> np.ndarray:
+    """A MATLAB struct array (1, n) of the dicts ``items`` (one set of fields), for scipy's savemat."""
+    fields = list(items[0])
+    out = np.empty((1, len(items)), dtype=[(f, object) for f in fields])
+    for i, item in enumerate(items):
+        out[0, i] = tuple(item[f] for f in fields)
+    return out
+
+
+def save_mat(path: Path, variables: dict, version: str) -> Path:
+    """``variables`` as a MAT file: version "5" through scipy, "7.3" (HDF5) through hdf5storage."""
+    if version == "7.3":
+        import hdf5storage
+
+        hdf5storage.savemat(str(path), variables, format="7.3", matlab_compatible=True)
+    else:
+        from scipy.io import savemat
+
+        savemat(path, variables)
+    return path
+
+
+def time_axes(run: Run) -> tuple[list, dict]:
+    """The run's distinct time axes, and each channel's index into them."""
+    axes, index = [], {}
+    for name, (t, _) in run.channels.items():
+        k = next((i for i, a in enumerate(axes) if np.array_equal(a, t)), None)
+        if k is None:
+            axes.append(t)
+            k = len(axes) - 1
+        index[name] = k
+    return axes, index
+
+
+def write_dspace(run: Run, path: Path, version: str = "5") -> Path:
+    """The run as a dSPACE ControlDesk recorder MAT file: X holds the rasters' times, Y the signals
+    with their full names, units and the index of their raster."""
+    axes, index = time_axes(run)
+    X = mat_records([{"Name": f"Raster {k + 1}", "Data": t.reshape(1, -1)} for k, t in enumerate(axes)])
+    Y = mat_records([{"Name": f'Model Root/Sensors/"{name}"/Out1', "Data": np.asarray(x, float).reshape(1, -1), "Unit": UNITS[name],
+                      "XIndex": float(index[name] + 1)} for name, (_, x) in run.channels.items()])
+    return save_mat(path, {"trace_0001": {"X": X, "Y": Y}}, version)
+
+
 def write(run: Run, path: Path) -> Path:
-    """By suffix: .mf4 -> MDF4, .csv -> English CSV, .de.csv -> German CSV."""
+    """By suffix: .mf4 -> MDF4, .csv -> English CSV, .de.csv -> German CSV, .mat -> dSPACE MAT v5,
+    .v73.mat -> dSPACE MAT v7.3."""
     if path.suffix == ".mf4":
         return write_mdf(run, path)
+    if path.suffix == ".mat":
+        return write_dspace(run, path, "7.3" if path.name.endswith(".v73.mat") else "5")
     return write_csv(run, path, "de" if path.name.endswith(".de.csv") else "en")

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.io as sio
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -29,63 +28,24 @@ V = 25.0
 NO_UNITS = {k: {kk: vv for kk, vv in v.items() if kk != "units"} for k, v in rr.MAP.items() if k != "time"}
 
 
-def _records(items: list) -> np.ndarray:
-    """A MATLAB struct array (1, n) of the dicts ``items`` (one set of fields)."""
-    fields = list(items[0])
-    out = np.empty((1, len(items)), dtype=[(f, object) for f in fields])
-    for i, item in enumerate(items):
-        out[0, i] = tuple(item[f] for f in fields)
-    return out
-
-
-def _save(path: Path, variables: dict, version: str) -> Path:
-    if version == "7.3":
-        hdf5storage = pytest.importorskip("hdf5storage")
-        hdf5storage.savemat(str(path), variables, format="7.3", matlab_compatible=True)
-    else:
-        sio.savemat(path, variables)
-    return path
-
-
-def _axes(run: rr.Run) -> list:
-    """The run's distinct time axes, and each channel's index into them."""
-    axes, index = [], {}
-    for name, (t, _) in run.channels.items():
-        k = next((i for i, a in enumerate(axes) if np.array_equal(a, t)), None)
-        if k is None:
-            axes.append(t)
-            k = len(axes) - 1
-        index[name] = k
-    return axes, index
-
-
-def dspace(run: rr.Run, path: Path, version: str) -> Path:
-    """A ControlDesk recorder file: X holds the rasters' times, Y the signals with their full names."""
-    axes, index = _axes(run)
-    X = _records([{"Name": f"Raster {k + 1}", "Data": t.reshape(1, -1)} for k, t in enumerate(axes)])
-    Y = _records([{"Name": f'Model Root/Sensors/"{name}"/Out1', "Data": x.reshape(1, -1), "Unit": rr.UNITS[name],
-                   "XIndex": float(index[name] + 1)} for name, (_, x) in run.channels.items()])
-    return _save(path, {"trace_0001": {"X": X, "Y": Y}}, version)
-
-
 def simulink(run: rr.Run, path: Path, version: str) -> Path:
     """Simulink's structure with time, one per sample rate; each signal labelled and in its block's units."""
-    axes, index = _axes(run)
+    axes, index = rr.time_axes(run)
     variables = {}
     for k, t in enumerate(axes):
         signals = [{"values": x.reshape(-1, 1), "label": name, "blockName": f"car/{name}", "unit": rr.UNITS[name]}
                    for name, (_, x) in run.channels.items() if index[name] == k]
-        variables[f"rate{k + 1}"] = {"time": t.reshape(-1, 1), "signals": _records(signals)}
-    return _save(path, variables, version)
+        variables[f"rate{k + 1}"] = {"time": t.reshape(-1, 1), "signals": rr.mat_records(signals)}
+    return rr.save_mat(path, variables, version)
 
 
 def timeseries(run: rr.Run, path: Path, version: str) -> Path:
     """Each channel a struct of its own time, data and units (a timeseries exported field by field)."""
     log = {name: {"Time": t.reshape(-1, 1), "Data": x.reshape(-1, 1), "Units": rr.UNITS[name]} for name, (t, x) in run.channels.items()}
-    return _save(path, {"log": log}, version)
+    return rr.save_mat(path, {"log": log}, version)
 
 
-LAYOUTS = {"dspace": dspace, "simulink": simulink, "timeseries": timeseries}
+LAYOUTS = {"dspace": rr.write_dspace, "simulink": simulink, "timeseries": timeseries}
 
 
 @pytest.fixture(scope="module")
@@ -119,15 +79,15 @@ def test_vectors_beside_the_files_time_vector(tmp_path):
     even = {name: np.interp(t, *run.channels[name]) for run in runs[:1] for name in run.channels}
     mdf_run = rr.Run(runs[0].lead, runs[0].mu, V, {name: (t, x) for name, x in even.items()})
     reference = read_recording(rr.write_mdf(mdf_run, tmp_path / "a.mf4"), read_channel_map(rr.MAP))
-    flat = _save(tmp_path / "flat.mat", {"Zeit_ms": (t * 1e3).reshape(-1, 1), **{n: x.reshape(-1, 1) for n, x in even.items()}}, "5")
-    nested = _save(tmp_path / "nested.mat", {"data": {"Zeit_ms": t * 1e3, **even}}, "5")
+    flat = rr.save_mat(tmp_path / "flat.mat", {"Zeit_ms": (t * 1e3).reshape(-1, 1), **{n: x.reshape(-1, 1) for n, x in even.items()}}, "5")
+    nested = rr.save_mat(tmp_path / "nested.mat", {"data": {"Zeit_ms": t * 1e3, **even}}, "5")
     for path in (flat, nested):
         got = read_recording(path, read_channel_map(rr.MAP))
         for name, (t_ref, x_ref) in reference.channels.items():
             np.testing.assert_allclose(got.channels[name][0], t_ref, rtol=0, atol=1e-12, err_msg=f"{path.name} {name}")
             np.testing.assert_array_equal(got.channels[name][1], x_ref, err_msg=f"{path.name} {name}")
     # without the map's time entry a vector named time is the default; ms named in the map are not seconds
-    seconds = _save(tmp_path / "seconds.mat", {"time": t, **even}, "5")
+    seconds = rr.save_mat(tmp_path / "seconds.mat", {"time": t, **even}, "5")
     got = read_recording(seconds, read_channel_map(NO_UNITS))
     np.testing.assert_allclose(got.channels["psi_dot"][0], t - t[0], rtol=0, atol=1e-12)
 
@@ -135,12 +95,12 @@ def test_vectors_beside_the_files_time_vector(tmp_path):
 def test_each_rates_time_vector_named_in_its_entry(runs, reference, tmp_path):
     """Vectors at their own rates beside a time vector each (a logger's export per raster), the map
     naming each entry's time; a time in ms read in the map's time unit."""
-    axes, index = _axes(runs[0])
+    axes, index = rr.time_axes(runs[0])
     files = []
     for i, run in enumerate(runs):
         variables = {name: x for name, (_, x) in run.channels.items()}
         variables.update({f"t_{k + 1}": (run.channels[next(n for n in index if index[n] == k)][0] * 1e3) for k in range(len(axes))})
-        files.append(_save(tmp_path / f"run{i:02d}.mat", variables, "5"))
+        files.append(rr.save_mat(tmp_path / f"run{i:02d}.mat", variables, "5"))
     cmap = {name: {**entry, "time": f"t_{index[entry['channel']] + 1}"} for name, entry in rr.MAP.items() if name != "time"}
     ds = import_runs(files, {**cmap, "time": {"channel": "t_1", "units": "ms"}})
     for name in ("psi_dot", "a_y", "delta"):
@@ -199,7 +159,7 @@ def test_bad_mat_files_are_refused_in_one_line(tmp_path):
     }
     for name, (variables, pattern) in cases.items():
         with pytest.raises(DataError, match=pattern):
-            read_recording(_save(tmp_path / f"{name}.mat", variables, "5"), cmap)
+            read_recording(rr.save_mat(tmp_path / f"{name}.mat", variables, "5"), cmap)
     garbage = tmp_path / "garbage.mat"
     garbage.write_bytes(b"MATLAB 5.0 MAT-file" + bytes(200))
     with pytest.raises(DataError, match="garbage.mat: not a readable MAT file"):
@@ -212,10 +172,10 @@ def test_bad_mat_files_are_refused_in_one_line(tmp_path):
 
 def test_read_mat_tree_gives_v73_files_as_scipy_gives_v5(tmp_path):
     t = np.arange(0.0, 0.05, 0.01)
-    variables = {"s": {"Y": _records([{"Name": "a", "Data": t.reshape(1, -1)}, {"Name": "bb", "Data": 2 * t[:3].reshape(1, -1)}])},
+    variables = {"s": {"Y": rr.mat_records([{"Name": "a", "Data": t.reshape(1, -1)}, {"Name": "bb", "Data": 2 * t[:3].reshape(1, -1)}])},
                  "v": t.reshape(-1, 1), "label": "deg/s"}
-    five = read_mat_tree(_save(tmp_path / "v5.mat", variables, "5"))
-    seven = read_mat_tree(_save(tmp_path / "v73.mat", variables, "7.3"))
+    five = read_mat_tree(rr.save_mat(tmp_path / "v5.mat", variables, "5"))
+    seven = read_mat_tree(rr.save_mat(tmp_path / "v73.mat", variables, "7.3"))
     for tree in (five, seven):
         assert tree["label"] == "deg/s"
         np.testing.assert_array_equal(tree["v"], t)

@@ -1,4 +1,4 @@
-"""The ``uqdrive import`` subcommand: recorded runs (MDF4 or CSV, one file each) into one ensemble
+"""The ``uqdrive import`` subcommand: recorded runs (MDF4, CSV or MATLAB, one file each) into one ensemble
 of the data schema, with a line per run giving its offset and steering deviation.
 """
 
