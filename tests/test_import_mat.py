@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).parent))
 import recorded_runs as rr  # noqa: E402
+from test_import_logs import reference, runs  # noqa: E402,F401  (the fixtures: ten runs and their MDF4 import)
 
 from uqdrive.io import DataError  # noqa: E402
 from uqdrive.recordings.importer import import_runs  # noqa: E402
@@ -46,18 +47,6 @@ def timeseries(run: rr.Run, path: Path, version: str) -> Path:
 
 
 LAYOUTS = {"dspace": rr.write_dspace, "simulink": simulink, "timeseries": timeseries}
-
-
-@pytest.fixture(scope="module")
-def runs():
-    rng = np.random.default_rng(5)
-    return rr.record(rng.normal(1.0, 0.1, 10), V, rng.uniform(0.5, 2.0, 10))
-
-
-@pytest.fixture(scope="module")
-def reference(runs, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("mdf")
-    return import_runs([rr.write_mdf(r, folder / f"run{i:02d}.mf4") for i, r in enumerate(runs)], rr.MAP)
 
 
 @pytest.mark.parametrize("layout,version", [("dspace", "5"), ("dspace", "7.3"), ("simulink", "5"), ("timeseries", "7.3")])
