@@ -1,5 +1,5 @@
-"""Readers of one recorded run: ASAM MDF4 files (asammdf) and CSV exports (:mod:`.csv_log`); each
-channel checked, converted to SI by the map's unit (checked against the file's) and timed from zero.
+"""Readers of one recorded run (MDF4 through asammdf, CSV :mod:`.csv_log`, MATLAB :mod:`.mat_log`):
+each channel checked, converted to SI by the map's unit (checked against the file's), timed from zero.
 """
 
 from __future__ import annotations
