@@ -141,7 +141,9 @@ def _text(node: dict, keys: tuple) -> str:
 
 def _aliases(name: str) -> tuple:
     """A carried name and its short forms: dSPACE's ``Root/Sub/"YawRate"/Out1`` gives the quoted
-    ``YawRate``; a block path its last part."""
+    ``YawRate``; a block path its last part (none of an empty name)."""
+    if not name:
+        return ()
     out = [name]
     quoted = re.findall(r'"([^"]+)"', name)
     if quoted:
@@ -181,19 +183,17 @@ def _dspace(node: dict, path: str, out: list) -> None:
         data = y.get(keys.get("data", ""))
         if data is None:
             continue
-        axis = None
         index = y.get(keys.get("xindex", ""))
+        numeric = isinstance(index, (int, float, np.number, np.ndarray)) and np.asarray(index).dtype.kind in "fiub"
+        index = float(np.ravel(index)[0]) if numeric and np.size(index) == 1 else 0.0
         raster = _text(y, ("raster",))
-        if isinstance(index, (int, float, np.number, np.ndarray)) and np.size(index) == 1 and \
-                float(np.asarray(index).reshape(-1)[0]) in range(1, len(axes) + 1):
-            axis = axes[int(np.asarray(index).reshape(-1)[0]) - 1]
-        elif raster and [x for x in axes if _text(x, ("raster",)) == raster]:
-            axis = [x for x in axes if _text(x, ("raster",)) == raster][0]
-        elif len(axes) == 1:
-            axis = axes[0]
+        by_raster = [x for x in axes if raster and _text(x, ("raster",)) == raster]
+        if index in range(1, len(axes) + 1):
+            axis = axes[int(index) - 1]
+        else:
+            axis = by_raster[0] if by_raster else (axes[0] if len(axes) == 1 else None)
         time = None if axis is None else _vector(axis.get(_keys(axis).get("data", "")))
-        name = _text(y, _NAME_KEYS)
-        _columns(f"{path}.Y({k + 1})", data, time, _text(y, _UNIT_KEYS), _aliases(name) if name else (), out)
+        _columns(f"{path}.Y({k + 1})", data, time, _text(y, _UNIT_KEYS), _aliases(_text(y, _NAME_KEYS)), out)
 
 
 def _walk(node, path: str, out: list) -> None:
@@ -206,15 +206,12 @@ def _walk(node, path: str, out: list) -> None:
         if time is not None and "signals" in lower:  # Simulink's structure with time
             for k, signal in enumerate(_as_list(node[lower["signals"]])):
                 if isinstance(signal, dict) and "values" in _keys(signal):
-                    names = tuple(dict.fromkeys(a for key in ("label", "blockname") if _text(signal, (key,))
-                                                for a in _aliases(_text(signal, (key,)))))
+                    names = tuple(dict.fromkeys(_aliases(_text(signal, ("label",))) + _aliases(_text(signal, ("blockname",)))))
                     _columns(f"{path}.signals({k + 1})", signal[_keys(signal)["values"]], time, _text(signal, _UNIT_KEYS), names, out)
             return
         values = next((node[lower[k]] for k in _VALUE_KEYS if k in lower), None)
-        own = _text(node, _NAME_KEYS)
-        names = (*(_aliases(own) if own else ()), path.rsplit(".", 1)[-1])
-        if values is not None and (time is not None or names):  # one signal: an exported timeseries, a named record
-            _columns(path, values, time, _text(node, _UNIT_KEYS), names, out)
+        if values is not None:  # one signal: an exported timeseries, a named record
+            _columns(path, values, time, _text(node, _UNIT_KEYS), (*_aliases(_text(node, _NAME_KEYS)), path.rsplit(".", 1)[-1]), out)
             return
         for key, child in node.items():
             _walk(child, f"{path}.{key}" if path else str(key), out)

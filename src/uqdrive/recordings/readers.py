@@ -136,18 +136,10 @@ def _convert(entry: ChannelEntry, t: np.ndarray, x: np.ndarray, source: str, lab
     return t, x * factor, units
 
 
-def _no_own_times(cmap: ChannelMap, source: str, kind: str) -> None:
-    own = next((entry for entry in cmap.entries.values() if entry.time), None)
-    if own is not None:
-        raise DataError(f"{source}: the map gives channel '{own.channel}' the time '{own.time}', which only MATLAB files "
-                        f"use ({kind}); remove the key 'time' from its entry")
-
-
 def _read_mdf(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     from asammdf import MDF
 
     source = str(path)
-    _no_own_times(cmap, source, "an MDF channel carries its own time")
     try:
         mdf = MDF(path)
     except Exception as exc:  # asammdf raises many kinds for a file that is not MDF
@@ -190,7 +182,6 @@ def _numbers(cells: list, entry: ChannelEntry, decimal: str, source: str) -> np.
 
 def _read_csv(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     source = str(path)
-    _no_own_times(cmap, source, "a CSV's rows share its time column")
     mapped = [("time", cmap.time), *cmap.entries.items()]
     log = read_csv_log(path, [entry.channel for _, entry in mapped])
     columns = {}
@@ -250,11 +241,11 @@ def _read_mat(path: Path, cmap: ChannelMap) -> tuple[dict, float]:
     signals = mat_signals(read_mat_tree(path))
     found = {name: find_signal(signals, entry.channel, source, f"mapped to {name}") for name, entry in cmap.entries.items()}
     shared = None
-    if any(signal.time is None and not cmap.entries[name].time for name, signal in found.items()):
+    untimed = [entry.channel for name, entry in cmap.entries.items() if found[name].time is None and not entry.time]
+    if untimed:
         shared = _file_time(signals, cmap, source)
         if shared is None:
-            lone = next(entry.channel for name, entry in cmap.entries.items() if found[name].time is None and not entry.time)
-            raise DataError(f"{source}: channel '{lone}' has no time axis of its own and the file has no vector named "
+            raise DataError(f"{source}: channel '{untimed[0]}' has no time axis of its own and the file has no vector named "
                             f"{', '.join(DEFAULT_TIME_NAMES)}; name the file's time vector in the channel map (time: {{channel: NAME, "
                             "units: s})")
     out = {}
@@ -298,6 +289,11 @@ def read_recording(path: str | Path, cmap: ChannelMap) -> Recording:
     if not path.is_file():
         raise DataError(f"recording '{path}' does not exist or is not a file; give one file per run")
     suffix = path.suffix.lower()
+    own = next((entry for entry in cmap.entries.values() if entry.time), None)
+    if own is not None and suffix not in MAT_SUFFIXES:
+        kind = "an MDF channel carries its own time" if suffix in MDF_SUFFIXES else "a CSV's rows share its time column"
+        raise DataError(f"{path}: the map gives channel '{own.channel}' the time '{own.time}', which only MATLAB files "
+                        f"use ({kind}); remove the key 'time' from its entry")
     if suffix in MDF_SUFFIXES:
         channels, origin = _read_mdf(path, cmap)
     elif suffix in CSV_SUFFIXES:
